@@ -1,0 +1,1 @@
+"""Experiment configurations (installed as ``metaknot.experiments``)."""

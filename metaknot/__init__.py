@@ -1,0 +1,43 @@
+"""metaknot: B-spline curve approximation by automatic knot selection with metaheuristics.
+
+The public API::
+
+    import metaknot as mk
+    result = mk.minimize("knot_selection", "random_search", budget=2000, seed=1,
+                         problem_kwargs={"points": "epitrochoid"})
+    result.solution.fit.spline       # a scipy.interpolate.BSpline
+"""
+
+from .budget import BudgetExhausted, Evaluator, Progress
+from .optimizer import Optimizer, check_param
+from .problem import Encoding, Problem
+from .registry import (
+    available_optimizers,
+    available_problems,
+    get_optimizer,
+    get_problem,
+    register,
+)
+from .result import RunResult
+from .runner import ProgressBar, make_rng, minimize
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BudgetExhausted",
+    "Encoding",
+    "Evaluator",
+    "Optimizer",
+    "Problem",
+    "Progress",
+    "ProgressBar",
+    "RunResult",
+    "available_optimizers",
+    "available_problems",
+    "check_param",
+    "get_optimizer",
+    "get_problem",
+    "make_rng",
+    "minimize",
+    "register",
+]

@@ -1,0 +1,259 @@
+"""Least-squares fits: one candidate with a full result, or a whole population in one call."""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+from functools import cached_property
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.interpolate import BSpline
+
+from . import _kernel
+from .knots import stack_indices, stack_masks, stack_positions
+from .parameterize import as_points, check_degree
+
+__all__ = [
+    "BatchFit",
+    "Infeasibility",
+    "SplineFit",
+    "evaluate_indices",
+    "evaluate_knots",
+    "evaluate_masks",
+    "evaluate_positions",
+    "fit_spline",
+]
+
+
+class Infeasibility(enum.IntEnum):
+    """Why a knot vector cannot be fitted (the batched evaluator's reason codes)."""
+
+    FEASIBLE = _kernel.FEASIBLE
+    TOO_MANY_CONTROL_POINTS = _kernel.TOO_MANY_CONTROL_POINTS
+    KNOT_OUT_OF_RANGE = _kernel.KNOT_OUT_OF_RANGE
+    COINCIDENT_KNOTS = _kernel.COINCIDENT_KNOTS
+    SCHOENBERG_WHITNEY = _kernel.SCHOENBERG_WHITNEY
+    SINGULAR = _kernel.SINGULAR
+
+    @property
+    def message(self) -> str:
+        """A sentence describing the reason."""
+        return _MESSAGES[self]
+
+
+_MESSAGES = {
+    Infeasibility.FEASIBLE: "feasible",
+    Infeasibility.TOO_MANY_CONTROL_POINTS: "more control points than data points",
+    Infeasibility.KNOT_OUT_OF_RANGE: (
+        "an interior knot is not finite or lies outside the open parameter range"
+    ),
+    Infeasibility.COINCIDENT_KNOTS: "coincident (or unsorted) interior knots",
+    Infeasibility.SCHOENBERG_WHITNEY: (
+        "Schoenberg-Whitney conditions violated: some basis functions have no data point of "
+        "their own (knot spans without data)"
+    ),
+    Infeasibility.SINGULAR: "the least-squares system is numerically singular",
+}
+
+
+@dataclass(frozen=True)
+class BatchFit:
+    """Scores of a population of knot vectors, one entry per candidate.
+
+    Attributes
+    ----------
+    sse
+        Sum over data points of the squared distance to the fitted curve (``inf`` if infeasible).
+    max_deviation
+        Largest distance of a data point to its fitted point (``inf`` if infeasible).
+    n_control_points
+        Interior knots + degree + 1.
+    reason
+        :class:`Infeasibility` code per candidate (0 = feasible).
+    """
+
+    sse: np.ndarray
+    max_deviation: np.ndarray
+    n_control_points: np.ndarray
+    reason: np.ndarray
+
+    @property
+    def feasible(self) -> np.ndarray:
+        """Boolean array: True where the candidate could be fitted."""
+        return self.reason == Infeasibility.FEASIBLE
+
+    def __len__(self) -> int:
+        return self.sse.size
+
+
+def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    p = check_degree(degree)
+    q = as_points(points, degree=p)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    if u.shape != (q.shape[0],):
+        raise ValueError(
+            f"parameter values must have shape ({q.shape[0]},) to match the points; got {u.shape}"
+        )
+    if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
+        raise ValueError("parameter values must be finite and strictly increasing")
+    return u, q
+
+
+def evaluate_knots(
+    u: ArrayLike, points: ArrayLike, knots: np.ndarray, offsets: np.ndarray, degree: int = 3
+) -> BatchFit:
+    """Fit every candidate of a flattened batch in compiled code.
+
+    Parameters
+    ----------
+    u, points
+        Parameter values ``(N,)`` and data points ``(N, d)``.
+    knots, offsets
+        Candidate ``b`` has the (sorted) interior knots ``knots[offsets[b]:offsets[b + 1]]``.
+    degree
+        Spline degree, 1..5.
+    """
+    u, q = _prepare(u, points, degree)
+    knots = np.ascontiguousarray(knots, dtype=np.float64)
+    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    if offsets.ndim != 1 or offsets.size < 1 or offsets[0] != 0 or offsets[-1] != knots.size:
+        raise ValueError("offsets must run from 0 to len(knots)")
+    if (np.diff(offsets) < 0).any():
+        raise ValueError("offsets must be non-decreasing")
+    b = offsets.size - 1
+    out = BatchFit(
+        sse=np.empty(b),
+        max_deviation=np.empty(b),
+        n_control_points=np.empty(b, dtype=np.int64),
+        reason=np.empty(b, dtype=np.int8),
+    )
+    _kernel.evaluate_batch(
+        u, q, int(degree), knots, offsets, out.sse, out.max_deviation, out.n_control_points,
+        out.reason, 8 * numba.get_num_threads(),
+    )
+    return out
+
+
+def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: int = 3) -> BatchFit:
+    """Score a ``(B, N-2)`` batch of 0/1 masks over the interior data points."""
+    u = np.asarray(u, dtype=np.float64)
+    return evaluate_knots(u, points, *stack_masks(u, masks), degree=degree)
+
+
+def evaluate_indices(
+    u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree: int = 3
+) -> BatchFit:
+    """Score a ``(B, K)`` batch of interior data indices (knots at those data parameters)."""
+    u = np.asarray(u, dtype=np.float64)
+    return evaluate_knots(u, points, *stack_indices(u, indices), degree=degree)
+
+
+def evaluate_positions(
+    u: ArrayLike, points: ArrayLike, positions: ArrayLike, degree: int = 3
+) -> BatchFit:
+    """Score a ``(B, K)`` batch of continuous interior knot positions."""
+    return evaluate_knots(u, points, *stack_positions(positions), degree=degree)
+
+
+@dataclass(frozen=True, eq=False)
+class SplineFit:
+    """A least-squares B-spline fit with its metrics.
+
+    ``spline`` is a :class:`scipy.interpolate.BSpline` whose coefficients have shape
+    ``(n_control_points, d)``; ``spline(u)`` gives fitted points.
+    """
+
+    spline: BSpline
+    params: np.ndarray
+    points: np.ndarray
+
+    @property
+    def degree(self) -> int:
+        return int(self.spline.k)
+
+    @property
+    def knots(self) -> np.ndarray:
+        """Full clamped knot vector."""
+        return self.spline.t
+
+    @property
+    def interior_knots(self) -> np.ndarray:
+        p = self.degree
+        return self.spline.t[p + 1 : -(p + 1)]
+
+    @property
+    def control_points(self) -> np.ndarray:
+        return self.spline.c
+
+    @property
+    def n_control_points(self) -> int:
+        return int(self.spline.c.shape[0])
+
+    @cached_property
+    def residuals(self) -> np.ndarray:
+        """Distance of every data point to its fitted point, shape ``(N,)``."""
+        return np.linalg.norm(self.points - self.spline(self.params), axis=1)
+
+    @property
+    def sse(self) -> float:
+        """Sum over data points of squared distances."""
+        return float(np.sum(self.residuals**2))
+
+    @property
+    def rmse(self) -> float:
+        """Root mean squared point distance: ``sqrt(sse / N)``."""
+        return float(np.sqrt(self.sse / self.points.shape[0]))
+
+    @property
+    def euclidean_distance(self) -> float:
+        """The seed paper's eq. 3: ``sqrt(sse)``."""
+        return float(np.sqrt(self.sse))
+
+    @property
+    def max_deviation(self) -> float:
+        """Largest distance of a data point to its fitted point."""
+        return float(self.residuals.max())
+
+    def metrics(self) -> dict[str, float]:
+        """All metrics as a flat dictionary."""
+        return {
+            "n_control_points": self.n_control_points,
+            "sse": self.sse,
+            "rmse": self.rmse,
+            "euclidean_distance": self.euclidean_distance,
+            "max_deviation": self.max_deviation,
+        }
+
+
+def fit_spline(
+    u: ArrayLike, points: ArrayLike, interior_knots: ArrayLike, degree: int = 3
+) -> SplineFit:
+    """Least-squares clamped B-spline through ``points`` with the given interior knots.
+
+    Parameters
+    ----------
+    u
+        Strictly increasing parameter values, shape ``(N,)`` (see :func:`parameterize`).
+    points
+        Data points, shape ``(N, d)``.
+    interior_knots
+        Interior knots, strictly increasing, strictly inside ``(u[0], u[-1])``.
+    degree
+        Spline degree, 1..5.
+
+    Raises
+    ------
+    ValueError
+        If the knot vector cannot be fitted; the message names the reason (for example a
+        Schoenberg-Whitney violation).
+    """
+    u, q = _prepare(u, points, degree)
+    interior = np.asarray(interior_knots, dtype=np.float64)
+    if interior.ndim != 1:
+        raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
+    code, t, coef = _kernel.fit_one(u, q, np.ascontiguousarray(interior), int(degree))
+    if code != Infeasibility.FEASIBLE:
+        raise ValueError(f"cannot fit these knots: {Infeasibility(code).message}")
+    return SplineFit(spline=BSpline(t, coef, int(degree)), params=u, points=q)

@@ -1,0 +1,155 @@
+"""Clamped knot vectors from the three knot encodings (mask, data indices, positions)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ._kernel import masks_to_knots
+from .parameterize import check_degree
+
+__all__ = [
+    "averaging_knots",
+    "clamped_knot_vector",
+    "interior_from_indices",
+    "interior_from_mask",
+    "n_control_points",
+    "stack_indices",
+    "stack_masks",
+    "stack_positions",
+]
+
+
+def n_control_points(n_interior: int, degree: int) -> int:
+    """Number of control points of a clamped spline: interior knots + degree + 1."""
+    return int(n_interior) + int(degree) + 1
+
+
+def _as_params(u: ArrayLike) -> np.ndarray:
+    u = np.asarray(u, dtype=np.float64)
+    if u.ndim != 1 or u.size < 2:
+        raise ValueError(f"parameter values must be a 1-D array of length >= 2; got {u.shape}")
+    return u
+
+
+def interior_from_mask(u: ArrayLike, mask: ArrayLike) -> np.ndarray:
+    """Interior knots selected by a 0/1 mask over the interior data points ``1..N-2``.
+
+    The end points are always knots (clamped), so the mask has ``N - 2`` entries.
+    """
+    u = _as_params(u)
+    mask = np.asarray(mask)
+    if mask.shape != (u.size - 2,):
+        raise ValueError(
+            f"mask must have N - 2 = {u.size - 2} entries (one per interior data point); "
+            f"got shape {mask.shape}"
+        )
+    return u[1:-1][mask.astype(bool)]
+
+
+def interior_from_indices(u: ArrayLike, indices: ArrayLike) -> np.ndarray:
+    """Interior knots at the data points with the given indices (each in ``1..N-2``)."""
+    u = _as_params(u)
+    idx = np.asarray(indices)
+    if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
+        raise ValueError(f"indices must be a 1-D integer array; got {idx.dtype} {idx.shape}")
+    if idx.size and (idx.min() < 1 or idx.max() > u.size - 2):
+        raise ValueError(f"indices must lie in 1..{u.size - 2} (interior data points)")
+    return u[np.sort(idx)]
+
+
+def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3) -> np.ndarray:
+    """Full clamped knot vector ``[u0]*(p+1) + interior + [um]*(p+1)``.
+
+    Raises
+    ------
+    ValueError
+        If an interior knot is not finite, lies outside the open interval ``(u0, um)``, or the
+        interior knots are not strictly increasing (coincident knots).
+    """
+    p = check_degree(degree)
+    u = _as_params(u)
+    interior = np.asarray(interior, dtype=np.float64).ravel()
+    if not np.isfinite(interior).all():
+        raise ValueError("interior knots contain NaN or infinite values")
+    if interior.size and (interior.min() <= u[0] or interior.max() >= u[-1]):
+        raise ValueError(
+            f"interior knots must lie strictly inside the parameter range ({u[0]}, {u[-1]})"
+        )
+    if (np.diff(interior) <= 0).any():
+        raise ValueError("interior knots must be strictly increasing (coincident knots given)")
+    return np.concatenate((np.full(p + 1, u[0]), interior, np.full(p + 1, u[-1])))
+
+
+def averaging_knots(u: ArrayLike, n_interior: int, degree: int = 3) -> np.ndarray:
+    """Interior knots by the averaging technique of the NURBS Book (eqs. 9.68-9.69).
+
+    Spreads ``n_interior`` knots so that every knot span holds data parameters, which keeps the
+    least-squares problem well posed.
+    """
+    p = check_degree(degree)
+    u = _as_params(u)
+    m = u.size - 1
+    n = n_interior + p  # highest control-point index
+    if n_interior < 0 or n > m:
+        raise ValueError(f"n_interior must lie in 0..{m - p}; got {n_interior}")
+    if n_interior == 0:
+        return np.empty(0)
+    d = (m + 1) / (n - p + 1)
+    j = np.arange(1, n - p + 1)
+    i = np.floor(j * d).astype(int)
+    alpha = j * d - i
+    return (1.0 - alpha) * u[i - 1] + alpha * u[i]
+
+
+def _offsets(counts: np.ndarray) -> np.ndarray:
+    offsets = np.zeros(counts.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    return offsets
+
+
+def stack_masks(u: np.ndarray, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten a ``(B, N-2)`` batch of masks to interior knots plus row offsets."""
+    masks = np.asarray(masks)
+    if masks.ndim != 2 or masks.shape[1] != u.size - 2:
+        raise ValueError(
+            f"masks must have shape (B, N - 2) = (B, {u.size - 2}); got {masks.shape}"
+        )
+    if masks.dtype != bool:
+        if not np.isin(masks, (0, 1)).all():
+            raise ValueError("masks must contain only 0 and 1")
+        masks = masks.astype(bool)
+    return masks_to_knots(u, np.ascontiguousarray(masks))
+
+
+def stack_indices(u: np.ndarray, indices: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten a ``(B, K)`` batch of data indices (each sorted per row) to knots plus offsets.
+
+    Rows are sorted; repeated indices are kept and reported by the evaluator as coincident knots.
+    """
+    idx = np.asarray(indices)
+    if idx.ndim != 2:
+        raise ValueError(f"indices must have shape (B, K); got {idx.shape}")
+    if idx.size and not np.issubdtype(idx.dtype, np.integer):
+        if not np.array_equal(idx, np.round(idx)):
+            raise ValueError("indices must be integers")
+        idx = idx.astype(np.int64)
+    if idx.size and (idx.min() < 1 or idx.max() > u.size - 2):
+        raise ValueError(f"indices must lie in 1..{u.size - 2} (interior data points)")
+    idx = np.sort(idx.astype(np.int64, copy=False), axis=1)
+    counts = np.full(idx.shape[0], idx.shape[1], dtype=np.int64)
+    return np.ascontiguousarray(u[idx].ravel()), _offsets(counts)
+
+
+def stack_positions(positions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten a ``(B, K)`` batch of continuous knot positions (sorted per row) plus offsets.
+
+    Values outside the parameter range, NaN and coincident positions are left for the
+    evaluator to report as infeasible.
+    """
+    pos = np.asarray(positions, dtype=np.float64)
+    if pos.ndim != 2:
+        raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
+    pos = np.sort(pos, axis=1)
+    counts = np.full(pos.shape[0], pos.shape[1], dtype=np.int64)
+    return np.ascontiguousarray(pos.ravel()), _offsets(counts)

@@ -1,0 +1,145 @@
+"""Data validation and parameterization of point sequences."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = ["PARAMETERIZATIONS", "as_points", "check_degree", "parameterize"]
+
+PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
+MIN_DEGREE, MAX_DEGREE = 1, 5
+
+ParameterizationName = Literal["uniform", "chord", "centripetal"]
+
+
+def check_degree(degree: int) -> int:
+    """Return ``degree`` as an ``int`` after checking it lies in 1..5.
+
+    Raises
+    ------
+    ValueError
+        If the degree is not an integer between 1 and 5.
+    """
+    if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
+        raise ValueError(f"degree must be an integer between 1 and 5, got {degree!r}")
+    if not MIN_DEGREE <= int(degree) <= MAX_DEGREE:
+        raise ValueError(f"degree must be between {MIN_DEGREE} and {MAX_DEGREE}, got {degree}")
+    return int(degree)
+
+
+def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np.ndarray:
+    """Validate data points and return them as a float64 array of shape ``(N, d)``.
+
+    A 1-D array is read as ``N`` scalar values (``d = 1``).
+
+    Raises
+    ------
+    ValueError
+        If the array is not 1-D or 2-D, has no coordinates, holds NaN or infinite values, or has
+        fewer than ``degree + 2`` points (too few to place a single interior knot).
+    """
+    try:
+        arr = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a numeric array: {exc}") from None
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must have shape (N, d); got an array with shape {arr.shape}")
+    if arr.shape[1] < 1:
+        raise ValueError(f"{name} must have at least one coordinate; got shape {arr.shape}")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        row = int(np.argwhere(bad)[0, 0])
+        raise ValueError(f"{name} contains NaN or infinite values (first at row {row})")
+    need = check_degree(degree) + 2
+    if arr.shape[0] < need:
+        raise ValueError(
+            f"{name}: a degree-{degree} fit needs at least {need} points; got {arr.shape[0]}"
+        )
+    return np.ascontiguousarray(arr)
+
+
+def parameterize(
+    points: ArrayLike,
+    method: ParameterizationName | ArrayLike = "centripetal",
+    *,
+    degree: int = 3,
+) -> np.ndarray:
+    """Assign a parameter value to every data point.
+
+    Parameters
+    ----------
+    points
+        Data points, shape ``(N, d)`` (or ``(N,)`` for scalar data).
+    method
+        ``"uniform"`` (equal steps), ``"chord"`` (steps proportional to the distance between
+        consecutive points) or ``"centripetal"`` (steps proportional to its square root), each
+        normalised to ``[0, 1]``. Alternatively an array of ``N`` strictly increasing finite
+        values, used as given (function data ``y = f(x)``: pass ``x``, as with FITPACK's
+        ``splrep``).
+    degree
+        Spline degree the parameters are meant for; only used to check the number of points.
+
+    Returns
+    -------
+    numpy.ndarray
+        Strictly increasing parameter values, shape ``(N,)``.
+
+    Raises
+    ------
+    ValueError
+        On malformed points, an unknown method, explicit values of the wrong length or not
+        strictly increasing, or consecutive duplicate points under ``"chord"`` or
+        ``"centripetal"`` (a zero chord length would give two points the same parameter).
+    """
+    pts = as_points(points, degree=degree)
+    n = pts.shape[0]
+    if not isinstance(method, str):
+        try:
+            values = np.asarray(method, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"explicit parameter values must be numeric: {exc}") from None
+        if values.shape != (n,):
+            raise ValueError(
+                f"explicit parameter values must have shape ({n},) to match the points; "
+                f"got {values.shape}"
+            )
+        if not np.isfinite(values).all():
+            raise ValueError("explicit parameter values contain NaN or infinite values")
+        steps = np.diff(values)
+        if (steps <= 0).any():
+            i = int(np.argmax(steps <= 0))
+            raise ValueError(
+                f"explicit parameter values must be strictly increasing; "
+                f"values[{i}] = {values[i]!r} >= values[{i + 1}] = {values[i + 1]!r}"
+            )
+        return np.ascontiguousarray(values)
+    if method not in PARAMETERIZATIONS:
+        raise ValueError(
+            f"unknown parameterization {method!r}; choose one of {', '.join(PARAMETERIZATIONS)} "
+            "or pass an array of parameter values"
+        )
+    if method == "uniform":
+        return np.linspace(0.0, 1.0, n)
+    chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    zero = chords <= 0.0
+    if zero.any():
+        i = int(np.argmax(zero))
+        raise ValueError(
+            f"points {i} and {i + 1} coincide (zero chord length); remove consecutive "
+            f"duplicate points or use the 'uniform' parameterization"
+        )
+    steps = np.sqrt(chords) if method == "centripetal" else chords
+    u = np.concatenate(([0.0], np.cumsum(steps)))
+    u /= u[-1]
+    u[-1] = 1.0
+    if (np.diff(u) <= 0).any():  # steps below rounding relative to the total length
+        raise ValueError(
+            f"{method} parameterization is degenerate: some consecutive points are too close "
+            "relative to the curve length to get distinct parameter values"
+        )
+    return u

@@ -1,0 +1,92 @@
+"""The :class:`Optimizer` interface: ask for candidates, be told their objective values.
+
+A new optimizer implements :meth:`Optimizer.setup`, :meth:`Optimizer.ask` and
+:meth:`Optimizer.tell`; :meth:`Optimizer.run` drives them through an
+:class:`~metaknot.budget.Evaluator`, which enforces the evaluation budget. Optimizers that must
+call the objective themselves (nlopt, for instance) override :meth:`run` and call the evaluator
+directly: the budget still holds.
+"""
+
+from __future__ import annotations
+
+import inspect
+from abc import ABC, abstractmethod
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .budget import BudgetExhausted, Evaluator
+from .problem import Problem
+
+__all__ = ["Optimizer", "check_param"]
+
+
+def check_param(name: str, value: Any, *, low: float | None = None, high: float | None = None,
+                integer: bool = False, low_open: bool = False) -> Any:
+    """Validate a numeric hyperparameter; raise ``ValueError`` naming it if out of range."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ValueError(f"{name} must be a number; got {value!r}")
+    if integer and int(value) != value:
+        raise ValueError(f"{name} must be an integer; got {value!r}")
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be finite; got {value!r}")
+    if low is not None and (value <= low if low_open else value < low):
+        raise ValueError(f"{name} must be {'>' if low_open else '>='} {low}; got {value!r}")
+    if high is not None and value > high:
+        raise ValueError(f"{name} must be <= {high}; got {value!r}")
+    return int(value) if integer else float(value)
+
+
+class Optimizer(ABC):
+    """Base class of all optimizers.
+
+    Class attributes
+    ----------------
+    name
+        Registry name (set by :func:`metaknot.register`).
+    encodings
+        Encoding kinds the optimizer can handle.
+    """
+
+    name: ClassVar[str] = "optimizer"
+    encodings: ClassVar[tuple[str, ...]] = ("binary", "integer", "continuous")
+
+    problem: Problem
+    rng: np.random.Generator
+
+    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+        """Bind to a problem and a random generator; subclasses extend to build their state."""
+        if problem.encoding.kind not in self.encodings:
+            raise ValueError(
+                f"optimizer {self.name!r} handles {', '.join(self.encodings)} encodings; "
+                f"problem {problem.name!r} is {problem.encoding.kind}"
+            )
+        self.problem = problem
+        self.rng = rng
+
+    @abstractmethod
+    def ask(self) -> np.ndarray:
+        """Next batch of candidates, shape ``(B, n_var)``."""
+
+    @abstractmethod
+    def tell(self, X: np.ndarray, F: np.ndarray) -> None:
+        """Objective values ``F`` of the candidates ``X`` returned by the last :meth:`ask`.
+
+        ``X`` may hold fewer rows than were asked for: the last batch is truncated to the budget.
+        """
+
+    def run(self, evaluator: Evaluator) -> None:
+        """Ask, evaluate and tell until the budget is spent."""
+        while not evaluator.done:
+            X = self.ask()
+            try:
+                F = evaluator(X)
+            except BudgetExhausted:
+                return
+            self.tell(X[: F.size], F)
+
+    def params(self) -> dict[str, Any]:
+        """Hyperparameters, for run records: the ``__init__`` arguments, read back from the
+        attributes of the same name."""
+        names = inspect.signature(type(self).__init__).parameters
+        return {k: getattr(self, k) for k in names if k != "self" and hasattr(self, k)}

@@ -1,0 +1,129 @@
+"""The :class:`Problem` interface: an encoding plus a vectorised objective to minimise."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+
+__all__ = ["Encoding", "Problem"]
+
+EncodingKind = Literal["binary", "integer", "continuous"]
+
+
+@dataclass(frozen=True, eq=False)
+class Encoding:
+    """How a candidate solution is represented.
+
+    Attributes
+    ----------
+    kind
+        ``"binary"`` (0/1 vector), ``"integer"`` (ordered alternatives ``lower..upper``,
+        inclusive) or ``"continuous"`` (real values in ``[lower, upper]``).
+    n_var
+        Length of a candidate vector.
+    lower, upper
+        Bounds per variable (for ``binary``: 0 and 1).
+    distinct_sorted
+        True if a candidate is a set: the problem sorts each candidate, and repeated values make it
+        infeasible (knot indices, knot positions).
+    """
+
+    kind: EncodingKind
+    n_var: int
+    lower: np.ndarray
+    upper: np.ndarray
+    distinct_sorted: bool = False
+
+    @classmethod
+    def binary(cls, n_var: int) -> Encoding:
+        return cls("binary", n_var, np.zeros(n_var), np.ones(n_var))
+
+    @classmethod
+    def integer(cls, n_var: int, lower: int, upper: int, *, distinct_sorted: bool = False):
+        return cls(
+            "integer", n_var, np.full(n_var, lower, dtype=np.int64),
+            np.full(n_var, upper, dtype=np.int64), distinct_sorted,
+        )
+
+    @classmethod
+    def continuous(cls, n_var: int, lower: float, upper: float, *, distinct_sorted: bool = False):
+        return cls(
+            "continuous", n_var, np.full(n_var, float(lower)), np.full(n_var, float(upper)),
+            distinct_sorted,
+        )
+
+    @property
+    def dtype(self) -> type:
+        return np.float64 if self.kind == "continuous" else np.int64
+
+    def check(self, X: np.ndarray) -> np.ndarray:
+        """Return ``X`` as a 2-D array of this encoding, or raise a ``ValueError`` naming why."""
+        X = np.asarray(X)
+        if X.ndim == 1 and X.size == self.n_var:
+            X = X[None, :]
+        if X.ndim != 2 or X.shape[1] != self.n_var:
+            raise ValueError(
+                f"candidates must have shape (B, {self.n_var}) for this {self.kind} encoding; "
+                f"got {X.shape}"
+            )
+        if X.dtype == bool:
+            X = X.astype(np.int64)
+        if not np.issubdtype(X.dtype, np.number):
+            raise ValueError(f"candidates must be numeric; got dtype {X.dtype}")
+        if self.kind != "continuous":
+            if not np.isfinite(X).all() or not np.array_equal(X, np.round(X)):
+                raise ValueError(f"{self.kind} candidates must hold whole numbers")
+            X = X.astype(np.int64, copy=False)
+            if X.size and ((X < self.lower).any() or (X > self.upper).any()):
+                raise ValueError(
+                    f"{self.kind} candidates must lie in [{self.lower.min()}, "
+                    f"{self.upper.max()}]"
+                )
+        else:
+            X = X.astype(np.float64, copy=False)
+        return X
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """``n`` uniformly random candidates (sets are drawn without repetition, sorted)."""
+        if self.kind == "binary":
+            return rng.integers(0, 2, size=(n, self.n_var))
+        if self.kind == "integer":
+            lo, hi = int(self.lower.min()), int(self.upper.max())
+            if self.distinct_sorted:
+                keys = rng.random((n, hi - lo + 1))
+                return np.sort(np.argsort(keys, axis=1)[:, : self.n_var] + lo, axis=1)
+            return rng.integers(self.lower, self.upper + 1, size=(n, self.n_var))
+        X = rng.uniform(self.lower, self.upper, size=(n, self.n_var))
+        return np.sort(X, axis=1) if self.distinct_sorted else X
+
+
+class Problem(ABC):
+    """A minimisation problem over an :class:`Encoding`.
+
+    Subclasses set :attr:`encoding` and implement :meth:`evaluate` (a whole batch at once) and
+    :meth:`decode`. Objective values are finite for feasible candidates and ``+inf`` for
+    infeasible ones; lower is better.
+    """
+
+    name: ClassVar[str] = "problem"
+    encoding: Encoding
+
+    @abstractmethod
+    def evaluate(self, X: np.ndarray) -> np.ndarray:
+        """Objective values of a batch ``X`` of shape ``(B, n_var)``; returns shape ``(B,)``."""
+
+    @abstractmethod
+    def decode(self, x: np.ndarray) -> Any:
+        """The solution a single candidate stands for (for knot problems: the fitted spline)."""
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """``n`` random candidates; the default draws uniformly from the encoding."""
+        return self.encoding.sample(rng, n)
+
+    def describe(self) -> dict[str, Any]:
+        """Flat description stored with every run (name, encoding, settings)."""
+        return {"problem": self.name, "encoding": self.encoding.kind,
+                "n_var": self.encoding.n_var}

@@ -1,0 +1,37 @@
+"""Knot-placement problems, objectives and point sets (installed as ``metaknot.problems``)."""
+
+from .curves import (
+    CURVES,
+    PointSet,
+    add_noise,
+    archimedean_spiral,
+    epitrochoid,
+    get_curve,
+    load_points,
+    vivaldi,
+)
+from .knot_problems import FreeKnots, KnotIndices, KnotProblem, KnotSelection, KnotSolution
+from .objectives import BIC, OBJECTIVES, DataInfo, ErrorBounded, Objective, Paper, get_objective
+
+__all__ = [
+    "BIC",
+    "CURVES",
+    "OBJECTIVES",
+    "DataInfo",
+    "ErrorBounded",
+    "FreeKnots",
+    "KnotIndices",
+    "KnotProblem",
+    "KnotSelection",
+    "KnotSolution",
+    "Objective",
+    "Paper",
+    "PointSet",
+    "add_noise",
+    "archimedean_spiral",
+    "epitrochoid",
+    "get_curve",
+    "get_objective",
+    "load_points",
+    "vivaldi",
+]

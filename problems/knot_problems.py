@@ -1,0 +1,211 @@
+"""The three knot-placement problems over one point set.
+
+=================  ==================  =============================================
+problem            candidate           knots
+=================  ==================  =============================================
+``KnotSelection``  0/1 mask, N - 2     data parameters of the selected interior points
+``KnotIndices``    K data indices      data parameters at those indices (a set)
+``FreeKnots``      K real positions    the positions themselves (a set)
+=================  ==================  =============================================
+
+The end points are always knots (clamped spline). All three evaluate a whole batch in compiled
+code and score it with an objective chosen by name (see :mod:`metaknot.problems.objectives`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from metaknot.bspline import (
+    BatchFit,
+    SplineFit,
+    check_degree,
+    evaluate_indices,
+    evaluate_masks,
+    evaluate_positions,
+    fit_spline,
+    parameterize,
+)
+from metaknot.problem import Encoding, Problem
+from metaknot.registry import register
+
+from .curves import PointSet, get_curve
+from .objectives import DataInfo, Objective, get_objective
+
+__all__ = ["FreeKnots", "KnotIndices", "KnotProblem", "KnotSelection", "KnotSolution"]
+
+
+@dataclass(frozen=True, eq=False)
+class KnotSolution:
+    """A decoded candidate: its fitted spline and objective value."""
+
+    x: np.ndarray
+    objective: float
+    fit: SplineFit
+
+    def metrics(self) -> dict[str, float]:
+        return {"objective": self.objective, **self.fit.metrics()}
+
+
+def _as_point_set(points: PointSet | str | ArrayLike) -> PointSet:
+    if isinstance(points, PointSet):
+        return points
+    if isinstance(points, str):
+        return get_curve(points)
+    return PointSet(np.asarray(points, dtype=np.float64))
+
+
+class KnotProblem(Problem):
+    """Common machinery: data, parameterization, degree, objective.
+
+    Parameters
+    ----------
+    points
+        A :class:`PointSet`, the name of a seed curve, or an ``(N, d)`` array.
+    degree
+        Spline degree, 1..5 (default 3, cubic).
+    parameterization
+        ``"uniform"``, ``"chord"`` or ``"centripetal"`` (the seed's choice, default); ignored when
+        the point set carries explicit parameter values.
+    objective
+        ``"paper"``, ``"bic"``, ``"error_bounded"`` or an :class:`Objective` instance.
+    objective_options
+        Keyword options of the objective (for example ``{"tolerance": 1e-3}``).
+    """
+
+    def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
+                 parameterization: str = "centripetal", objective: str | Objective = "paper",
+                 objective_options: dict[str, Any] | None = None) -> None:
+        self.data = _as_point_set(points)
+        self.degree = check_degree(degree)
+        method = self.data.params if self.data.params is not None else parameterization
+        self.params = parameterize(self.data.points, method, degree=self.degree)
+        self.parameterization = "explicit" if self.data.params is not None else parameterization
+        self.objective = get_objective(objective, **(objective_options or {}))
+        self.info = DataInfo(self.data.n_points, self.data.dim, self.data.scale, self.degree)
+
+    @property
+    def points(self) -> np.ndarray:
+        return self.data.points
+
+    def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        raise NotImplementedError
+
+    def _interior_knots(self, x: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def evaluate_details(self, X: ArrayLike) -> tuple[np.ndarray, BatchFit]:
+        """Objective values plus the per-candidate fit statistics."""
+        fit = self._fit_batch(self.encoding.check(X))
+        return self.objective(fit, self.info), fit
+
+    def evaluate(self, X: np.ndarray) -> np.ndarray:
+        return self.evaluate_details(X)[0]
+
+    def decode(self, x: ArrayLike) -> KnotSolution:
+        """Fit the spline for candidate ``x``.
+
+        Raises
+        ------
+        ValueError
+            If the candidate's knots cannot be fitted (the message names the reason).
+        """
+        x = self.encoding.check(x)[0]
+        value = float(self.evaluate(x[None, :])[0])
+        fit = fit_spline(self.params, self.points, self._interior_knots(x), self.degree)
+        return KnotSolution(x=x, objective=value, fit=fit)
+
+    def describe(self) -> dict[str, Any]:
+        return {**super().describe(), "data": self.data.name, "n_points": self.data.n_points,
+                "dim": self.data.dim, "degree": self.degree,
+                "parameterization": self.parameterization, **self.objective.describe()}
+
+
+@register("knot_selection")
+class KnotSelection(KnotProblem):
+    """The seed paper's encoding: a 0/1 mask over the interior data points (``N - 2`` bits).
+
+    ``density`` is the probability that a random candidate selects a point (the seed: 0.5).
+    """
+
+    def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
+                 density: float = 0.5, **kwargs: Any) -> None:
+        super().__init__(points, **kwargs)
+        if not 0.0 <= density <= 1.0:
+            raise ValueError(f"density must lie in [0, 1]; got {density}")
+        self.density = float(density)
+        self.encoding = Encoding.binary(self.data.n_points - 2)
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        return (rng.random((n, self.encoding.n_var)) < self.density).astype(np.int64)
+
+    def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        return evaluate_masks(self.params, self.points, X.astype(bool), self.degree)
+
+    def _interior_knots(self, x: np.ndarray) -> np.ndarray:
+        return self.params[1:-1][x.astype(bool)]
+
+
+def _check_n_knots(n_knots: int, n_points: int, degree: int) -> int:
+    upper = n_points - degree - 1
+    if isinstance(n_knots, bool) or not isinstance(n_knots, int | np.integer) \
+            or not 1 <= n_knots <= upper:
+        raise ValueError(
+            f"n_knots must be an integer in 1..{upper} (N - degree - 1) for {n_points} points "
+            f"of degree {degree}; got {n_knots!r}"
+        )
+    return int(n_knots)
+
+
+@register("knot_indices")
+class KnotIndices(KnotProblem):
+    """``n_knots`` interior knots at data points, given as indices in ``1..N-2``.
+
+    Alternatives are ordered along the curve. A candidate is a set: it is sorted before fitting,
+    and a repeated index (coincident knots) makes it infeasible.
+    """
+
+    def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
+                 n_knots: int = 20, **kwargs: Any) -> None:
+        super().__init__(points, **kwargs)
+        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree)
+        self.encoding = Encoding.integer(self.n_knots, 1, self.data.n_points - 2,
+                                         distinct_sorted=True)
+
+    def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        return evaluate_indices(self.params, self.points, X, self.degree)
+
+    def _interior_knots(self, x: np.ndarray) -> np.ndarray:
+        return self.params[np.sort(x)]
+
+    def describe(self) -> dict[str, Any]:
+        return {**super().describe(), "n_knots": self.n_knots}
+
+
+@register("free_knots")
+class FreeKnots(KnotProblem):
+    """``n_knots`` interior knots anywhere in the open parameter range (for nlopt and friends).
+
+    A candidate is sorted before fitting; coincident knots, knots on or outside the range ends,
+    and knot spans that leave a basis function without data are infeasible.
+    """
+
+    def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
+                 n_knots: int = 20, **kwargs: Any) -> None:
+        super().__init__(points, **kwargs)
+        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree)
+        self.encoding = Encoding.continuous(self.n_knots, self.params[0], self.params[-1],
+                                            distinct_sorted=True)
+
+    def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        return evaluate_positions(self.params, self.points, X, self.degree)
+
+    def _interior_knots(self, x: np.ndarray) -> np.ndarray:
+        return np.sort(x)
+
+    def describe(self) -> dict[str, Any]:
+        return {**super().describe(), "n_knots": self.n_knots}

@@ -1,0 +1,162 @@
+"""Objectives over fitted knot vectors, chosen by name. All are minimised.
+
+Each objective maps a :class:`~metaknot.bspline.BatchFit` (SSE, maximum deviation and number of
+control points per candidate) to one value per candidate; infeasible candidates get ``+inf``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+
+from metaknot.bspline import BatchFit
+
+__all__ = ["BIC", "OBJECTIVES", "DataInfo", "ErrorBounded", "Objective", "Paper", "get_objective"]
+
+
+@dataclass(frozen=True)
+class DataInfo:
+    """What an objective needs to know of the data: count, dimension, scale, degree."""
+
+    n_points: int
+    dim: int
+    scale: float
+    degree: int
+
+
+class Objective(ABC):
+    """Maps batch fit statistics to objective values (lower is better)."""
+
+    name: ClassVar[str]
+
+    @abstractmethod
+    def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray: ...
+
+    def describe(self) -> dict[str, Any]:
+        return {"objective": self.name, **{k: v for k, v in vars(self).items()
+                                           if not k.startswith("_")}}
+
+
+def _check_nonneg(name: str, value: float) -> float:
+    value = float(value)
+    if not np.isfinite(value) or value < 0:
+        raise ValueError(f"{name} must be a finite value >= 0; got {value}")
+    return value
+
+
+class Paper(Objective):
+    """The seed paper's objective: control points x Euclidean distance (eq. 3), minimised.
+
+    This is the reciprocal of the seed's fitness ``1 / (CP x error)``. Unguarded, it is
+    degenerate: the error falls to 0 as the fit approaches interpolation, so the product does
+    too, and for smooth data it keeps falling as control points are added.
+
+    Guard (the one used here): an **error floor**. The Euclidean distance is taken as
+    ``max(sqrt(SSE), error_floor * scale * sqrt(N))``, i.e. a root-mean-square point error below
+    ``error_floor`` times the bounding-box diagonal counts as that floor. Below the floor extra
+    control points only cost, so the optimum is the fewest control points that reach it. The
+    default ``1e-5`` lies below every error reported in the seed's tables; ``error_floor=0``
+    gives the seed's unguarded objective.
+    """
+
+    name = "paper"
+
+    def __init__(self, error_floor: float = 1e-5) -> None:
+        self.error_floor = _check_nonneg("error_floor", error_floor)
+
+    def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
+        floor = self.error_floor * data.scale * np.sqrt(data.n_points)
+        distance = np.maximum(np.sqrt(fit.sse), floor)
+        return np.where(fit.feasible, fit.n_control_points * distance, np.inf)
+
+
+class BIC(Objective):
+    """Bayesian information criterion of the fit, assuming i.i.d. Gaussian errors.
+
+    ``n ln(SSE / n) + ln(n) k`` with ``n = N d`` observed coordinates and
+    ``k = d * control points + interior knots`` free parameters (knot positions count: they are
+    chosen from the data). The SSE is floored at ``(error_floor * scale)^2 * n`` so exact fits
+    stay finite; BIC is meant for noisy data, on noise-free data it still favours many knots.
+    """
+
+    name = "bic"
+
+    def __init__(self, error_floor: float = 1e-9) -> None:
+        self.error_floor = _check_nonneg("error_floor", error_floor)
+
+    def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
+        n = data.n_points * data.dim
+        floor = (self.error_floor * data.scale) ** 2 * n
+        sse = np.maximum(fit.sse, max(floor, np.finfo(float).tiny))
+        n_interior = fit.n_control_points - data.degree - 1
+        k = data.dim * fit.n_control_points + n_interior
+        with np.errstate(invalid="ignore", over="ignore"):
+            value = n * np.log(sse / n) + np.log(n) * k
+        return np.where(fit.feasible, value, np.inf)
+
+
+class ErrorBounded(Objective):
+    """Fewest control points whose fit keeps the error within a tolerance.
+
+    Value for a candidate within tolerance: ``CP + err / tol`` (in ``[CP, CP + 1]``: fewer control
+    points first, then lower error). Beyond tolerance: ``N + 2 + err / tol`` — always behind every
+    candidate within tolerance and ranked by error, so a search is led towards the bound.
+    Candidates that cannot be fitted: ``+inf``.
+
+    Parameters
+    ----------
+    tolerance
+        Absolute tolerance; if ``None``, ``relative_tolerance`` times the bounding-box diagonal.
+    metric
+        ``"max_deviation"`` (largest point distance) or ``"rmse"``.
+    """
+
+    name = "error_bounded"
+
+    def __init__(self, tolerance: float | None = None, relative_tolerance: float = 1e-3,
+                 metric: Literal["max_deviation", "rmse"] = "max_deviation") -> None:
+        if metric not in ("max_deviation", "rmse"):
+            raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+        if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
+            raise ValueError(f"tolerance must be a finite value > 0; got {tolerance}")
+        if not (np.isfinite(relative_tolerance) and relative_tolerance > 0):
+            raise ValueError(f"relative_tolerance must be > 0; got {relative_tolerance}")
+        self.tolerance = None if tolerance is None else float(tolerance)
+        self.relative_tolerance = float(relative_tolerance)
+        self.metric = metric
+
+    def bound(self, data: DataInfo) -> float:
+        """The absolute tolerance in effect for ``data``."""
+        return self.tolerance if self.tolerance is not None else \
+            self.relative_tolerance * data.scale
+
+    def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
+        tol = self.bound(data)
+        err = fit.max_deviation if self.metric == "max_deviation" else \
+            np.sqrt(fit.sse / data.n_points)
+        ratio = err / tol
+        value = np.where(ratio <= 1.0, fit.n_control_points + ratio, data.n_points + 2 + ratio)
+        return np.where(fit.feasible, value, np.inf)
+
+
+OBJECTIVES: dict[str, type[Objective]] = {o.name: o for o in (Paper, BIC, ErrorBounded)}
+
+
+def get_objective(objective: str | Objective, **options: Any) -> Objective:
+    """An objective by name (``paper``, ``bic``, ``error_bounded``) with its options."""
+    if isinstance(objective, Objective):
+        if options:
+            raise ValueError("objective options only apply when the objective is given by name")
+        return objective
+    try:
+        cls = OBJECTIVES[objective]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown objective {objective!r}; choose one of "
+                         f"{', '.join(OBJECTIVES)}") from None
+    try:
+        return cls(**options)
+    except TypeError as exc:
+        raise ValueError(f"bad options for objective {objective!r}: {exc}") from None
