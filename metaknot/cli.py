@@ -1,0 +1,78 @@
+"""Command line: ``metaknot demo`` (quick fit of the seed curves), ``metaknot list``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from .registry import available_optimizers, available_problems
+from .runner import minimize
+
+SEED_CURVES = ("epitrochoid", "archimedean", "vivaldi")
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from metaknot.problems import get_curve
+
+    header = (f"{'curve':<12} {'N':>4} {'d':>2} {'CP':>4} {'CP x ED':>11} {'RMSE':>10} "
+              f"{'ED':>10} {'max dev':>10} {'evals':>6} {'sec':>6}")
+    rows = []
+    for name in args.curves:
+        data = get_curve(name)
+        result = minimize(
+            "knot_selection", args.optimizer, budget=args.budget, seed=args.seed,
+            problem_kwargs={"points": data, "degree": args.degree,
+                            "objective": "paper"},
+            progress=not args.quiet,
+        )
+        if result.solution is None:
+            rows.append(f"{name:<12} {data.n_points:>4} {data.dim:>2}   no feasible candidate")
+            continue
+        m = result.solution.fit.metrics()
+        rows.append(
+            f"{name:<12} {data.n_points:>4} {data.dim:>2} {m['n_control_points']:>4} "
+            f"{result.best_f:>11.4g} {m['rmse']:>10.3e} {m['euclidean_distance']:>10.3e} "
+            f"{m['max_deviation']:>10.3e} {result.n_evaluations:>6} {result.elapsed:>6.2f}"
+        )
+    print(f"{args.optimizer} on the seed curves: degree {args.degree}, centripetal, "
+          f"objective 'paper' (control points x Euclidean distance), seed {args.seed}")
+    print(header)
+    print("\n".join(rows))
+    return 0
+
+
+def _list(args: argparse.Namespace) -> int:
+    print("problems:  ", ", ".join(available_problems()))
+    print("optimizers:", ", ".join(available_optimizers()))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="metaknot", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    demo = sub.add_parser("demo", help="quick fit of the seed paper's three curves")
+    demo.add_argument("--optimizer", default="random_search")
+    demo.add_argument("--budget", type=int, default=3000)
+    demo.add_argument("--seed", type=int, default=0)
+    demo.add_argument("--degree", type=int, default=3)
+    demo.add_argument("--curves", nargs="+", default=list(SEED_CURVES), choices=SEED_CURVES)
+    demo.add_argument("--quiet", action="store_true", help="no progress bars")
+    demo.set_defaults(func=_demo)
+    lst = sub.add_parser("list", help="registered problems and optimizers")
+    lst.set_defaults(func=_list)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``metaknot`` command."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except ValueError as exc:
+        print(f"metaknot: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
