@@ -13,9 +13,9 @@ SEED_CURVES = ("epitrochoid", "archimedean", "vivaldi")
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from metaknot.problems import get_curve
+    from metaknot.problems import Paper, get_curve
 
-    header = (f"{'curve':<12} {'N':>4} {'d':>2} {'CP':>4} {'CP x ED':>11} {'RMSE':>10} "
+    header = (f"{'curve':<12} {'N':>4} {'d':>2} {'CP':>4} {'objective':>11} {'RMSE':>10} "
               f"{'ED':>10} {'max dev':>10} {'evals':>6} {'sec':>6}")
     rows = []
     for name in args.curves:
@@ -36,7 +36,8 @@ def _demo(args: argparse.Namespace) -> int:
             f"{m['max_deviation']:>10.3e} {result.n_evaluations:>6} {result.elapsed:>6.2f}"
         )
     print(f"{args.optimizer} on the seed curves: degree {args.degree}, centripetal, "
-          f"objective 'paper' (control points x Euclidean distance), seed {args.seed}")
+          f"objective 'paper' (control points x Euclidean distance, error floor "
+          f"{Paper().error_floor:g} x diagonal), seed {args.seed}")
     print(header)
     print("\n".join(rows))
     return 0
