@@ -26,10 +26,10 @@ def check_param(name: str, value: Any, *, low: float | None = None, high: float 
     """Validate a numeric hyperparameter; raise ``ValueError`` naming it if out of range."""
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
         raise ValueError(f"{name} must be a number; got {value!r}")
-    if integer and int(value) != value:
-        raise ValueError(f"{name} must be an integer; got {value!r}")
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite; got {value!r}")
+    if integer and int(value) != value:
+        raise ValueError(f"{name} must be an integer; got {value!r}")
     if low is not None and (value <= low if low_open else value < low):
         raise ValueError(f"{name} must be {'>' if low_open else '>='} {low}; got {value!r}")
     if high is not None and value > high:

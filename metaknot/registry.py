@@ -64,11 +64,13 @@ def register(name: str | None = None, *, kind: Kind | None = None) -> Callable[[
         k = kind or _kind_of(obj)
         if k not in _REGISTRY:
             raise ValueError(f"kind must be 'problem' or 'optimizer'; got {k!r}")
-        key = name or getattr(obj, "name", None) or obj.__name__  # type: ignore[attr-defined]
+        # a class's own ``name`` attribute (not one inherited from the base class), else __name__
+        own = vars(obj).get("name") if isinstance(obj, type) else None
+        key = name or own or obj.__name__  # type: ignore[attr-defined]
         existing = _REGISTRY[k].get(key)
         if existing is not None and existing is not obj:
             raise ValueError(f"a {k} named {key!r} is already registered ({existing!r})")
-        if isinstance(obj, type) and name is not None:
+        if isinstance(obj, type):
             obj.name = key  # type: ignore[attr-defined]
         _REGISTRY[k][key] = obj  # type: ignore[assignment]
         return obj

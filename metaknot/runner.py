@@ -104,7 +104,7 @@ def minimize(
     return RunResult(
         problem=problem.name,
         optimizer=optimizer.name,
-        seed=seed if isinstance(seed, int | None) else None,
+        seed=None if seed is None or isinstance(seed, np.random.SeedSequence) else int(seed),
         budget=evaluator.budget,
         n_evaluations=evaluator.n_evaluations,
         best_x=best_x,

@@ -130,7 +130,7 @@ def load_points(path: str | Path, *, params_column: int | None = None) -> PointS
     if path.suffix.lower() == ".npy":
         try:
             data = np.load(path, allow_pickle=False)
-        except (ValueError, OSError) as exc:
+        except (ValueError, OSError, EOFError) as exc:
             raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
     elif path.suffix.lower() in (".csv", ".txt"):
         data = _read_csv(path)
@@ -141,8 +141,8 @@ def load_points(path: str | Path, *, params_column: int | None = None) -> PointS
         data = data[:, None]
     if data.ndim != 2 or data.size == 0:
         raise ValueError(f"{path}: expected a 2-D table of points; got shape {data.shape}")
-    if not np.issubdtype(data.dtype, np.number):
-        raise ValueError(f"{path}: values must be numeric; got dtype {data.dtype}")
+    if not (np.issubdtype(data.dtype, np.integer) or np.issubdtype(data.dtype, np.floating)):
+        raise ValueError(f"{path}: values must be real numbers; got dtype {data.dtype}")
     params = None
     if params_column is not None:
         if not -data.shape[1] <= params_column < data.shape[1] or data.shape[1] < 2:
@@ -161,10 +161,8 @@ def _read_csv(path: Path) -> np.ndarray:
     if not lines:
         raise ValueError(f"{path}: the file holds no data rows")
     rows = [ln.split(",") for ln in lines]
-    try:
-        [float(v) for v in rows[0]]
-    except ValueError:
-        rows = rows[1:]  # header row
+    if not any(_is_number(v) for v in rows[0]):
+        rows = rows[1:]  # a header row: no field is a number
     if not rows:
         raise ValueError(f"{path}: the file holds a header but no data rows")
     widths = {len(r) for r in rows}
@@ -174,6 +172,14 @@ def _read_csv(path: Path) -> np.ndarray:
         return np.array([[float(v) for v in r] for r in rows])
     except ValueError as exc:
         raise ValueError(f"{path}: non-numeric value ({exc})") from None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def add_noise(data: PointSet, sigma: float, seed: int | np.random.Generator | None) -> PointSet:

@@ -144,7 +144,8 @@ class KnotSelection(KnotProblem):
         return (rng.random((n, self.encoding.n_var)) < self.density).astype(np.int64)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        return evaluate_masks(self.params, self.points, X.astype(bool), self.degree)
+        return evaluate_masks(self.params, self.points, X.astype(bool), self.degree,
+                              max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
         return self.params[1:-1][x.astype(bool)]
@@ -177,7 +178,8 @@ class KnotIndices(KnotProblem):
                                          distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        return evaluate_indices(self.params, self.points, X, self.degree)
+        return evaluate_indices(self.params, self.points, X, self.degree,
+                                max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
         return self.params[np.sort(x)]
@@ -202,7 +204,8 @@ class FreeKnots(KnotProblem):
                                             distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        return evaluate_positions(self.params, self.points, X, self.degree)
+        return evaluate_positions(self.params, self.points, X, self.degree,
+                                  max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
         return np.sort(x)

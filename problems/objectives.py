@@ -31,13 +31,16 @@ class Objective(ABC):
     """Maps batch fit statistics to objective values (lower is better)."""
 
     name: ClassVar[str]
+    #: True if the objective reads ``BatchFit.max_deviation`` (an extra pass over the data).
+    needs_max_deviation: bool = False
 
     @abstractmethod
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray: ...
 
     def describe(self) -> dict[str, Any]:
         return {"objective": self.name, **{k: v for k, v in vars(self).items()
-                                           if not k.startswith("_")}}
+                                           if not k.startswith("_")
+                                           and k != "needs_max_deviation"}}
 
 
 def _check_nonneg(name: str, value: float) -> float:
@@ -127,6 +130,7 @@ class ErrorBounded(Objective):
         self.tolerance = None if tolerance is None else float(tolerance)
         self.relative_tolerance = float(relative_tolerance)
         self.metric = metric
+        self.needs_max_deviation = metric == "max_deviation"
 
     def bound(self, data: DataInfo) -> float:
         """The absolute tolerance in effect for ``data``."""

@@ -86,13 +86,15 @@ def _basis(t, p, span, x, out, left, right):
 
 @njit(cache=True)
 def _solve(u, q, t, p, n, coef, basis, spans):
-    """Least-squares control points into ``coef`` (n, d); return a reason code.
+    """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
 
     Square-root-free Givens rotations (Gentleman 1973): the triangular factor is
     ``diag(1 / dinv) @ rb`` with unit-diagonal ``rb``; a data row enters with weight
     ``w = 1 / big_w``. Tracking ``big_w`` and ``dinv`` (reciprocals) keeps every division off the
-    chain of dependent operations, so rotations pipeline. Basis values and spans of every data
-    point are stored in ``basis`` / ``spans`` for the residual pass.
+    chain of dependent operations, so rotations pipeline. The sum of squared residuals is what
+    the rotations leave of the data rows (as in FITPACK), so no second pass is needed for it.
+    Basis values and spans of every data point are stored in ``basis`` / ``spans`` for
+    :func:`_max_deviation`.
     """
     m, d = q.shape
     rb = np.zeros((n, p + 1))
@@ -103,6 +105,7 @@ def _solve(u, q, t, p, n, coef, basis, spans):
     right = np.empty(p + 1)
     rhs = np.empty(d)
     span = p
+    sse = 0.0
     for j in range(m):
         x = u[j]
         while span < n - 1 and t[span + 1] <= x:
@@ -115,6 +118,7 @@ def _solve(u, q, t, p, n, coef, basis, spans):
             rhs[k] = q[j, k]
         first = span - p
         big_w = 1.0
+        absorbed = False
         for i in range(p + 1):
             xi = h[i]
             if xi == 0.0:
@@ -129,7 +133,8 @@ def _solve(u, q, t, p, n, coef, basis, spans):
                     z[col, k] = rhs[k] * inv_x
                 for a in range(i + 1, p + 1):
                     rb[col, a - i] = h[a] * inv_x
-                break  # weight is now zero: the row is used up
+                absorbed = True  # weight is now zero: the row is used up
+                break
             big_w_new = big_w + xi * xi * di_inv
             inv_new = 1.0 / big_w_new
             cb = big_w * inv_new
@@ -146,6 +151,12 @@ def _solve(u, q, t, p, n, coef, basis, spans):
                 h[a] = xa - xi * ra
                 rb[col, a - i] = cb * ra + sb * xa
             big_w = big_w_new
+        if not absorbed:
+            # what is left of the row, with its weight, is its share of the residual
+            left_over = 0.0
+            for k in range(d):
+                left_over += rhs[k] * rhs[k]
+            sse += left_over / big_w
     # 1 / dinv is the squared diagonal of R: compare its smallest entry with its largest
     largest_dinv = 0.0
     smallest_dinv = np.inf
@@ -153,21 +164,20 @@ def _solve(u, q, t, p, n, coef, basis, spans):
         largest_dinv = max(largest_dinv, dinv[i])
         smallest_dinv = min(smallest_dinv, dinv[i])
     if not (smallest_dinv > 0.0 and smallest_dinv >= RCOND * RCOND * largest_dinv):
-        return SINGULAR
+        return SINGULAR, np.inf
     for i in range(n - 1, -1, -1):
         for k in range(d):
             acc = z[i, k]
             for a in range(1, min(p, n - 1 - i) + 1):
                 acc -= rb[i, a] * coef[i + a, k]
             coef[i, k] = acc
-    return FEASIBLE
+    return FEASIBLE, sse
 
 
 @njit(cache=True)
-def _residuals(q, p, coef, basis, spans):
-    """Return (sum of squared point distances, largest point distance) from stored bases."""
+def _max_deviation(q, p, coef, basis, spans):
+    """Largest distance of a data point to its fitted point, from the stored bases."""
     m, d = q.shape
-    sse = 0.0
     worst = 0.0
     for j in range(m):
         first = spans[j] - p
@@ -178,22 +188,21 @@ def _residuals(q, p, coef, basis, spans):
                 acc += basis[j, i] * coef[first + i, k]
             diff = q[j, k] - acc
             dist2 += diff * diff
-        sse += dist2
         worst = max(worst, dist2)
-    return sse, math.sqrt(worst)
+    return math.sqrt(worst)
 
 
 @njit(cache=True)
 def _fit_into(u, q, interior, p, t, coef, basis, spans):
-    """Fit one candidate into preallocated ``t`` and ``coef``; return a reason code."""
+    """Fit one candidate into preallocated ``t`` and ``coef``; return (reason code, SSE)."""
     n = interior.size + p + 1
     if n > u.size:
-        return TOO_MANY_CONTROL_POINTS
+        return TOO_MANY_CONTROL_POINTS, np.inf
     reason = _build_knots(u, interior, p, t)
     if reason != FEASIBLE:
-        return reason
+        return reason, np.inf
     if not _schoenberg_whitney(u, t, p, n):
-        return SCHOENBERG_WHITNEY
+        return SCHOENBERG_WHITNEY, np.inf
     return _solve(u, q, t, p, n, coef, basis, spans)
 
 
@@ -205,13 +214,18 @@ def fit_one(u, q, interior, p):
     coef = np.zeros((n, q.shape[1]))
     basis = np.empty((u.size, p + 1))
     spans = np.empty(u.size, dtype=np.int64)
-    reason = _fit_into(u, q, interior, p, t, coef, basis, spans)
+    reason, _ = _fit_into(u, q, interior, p, t, coef, basis, spans)
     return reason, t, coef
 
 
 @njit(cache=True, parallel=True)
 def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chunks):
-    """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``."""
+    """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``.
+
+    ``max_dev`` may be empty: the maximum deviation (a second pass over the data) is then
+    skipped.
+    """
+    want_max_dev = max_dev.size > 0
     n_cand = offsets.size - 1
     k_max = 0
     for b in range(n_cand):
@@ -228,19 +242,16 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
             interior = knots[offsets[b] : offsets[b + 1]]
             n = interior.size + p + 1
             n_ctrl[b] = n
+            t = t_ws[: n + p + 1]
+            coef = coef_ws[:n]
             code = TOO_MANY_CONTROL_POINTS
+            sse[b] = np.inf
             if n <= u.size:
-                t = t_ws[: n + p + 1]
-                coef = coef_ws[:n]
-                code = _fit_into(u, q, interior, p, t, coef, basis, spans)
+                code, sse[b] = _fit_into(u, q, interior, p, t, coef, basis, spans)
             reason[b] = code
-            if code == FEASIBLE:
-                s, w = _residuals(q, p, coef, basis, spans)
-                sse[b] = s
-                max_dev[b] = w
-            else:
-                sse[b] = np.inf
-                max_dev[b] = np.inf
+            if want_max_dev:
+                max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE \
+                    else np.inf
 
 
 @njit(cache=True)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numba
@@ -67,7 +67,8 @@ class BatchFit:
     sse
         Sum over data points of the squared distance to the fitted curve (``inf`` if infeasible).
     max_deviation
-        Largest distance of a data point to its fitted point (``inf`` if infeasible).
+        Largest distance of a data point to its fitted point (``inf`` if infeasible), or
+        ``None`` if it was not asked for (it costs a second pass over the data).
     n_control_points
         Interior knots + degree + 1.
     reason
@@ -75,7 +76,7 @@ class BatchFit:
     """
 
     sse: np.ndarray
-    max_deviation: np.ndarray
+    max_deviation: np.ndarray | None
     n_control_points: np.ndarray
     reason: np.ndarray
 
@@ -102,7 +103,8 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
 
 
 def evaluate_knots(
-    u: ArrayLike, points: ArrayLike, knots: np.ndarray, offsets: np.ndarray, degree: int = 3
+    u: ArrayLike, points: ArrayLike, knots: np.ndarray, offsets: np.ndarray, degree: int = 3,
+    *, max_deviation: bool = True,
 ) -> BatchFit:
     """Fit every candidate of a flattened batch in compiled code.
 
@@ -114,6 +116,8 @@ def evaluate_knots(
         Candidate ``b`` has the (sorted) interior knots ``knots[offsets[b]:offsets[b + 1]]``.
     degree
         Spline degree, 1..5.
+    max_deviation
+        Also compute the largest point deviation (a second pass over the data).
     """
     u, q = _prepare(u, points, degree)
     knots = np.ascontiguousarray(knots, dtype=np.float64)
@@ -125,7 +129,7 @@ def evaluate_knots(
     b = offsets.size - 1
     out = BatchFit(
         sse=np.empty(b),
-        max_deviation=np.empty(b),
+        max_deviation=np.empty(b if max_deviation else 0),
         n_control_points=np.empty(b, dtype=np.int64),
         reason=np.empty(b, dtype=np.int8),
     )
@@ -133,28 +137,30 @@ def evaluate_knots(
         u, q, int(degree), knots, offsets, out.sse, out.max_deviation, out.n_control_points,
         out.reason, 8 * numba.get_num_threads(),
     )
-    return out
+    return out if max_deviation else replace(out, max_deviation=None)
 
 
-def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: int = 3) -> BatchFit:
+def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: int = 3, *,
+                   max_deviation: bool = True) -> BatchFit:
     """Score a ``(B, N-2)`` batch of 0/1 masks over the interior data points."""
     u = np.asarray(u, dtype=np.float64)
-    return evaluate_knots(u, points, *stack_masks(u, masks), degree=degree)
+    return evaluate_knots(u, points, *stack_masks(u, masks), degree=degree,
+                          max_deviation=max_deviation)
 
 
-def evaluate_indices(
-    u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree: int = 3
-) -> BatchFit:
+def evaluate_indices(u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree: int = 3, *,
+                     max_deviation: bool = True) -> BatchFit:
     """Score a ``(B, K)`` batch of interior data indices (knots at those data parameters)."""
     u = np.asarray(u, dtype=np.float64)
-    return evaluate_knots(u, points, *stack_indices(u, indices), degree=degree)
+    return evaluate_knots(u, points, *stack_indices(u, indices), degree=degree,
+                          max_deviation=max_deviation)
 
 
-def evaluate_positions(
-    u: ArrayLike, points: ArrayLike, positions: ArrayLike, degree: int = 3
-) -> BatchFit:
+def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, degree: int = 3,
+                       *, max_deviation: bool = True) -> BatchFit:
     """Score a ``(B, K)`` batch of continuous interior knot positions."""
-    return evaluate_knots(u, points, *stack_positions(positions), degree=degree)
+    return evaluate_knots(u, points, *stack_positions(positions), degree=degree,
+                          max_deviation=max_deviation)
 
 
 @dataclass(frozen=True, eq=False)

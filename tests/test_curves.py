@@ -1,0 +1,367 @@
+"""Seed curves, point files and seeded noise (metaknot.problems.curves).
+
+Expected coordinates are recomputed here from the formulas of the seed paper (section IV B-D),
+independently of the implementation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from metaknot.problems import (
+    CURVES,
+    PointSet,
+    add_noise,
+    archimedean_spiral,
+    epitrochoid,
+    get_curve,
+    load_points,
+    vivaldi,
+)
+
+# --------------------------------------------------------------------------------------------
+# seed curves
+# --------------------------------------------------------------------------------------------
+
+
+def _epitrochoid_reference(a=5.0, b=1.0, h=4.0):
+    t = np.deg2rad(np.arange(-180, 181, 1))  # -180..180 degrees in 1-degree steps
+    x = (a + b) * np.cos(t) - h * np.cos((a / b + 1) * t)
+    y = (a + b) * np.sin(t) - h * np.sin((a / b + 1) * t)
+    return np.stack([x, y], axis=1)
+
+
+def _spiral_reference(a=2.0, n=100):
+    t = np.pi * np.arange(n) / (n - 1)  # 0..pi, both ends included
+    r = a * t
+    return np.stack([r * np.cos(t), r * np.sin(t)], axis=1)
+
+
+def _vivaldi_reference(a=0.5):
+    t = np.deg2rad(np.arange(-360, 361, 3))  # 241 points over 720 degrees
+    return np.stack([a * (1 + np.cos(t)), a * np.sin(t), 2 * a * np.sin(t / 2)], axis=1)
+
+
+@pytest.mark.parametrize(
+    ("name", "n_points", "dim"),
+    [("epitrochoid", 361, 2), ("archimedean", 100, 2), ("vivaldi", 241, 3)],
+)
+def test_seed_curve_sizes(name, n_points, dim):
+    data = get_curve(name)
+    assert isinstance(data, PointSet)
+    assert data.points.shape == (n_points, dim)
+    assert data.n_points == n_points
+    assert data.dim == dim
+    assert data.points.dtype == np.float64
+    assert data.params is None
+    assert np.isfinite(data.points).all()
+
+
+def test_curve_registry_names():
+    assert set(CURVES) == {"epitrochoid", "archimedean", "vivaldi"}
+    assert get_curve("epitrochoid").name == "epitrochoid"
+    assert get_curve("archimedean").name == "archimedean"
+    assert get_curve("vivaldi").name == "vivaldi"
+
+
+def test_epitrochoid_coordinates():
+    ref = _epitrochoid_reference()
+    assert ref.shape == (361, 2)
+    np.testing.assert_allclose(epitrochoid().points, ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(get_curve("epitrochoid").points, ref, rtol=0, atol=1e-12)
+    # closed curve: t = -180 and t = 180 degrees give the same point, at (-(a+b) + h, 0)
+    pts = epitrochoid().points
+    np.testing.assert_allclose(pts[0], pts[-1], atol=1e-12)
+    np.testing.assert_allclose(pts[180], [6.0 - 4.0, 0.0], atol=1e-12)  # t = 0
+
+
+def test_archimedean_coordinates():
+    ref = _spiral_reference()
+    np.testing.assert_allclose(archimedean_spiral().points, ref, rtol=0, atol=1e-12)
+    pts = get_curve("archimedean").points
+    np.testing.assert_allclose(pts[0], [0.0, 0.0], atol=1e-15)  # r = 0 at t = 0
+    np.testing.assert_allclose(pts[-1], [-2 * np.pi, 0.0], atol=1e-12)  # r = 2 pi at t = pi
+    # r = a t: the distance from the origin grows linearly along the parameter
+    r = np.linalg.norm(pts, axis=1)
+    np.testing.assert_allclose(np.diff(r), 2 * np.pi / 99, rtol=1e-9)
+
+
+def test_vivaldi_coordinates():
+    ref = _vivaldi_reference()
+    assert ref.shape == (241, 3)
+    np.testing.assert_allclose(vivaldi().points, ref, rtol=0, atol=1e-12)
+    pts = get_curve("vivaldi").points
+    # Viviani-type curve: it lies on the sphere x^2 + y^2 + z^2 = 2 a x ... with a = 0.5:
+    # x^2 + y^2 + z^2 = (2a)^2 = 1 and (x - a)^2 + y^2 = a^2 (cylinder).
+    np.testing.assert_allclose(np.sum(pts**2, axis=1), 1.0, atol=1e-12)
+    np.testing.assert_allclose((pts[:, 0] - 0.5) ** 2 + pts[:, 1] ** 2, 0.25, atol=1e-12)
+
+
+def test_curve_parameters_are_honoured():
+    data = get_curve("archimedean", n_points=11, a=3.0)
+    assert data.points.shape == (11, 2)
+    np.testing.assert_allclose(data.points, _spiral_reference(a=3.0, n=11), atol=1e-12)
+    other = epitrochoid(a=3.0, b=1.0, h=1.0)
+    np.testing.assert_allclose(other.points, _epitrochoid_reference(3.0, 1.0, 1.0), atol=1e-12)
+
+
+def test_unknown_curve_name():
+    with pytest.raises(ValueError, match="unknown curve 'spirograph'") as info:
+        get_curve("spirograph")
+    for name in ("epitrochoid", "archimedean", "vivaldi"):
+        assert name in str(info.value)
+
+
+def test_point_set_scale_is_bounding_box_diagonal():
+    pts = _epitrochoid_reference()
+    diag = np.sqrt(np.sum((pts.max(axis=0) - pts.min(axis=0)) ** 2))
+    assert get_curve("epitrochoid").scale == pytest.approx(diag, rel=1e-12)
+
+
+# --------------------------------------------------------------------------------------------
+# load_points
+# --------------------------------------------------------------------------------------------
+
+
+def _write_csv(path, rows, header=None):
+    lines = [] if header is None else [header]
+    lines += [",".join(repr(float(v)) for v in row) for row in rows]
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.fixture
+def table():
+    rng = np.random.default_rng(12345)
+    return rng.normal(size=(25, 3)) * [1.0, 10.0, 1e-3]
+
+
+def test_load_csv_without_header(tmp_path, table):
+    path = tmp_path / "cloud.csv"
+    _write_csv(path, table)
+    data = load_points(path)
+    np.testing.assert_array_equal(data.points, table)  # repr round-trips floats exactly
+    assert data.name == "cloud"
+    assert data.params is None
+
+
+def test_load_csv_with_header(tmp_path, table):
+    path = tmp_path / "with_header.csv"
+    _write_csv(path, table, header="x,y,z")
+    data = load_points(str(path))  # a plain string path works too
+    np.testing.assert_array_equal(data.points, table)
+    assert data.points.shape == (25, 3)
+
+
+def test_load_csv_skips_comments_and_blank_lines(tmp_path, table):
+    path = tmp_path / "commented.csv"
+    body = "\n".join(",".join(repr(float(v)) for v in row) for row in table)
+    path.write_text("# produced by a scanner\n\nx,y,z\n" + body + "\n\n")
+    np.testing.assert_array_equal(load_points(path).points, table)
+
+
+def test_load_npy_round_trip(tmp_path, table):
+    path = tmp_path / "cloud.npy"
+    np.save(path, table)
+    data = load_points(path)
+    np.testing.assert_array_equal(data.points, table)
+    assert data.points.dtype == np.float64
+
+
+def test_load_seed_curve_round_trip(tmp_path):
+    curve = get_curve("vivaldi")
+    np.save(tmp_path / "viv.npy", curve.points)
+    _write_csv(tmp_path / "viv.csv", curve.points, header="x,y,z")
+    np.testing.assert_array_equal(load_points(tmp_path / "viv.npy").points, curve.points)
+    np.testing.assert_array_equal(load_points(tmp_path / "viv.csv").points, curve.points)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npy"])
+def test_params_column(tmp_path, suffix):
+    x = np.linspace(-1.0, 2.0, 30)
+    y = np.sin(3 * x)
+    path = tmp_path / f"function{suffix}"
+    if suffix == ".csv":
+        _write_csv(path, np.stack([x, y], axis=1), header="x,y")
+    else:
+        np.save(path, np.stack([x, y], axis=1))
+    data = load_points(path, params_column=0)
+    np.testing.assert_array_equal(data.params, x)
+    np.testing.assert_array_equal(data.points, y[:, None])
+    assert data.dim == 1
+    # negative index: the last column
+    data = load_points(path, params_column=-1)
+    np.testing.assert_array_equal(data.params, y)
+    np.testing.assert_array_equal(data.points, x[:, None])
+
+
+def test_params_column_middle(tmp_path, table):
+    path = tmp_path / "three.npy"
+    np.save(path, table)
+    data = load_points(path, params_column=1)
+    np.testing.assert_array_equal(data.params, table[:, 1])
+    np.testing.assert_array_equal(data.points, table[:, [0, 2]])
+
+
+def test_params_column_invalid(tmp_path, table):
+    path = tmp_path / "three.npy"
+    np.save(path, table)
+    for bad in (3, -4, 10):
+        with pytest.raises(ValueError, match="params_column"):
+            load_points(path, params_column=bad)
+    single = tmp_path / "single.npy"
+    np.save(single, table[:, :1])
+    with pytest.raises(ValueError, match="params_column"):
+        load_points(single, params_column=0)  # nothing would be left for the points
+
+
+def test_load_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="not found"):
+        load_points(tmp_path / "nope.csv")
+    with pytest.raises(ValueError, match="not found"):
+        load_points(tmp_path)  # a directory is not a point file
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npy"])
+def test_load_empty_file(tmp_path, suffix):
+    path = tmp_path / f"empty{suffix}"
+    path.write_bytes(b"")
+    with pytest.raises(ValueError, match=f"empty{suffix}"):  # a ValueError naming the file
+        load_points(path)
+
+
+def test_load_csv_header_only_or_comments_only(tmp_path):
+    path = tmp_path / "header.csv"
+    path.write_text("x,y\n")
+    with pytest.raises(ValueError, match="no data rows"):
+        load_points(path)
+    path = tmp_path / "comments.csv"
+    path.write_text("# nothing here\n\n")
+    with pytest.raises(ValueError, match="no data rows"):
+        load_points(path)
+
+
+def test_load_empty_npy_array(tmp_path):
+    path = tmp_path / "none.npy"
+    np.save(path, np.zeros((0, 2)))
+    with pytest.raises(ValueError, match=r"none\.npy"):
+        load_points(path)
+
+
+def test_load_ragged_rows(tmp_path):
+    path = tmp_path / "ragged.csv"
+    path.write_text("1,2\n3,4\n5,6,7\n8,9\n")
+    with pytest.raises(ValueError, match="columns"):
+        load_points(path)
+
+
+def test_load_non_numeric(tmp_path):
+    path = tmp_path / "words.csv"
+    path.write_text("x,y\n1,2\n3,four\n5,6\n7,8\n")
+    with pytest.raises(ValueError, match="non-numeric"):
+        load_points(path)
+    npy = tmp_path / "words.npy"
+    np.save(npy, np.array([["a", "b"], ["c", "d"], ["e", "f"]]))
+    with pytest.raises(ValueError, match="numeric"):
+        load_points(npy)
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-inf"])
+def test_load_csv_nan(tmp_path, bad):
+    path = tmp_path / "holes.csv"
+    path.write_text(f"1,2\n3,{bad}\n5,6\n7,8\n")
+    with pytest.raises(ValueError, match="NaN") as info:
+        load_points(path)
+    assert "holes.csv" in str(info.value)  # the message names the file
+
+
+def test_load_npy_nan(tmp_path, table):
+    table[4, 1] = np.nan
+    path = tmp_path / "holes.npy"
+    np.save(path, table)
+    with pytest.raises(ValueError, match="NaN"):
+        load_points(path)
+
+
+def test_load_complex_npy_is_rejected(tmp_path):
+    # complex values cannot be points; silently dropping the imaginary part loses data
+    path = tmp_path / "complex.npy"
+    np.save(path, np.array([[1 + 1j, 2], [3, 4], [5, 6j], [7, 8]]))
+    with pytest.raises(ValueError, match=r"complex\.npy"):
+        load_points(path)
+
+
+def test_load_corrupt_npy(tmp_path):
+    path = tmp_path / "corrupt.npy"
+    path.write_bytes(b"this is not an npy file at all")
+    with pytest.raises(ValueError, match=r"\.npy"):
+        load_points(path)
+
+
+@pytest.mark.parametrize("suffix", [".json", ".xlsx", ""])
+def test_load_unsupported_suffix(tmp_path, suffix):
+    path = tmp_path / f"points{suffix}"
+    path.write_text("1,2\n3,4\n5,6\n")
+    with pytest.raises(ValueError, match="unsupported"):
+        load_points(path)
+
+
+def test_load_txt_is_read_as_csv(tmp_path, table):
+    path = tmp_path / "points.txt"
+    _write_csv(path, table)
+    np.testing.assert_array_equal(load_points(path).points, table)
+
+
+# --------------------------------------------------------------------------------------------
+# add_noise
+# --------------------------------------------------------------------------------------------
+
+
+def test_add_noise_reproducible_by_seed():
+    data = get_curve("epitrochoid")
+    a = add_noise(data, 0.05, seed=7)
+    b = add_noise(data, 0.05, seed=7)
+    np.testing.assert_array_equal(a.points, b.points)
+    # a Generator in the same state gives the same noise as its seed
+    c = add_noise(data, 0.05, seed=np.random.default_rng(7))
+    np.testing.assert_array_equal(a.points, c.points)
+
+
+def test_add_noise_differs_between_seeds():
+    data = get_curve("epitrochoid")
+    a = add_noise(data, 0.05, seed=1)
+    b = add_noise(data, 0.05, seed=2)
+    assert not np.allclose(a.points, b.points)
+    assert np.mean(a.points != b.points) > 0.99
+
+
+@pytest.mark.parametrize(("name", "sigma"), [("epitrochoid", 0.1), ("vivaldi", 0.01)])
+def test_add_noise_standard_deviation(name, sigma):
+    data = get_curve(name)
+    original = data.points.copy()
+    noisy = add_noise(data, sigma, seed=2024)
+    np.testing.assert_array_equal(data.points, original)  # the input is not modified
+    assert noisy.points.shape == data.points.shape
+    diff = noisy.points - data.points
+    n = diff.size
+    # sample std of n Gaussian draws: relative standard error ~ 1/sqrt(2n)
+    assert np.std(diff) == pytest.approx(sigma, rel=6 / np.sqrt(2 * n))
+    assert abs(np.mean(diff)) < 6 * sigma / np.sqrt(n)
+    # noise on every coordinate, independent between coordinates
+    for j in range(data.dim):
+        assert np.std(diff[:, j]) == pytest.approx(sigma, rel=6 / np.sqrt(2 * data.n_points))
+
+
+def test_add_noise_zero_sigma_and_params_kept():
+    x = np.linspace(0.0, 1.0, 20)
+    data = PointSet(np.sin(x)[:, None], name="f", params=x)
+    same = add_noise(data, 0.0, seed=3)
+    np.testing.assert_array_equal(same.points, data.points)
+    noisy = add_noise(data, 0.1, seed=3)
+    np.testing.assert_array_equal(noisy.params, x)
+
+
+@pytest.mark.parametrize("sigma", [-0.1, np.nan, np.inf])
+def test_add_noise_bad_sigma(sigma):
+    with pytest.raises(ValueError, match="sigma"):
+        add_noise(get_curve("archimedean"), sigma, seed=0)

@@ -1,0 +1,191 @@
+"""Packaging: ``problems/``, ``algorithms/`` and ``experiments/`` ship as ``metaknot.*`` only.
+
+The repository keeps these packages as top-level folders; ``pyproject.toml`` maps them to
+``metaknot.problems``, ``metaknot.algorithms`` and ``metaknot.experiments``. They must never be
+importable as global top-level packages (``import problems``) from an installation.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import zipfile
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+MAPPED = {"problems": "problems", "algorithms": "algorithms", "experiments": "experiments"}
+
+CHECK_IMPORTS = """
+import importlib, importlib.util, json, sys
+out = {"sys_path": sys.path}
+for sub in ("problems", "algorithms", "experiments"):
+    mod = importlib.import_module("metaknot." + sub)
+    out["metaknot." + sub] = mod.__file__
+    out["global " + sub] = importlib.util.find_spec(sub) is not None
+    try:
+        importlib.import_module(sub)
+        out["import " + sub] = True
+    except ImportError:
+        out["import " + sub] = False
+import metaknot
+out["metaknot"] = metaknot.__file__
+print(json.dumps(out))
+"""
+
+
+def _run(code: str, cwd: Path, env: dict[str, str] | None = None,
+         python: str = sys.executable) -> dict:
+    proc = subprocess.run([python, "-c", code], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def _clean_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    env.pop("PYTHONHOME", None)
+    env["PYTHONNOUSERSITE"] = "1"
+    return env
+
+
+# --------------------------------------------------------------------------------------------
+# editable install
+# --------------------------------------------------------------------------------------------
+
+
+def test_in_process_subpackages_are_the_repo_folders():
+    import metaknot.algorithms
+    import metaknot.experiments
+    import metaknot.problems
+
+    for module, folder in [(metaknot.problems, "problems"), (metaknot.algorithms, "algorithms"),
+                           (metaknot.experiments, "experiments")]:
+        assert Path(module.__file__).resolve() == REPO / folder / "__init__.py"
+    # the submodules come from the same folders
+    import metaknot.problems.curves
+
+    assert Path(metaknot.problems.curves.__file__).resolve() == REPO / "problems" / "curves.py"
+
+
+def test_editable_install_outside_the_repo(tmp_path):
+    out = _run(CHECK_IMPORTS, cwd=tmp_path, env=_clean_env())
+    # the repository root is not on the path ('' is the working directory, tmp_path)
+    assert not any(Path(p or tmp_path).resolve() == REPO for p in out["sys_path"])
+    assert Path(out["metaknot"]).resolve() == REPO / "metaknot" / "__init__.py"
+    for sub, folder in MAPPED.items():
+        assert Path(out["metaknot." + sub]).resolve() == REPO / folder / "__init__.py"
+        assert out["global " + sub] is False, f"'{sub}' is importable as a top-level package"
+        assert out["import " + sub] is False
+
+
+def test_editable_install_does_not_leak_other_folders(tmp_path):
+    names = ["problems", "algorithms", "experiments", "tests", "benchmarks", "bspline",
+             "curves", "random_search", "docs"]
+    code = (
+        "import importlib.util, json\n"
+        f"names = {names!r}\n"
+        "specs = {n: importlib.util.find_spec(n) for n in names}\n"
+        "print(json.dumps({n: (s.origin or str(list(s.submodule_search_locations or [])))\n"
+        "                  if s else None for n, s in specs.items()}))\n"
+    )
+    out = _run(code, cwd=tmp_path, env=_clean_env())
+    for name, origin in out.items():
+        # not importable at all, or (some unrelated installed package) not from this repo
+        assert origin is None or str(REPO) not in origin, (name, origin)
+
+
+# --------------------------------------------------------------------------------------------
+# wheel
+# --------------------------------------------------------------------------------------------
+
+
+def _copy_source(dest: Path) -> Path:
+    """A copy of the source tree, so that building leaves the working tree untouched."""
+    ignore = shutil.ignore_patterns(".venv", ".git", "build", "dist", "*.egg-info",
+                                    "__pycache__", ".ruff_cache", ".pytest_cache",
+                                    ".hypothesis", "outputs", "multirun", "*.nbi", "*.nbc")
+    shutil.copytree(REPO, dest, ignore=ignore)
+    return dest
+
+
+@pytest.fixture(scope="module")
+def wheel(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("wheel")
+    src = _copy_source(root / "src")
+    out = root / "dist"
+    proc = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
+         "--no-index", "-q", "-w", str(out), str(src)],
+        capture_output=True, text=True, timeout=300, env=_clean_env(),
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    wheels = list(out.glob("metaknot-*.whl"))
+    assert len(wheels) == 1, wheels
+    return wheels[0]
+
+
+@pytest.mark.slow
+def test_wheel_contents(wheel):
+    names = zipfile.ZipFile(wheel).namelist()
+    top = {n.split("/")[0] for n in names}
+    assert "metaknot" in top
+    assert all(t == "metaknot" or t.endswith(".dist-info") for t in top), sorted(top)
+    for needed in ("metaknot/__init__.py", "metaknot/problems/__init__.py",
+                   "metaknot/problems/curves.py", "metaknot/problems/objectives.py",
+                   "metaknot/problems/knot_problems.py", "metaknot/algorithms/__init__.py",
+                   "metaknot/algorithms/random_search.py", "metaknot/experiments/__init__.py",
+                   "metaknot/bspline/__init__.py"):
+        assert needed in names, needed
+    for forbidden in ("problems/", "algorithms/", "experiments/", "tests/", "benchmarks/"):
+        assert not any(n.startswith(forbidden) for n in names), forbidden
+    # every module of the mapped folders is in the wheel
+    for folder in MAPPED:
+        for py in (REPO / folder).glob("*.py"):
+            assert f"metaknot/{folder}/{py.name}" in names
+    top_level = [n for n in names if n.endswith(".dist-info/top_level.txt")]
+    if top_level:
+        listed = zipfile.ZipFile(wheel).read(top_level[0]).decode().split()
+        assert listed == ["metaknot"]
+
+
+@pytest.mark.slow
+def test_wheel_imports_without_the_repo(wheel, tmp_path):
+    extracted = tmp_path / "extracted"
+    zipfile.ZipFile(wheel).extractall(extracted)
+    # a plain venv: it does not see the editable install of the project venv
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True,
+                   timeout=120, capture_output=True)
+    python = venv / "bin" / "python"
+    assert python.exists()
+    site_packages = sysconfig.get_paths()["purelib"]  # dependencies (numpy, scipy, ...)
+    env = _clean_env()
+    env["PYTHONPATH"] = os.pathsep.join([str(extracted), site_packages])
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "numba_cache")
+    code = CHECK_IMPORTS.replace(
+        'print(json.dumps(out))',
+        'import metaknot.problems as mp\n'
+        'c = mp.get_curve("epitrochoid")\n'
+        'out["curve"] = [c.n_points, c.dim, float(c.points[180, 0])]\n'
+        'out["optimizers"] = metaknot.available_optimizers()\n'
+        'print(json.dumps(out))',
+    )
+    out = _run(code, cwd=tmp_path, env=env, python=str(python))
+    assert not any(Path(p or tmp_path).resolve() == REPO for p in out["sys_path"])
+    assert Path(out["metaknot"]).resolve() == extracted / "metaknot" / "__init__.py"
+    for sub in MAPPED:
+        module_file = Path(out["metaknot." + sub]).resolve()
+        assert module_file == extracted / "metaknot" / sub / "__init__.py"
+        assert out["global " + sub] is False
+        assert out["import " + sub] is False
+    # epitrochoid at t = 0: (a + b) - h = 2
+    assert out["curve"][:2] == [361, 2]
+    assert out["curve"][2] == pytest.approx(2.0, abs=1e-12)
+    assert "random_search" in out["optimizers"]
