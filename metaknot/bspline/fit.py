@@ -13,7 +13,7 @@ from scipy.interpolate import BSpline
 
 from . import _kernel
 from .knots import stack_indices, stack_masks, stack_positions
-from .parameterize import as_points, check_degree
+from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
     "BatchFit",
@@ -99,7 +99,25 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
         )
     if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
         raise ValueError("parameter values must be finite and strictly increasing")
+    if np.abs(u).max() > MAX_COORDINATE:
+        raise ValueError(f"parameter values above {MAX_COORDINATE:g} in magnitude; rescale them")
     return u, q
+
+
+def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray, p: int,
+              max_deviation: bool) -> BatchFit:
+    b = offsets.size - 1
+    out = BatchFit(
+        sse=np.empty(b),
+        max_deviation=np.empty(b if max_deviation else 0),
+        n_control_points=np.empty(b, dtype=np.int64),
+        reason=np.empty(b, dtype=np.int8),
+    )
+    _kernel.evaluate_batch(
+        u, q, p, np.ascontiguousarray(knots, dtype=np.float64), offsets, out.sse,
+        out.max_deviation, out.n_control_points, out.reason, 8 * numba.get_num_threads(),
+    )
+    return out if max_deviation else replace(out, max_deviation=None)
 
 
 def evaluate_knots(
@@ -120,47 +138,40 @@ def evaluate_knots(
         Also compute the largest point deviation (a second pass over the data).
     """
     u, q = _prepare(u, points, degree)
-    knots = np.ascontiguousarray(knots, dtype=np.float64)
+    knots = np.asarray(knots, dtype=np.float64)
     offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    if knots.ndim != 1:
+        raise ValueError(f"knots must be a 1-D array; got shape {knots.shape}")
     if offsets.ndim != 1 or offsets.size < 1 or offsets[0] != 0 or offsets[-1] != knots.size:
         raise ValueError("offsets must run from 0 to len(knots)")
     if (np.diff(offsets) < 0).any():
         raise ValueError("offsets must be non-decreasing")
-    b = offsets.size - 1
-    out = BatchFit(
-        sse=np.empty(b),
-        max_deviation=np.empty(b if max_deviation else 0),
-        n_control_points=np.empty(b, dtype=np.int64),
-        reason=np.empty(b, dtype=np.int8),
-    )
-    _kernel.evaluate_batch(
-        u, q, int(degree), knots, offsets, out.sse, out.max_deviation, out.n_control_points,
-        out.reason, 8 * numba.get_num_threads(),
-    )
-    return out if max_deviation else replace(out, max_deviation=None)
+    return _evaluate(u, q, knots, offsets, int(degree), max_deviation)
 
 
 def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: int = 3, *,
                    max_deviation: bool = True) -> BatchFit:
     """Score a ``(B, N-2)`` batch of 0/1 masks over the interior data points."""
-    u = np.asarray(u, dtype=np.float64)
-    return evaluate_knots(u, points, *stack_masks(u, masks), degree=degree,
-                          max_deviation=max_deviation)
+    u, q = _prepare(u, points, degree)
+    return _evaluate(u, q, *stack_masks(u, masks), int(degree), max_deviation)
 
 
 def evaluate_indices(u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree: int = 3, *,
                      max_deviation: bool = True) -> BatchFit:
     """Score a ``(B, K)`` batch of interior data indices (knots at those data parameters)."""
-    u = np.asarray(u, dtype=np.float64)
-    return evaluate_knots(u, points, *stack_indices(u, indices), degree=degree,
-                          max_deviation=max_deviation)
+    u, q = _prepare(u, points, degree)
+    return _evaluate(u, q, *stack_indices(u, indices), int(degree), max_deviation)
 
 
 def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, degree: int = 3,
                        *, max_deviation: bool = True) -> BatchFit:
-    """Score a ``(B, K)`` batch of continuous interior knot positions."""
-    return evaluate_knots(u, points, *stack_positions(positions), degree=degree,
-                          max_deviation=max_deviation)
+    """Score a ``(B, K)`` batch of continuous interior knot positions.
+
+    Positions that are NaN, outside the open parameter range or coincident make their candidate
+    infeasible (reported, not raised).
+    """
+    u, q = _prepare(u, points, degree)
+    return _evaluate(u, q, *stack_positions(positions), int(degree), max_deviation)
 
 
 @dataclass(frozen=True, eq=False)

@@ -11,6 +11,8 @@ __all__ = ["PARAMETERIZATIONS", "as_points", "check_degree", "parameterize"]
 
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 MIN_DEGREE, MAX_DEGREE = 1, 5
+#: Largest coordinate magnitude accepted: squared distances summed over many points stay finite.
+MAX_COORDINATE = 1e100
 
 ParameterizationName = Literal["uniform", "chord", "centripetal"]
 
@@ -38,8 +40,9 @@ def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np
     Raises
     ------
     ValueError
-        If the array is not 1-D or 2-D, has no coordinates, holds NaN or infinite values, or has
-        fewer than ``degree + 2`` points (too few to place a single interior knot).
+        If the array is not 1-D or 2-D, has no coordinates, holds NaN or infinite values or
+        magnitudes above ``1e100``, or has fewer than ``degree + 2`` points (too few to place a
+        single interior knot).
     """
     try:
         arr = np.asarray(points, dtype=np.float64)
@@ -55,6 +58,11 @@ def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np
     if bad.any():
         row = int(np.argwhere(bad)[0, 0])
         raise ValueError(f"{name} contains NaN or infinite values (first at row {row})")
+    if arr.size and np.abs(arr).max() > MAX_COORDINATE:
+        raise ValueError(
+            f"{name} has coordinates of magnitude above {MAX_COORDINATE:g}; rescale the data "
+            "(squared errors would overflow)"
+        )
     need = check_degree(degree) + 2
     if arr.shape[0] < need:
         raise ValueError(
@@ -110,6 +118,9 @@ def parameterize(
             )
         if not np.isfinite(values).all():
             raise ValueError("explicit parameter values contain NaN or infinite values")
+        if np.abs(values).max() > MAX_COORDINATE:
+            raise ValueError(f"explicit parameter values above {MAX_COORDINATE:g} in magnitude; "
+                             "rescale them")
         steps = np.diff(values)
         if (steps <= 0).any():
             i = int(np.argmax(steps <= 0))
@@ -125,7 +136,8 @@ def parameterize(
         )
     if method == "uniform":
         return np.linspace(0.0, 1.0, n)
-    chords = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    # scale to unit size first: the parameters are scale-invariant and nothing can overflow
+    chords = np.linalg.norm(np.diff(pts / np.abs(pts).max(initial=1e-300), axis=0), axis=1)
     zero = chords <= 0.0
     if zero.any():
         i = int(np.argmax(zero))

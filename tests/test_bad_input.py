@@ -1,0 +1,604 @@
+"""Bad input gets a ``ValueError`` whose message names the problem, never a crash or NaN.
+
+The explicit cases check the message of each kind of bad input for every public entry point;
+the hypothesis tests throw random malformed and well-formed inputs at them and accept only a
+``ValueError`` or a clean result (correct shapes, no NaN, objective values finite or ``+inf``).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from metaknot.bspline import (
+    BatchFit,
+    Infeasibility,
+    SplineFit,
+    averaging_knots,
+    check_degree,
+    clamped_knot_vector,
+    evaluate_indices,
+    evaluate_knots,
+    evaluate_masks,
+    evaluate_positions,
+    fit_spline,
+    parameterize,
+)
+from metaknot.problems import KnotSelection
+
+N = 10
+U = np.linspace(0.0, 1.0, N)
+Q = np.column_stack((np.cos(3.0 * U), np.sin(3.0 * U)))
+MASKS = np.zeros((2, N - 2), dtype=bool)
+MASKS[0, 3] = MASKS[1, [2, 5]] = True
+INDICES = np.array([[3, 6], [2, 7]])
+POSITIONS = np.array([[0.3, 0.6], [0.25, 0.7]])
+
+
+# one entry per public function: call(points, u, degree)
+CALLS = {
+    "parameterize": lambda pts, u, deg: parameterize(pts, "centripetal", degree=deg),
+    "evaluate_masks": lambda pts, u, deg: evaluate_masks(u, pts, MASKS[:, : len(u) - 2], deg),
+    "evaluate_indices": lambda pts, u, deg: evaluate_indices(u, pts, np.zeros((2, 0), int), deg),
+    "evaluate_positions": lambda pts, u, deg: evaluate_positions(u, pts, POSITIONS, deg),
+    "fit_spline": lambda pts, u, deg: fit_spline(u, pts, [0.5], deg),
+    "KnotSelection": lambda pts, u, deg: KnotSelection(points=pts, degree=deg),
+}
+
+
+def _with_value(row: int, value: float) -> np.ndarray:
+    pts = Q.copy()
+    pts[row, 1] = value
+    return pts
+
+
+# --------------------------------------------------------------------------------------------
+# explicit cases
+
+
+@pytest.mark.parametrize("call", CALLS.values(), ids=CALLS.keys())
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf], ids=["nan", "inf", "-inf"])
+def test_non_finite_coordinates(call, value):
+    with pytest.raises(ValueError, match=r"NaN or infinite values \(first at row 4\)"):
+        call(_with_value(4, value), U, 3)
+
+
+@pytest.mark.parametrize("call", CALLS.values(), ids=CALLS.keys())
+@pytest.mark.parametrize(("n_points", "degree"), [(4, 3), (2, 1), (6, 5), (3, 2)])
+def test_too_few_points(call, n_points, degree):
+    u = np.linspace(0.0, 1.0, n_points)
+    pts = np.column_stack((u, u**2))
+    with pytest.raises(ValueError, match=rf"needs at least {degree + 2} points; got {n_points}"):
+        call(pts, u, degree)
+
+
+@pytest.mark.parametrize("method", ["chord", "centripetal"])
+def test_consecutive_duplicate_points(method):
+    pts = Q.copy()
+    pts[5] = pts[4]
+    with pytest.raises(ValueError, match="points 4 and 5 coincide"):
+        parameterize(pts, method)
+    with pytest.raises(ValueError, match="points 4 and 5 coincide"):
+        KnotSelection(points=pts, parameterization=method)
+    # the uniform parameterization, and non-consecutive repeats, are fine
+    u = parameterize(pts, "uniform")
+    np.testing.assert_array_equal(u, np.linspace(0, 1, N))
+    closed = np.vstack((Q, Q[:1]))  # a closed curve repeats its first point at the end
+    assert (np.diff(parameterize(closed, method)) > 0).all()
+
+
+@pytest.mark.parametrize("call", CALLS.values(), ids=CALLS.keys())
+@pytest.mark.parametrize("shape", [(N, 2, 2), (2, N, 2, 1), ()])
+def test_points_of_wrong_dimension(call, shape):
+    pts = np.ones(shape)
+    with pytest.raises(ValueError, match=r"must have shape \(N, d\)"):
+        call(pts, U, 3)
+
+
+@pytest.mark.parametrize("call", CALLS.values(), ids=CALLS.keys())
+def test_points_without_coordinates(call):
+    with pytest.raises(ValueError, match="at least one coordinate"):
+        call(np.ones((N, 0)), U, 3)
+
+
+@pytest.mark.parametrize("call", CALLS.values(), ids=CALLS.keys())
+def test_non_numeric_points(call):
+    pts = np.array([["a", "b"]] * N)
+    with pytest.raises(ValueError, match=r"numeric|could not convert string to float"):
+        call(pts, U, 3)
+
+
+@pytest.mark.parametrize(
+    "masks",
+    [
+        np.zeros((2, N - 3), dtype=bool),
+        np.zeros((2, N - 1), dtype=bool),
+        np.zeros((2, N), dtype=bool),
+        np.zeros(N - 2, dtype=bool),
+        np.zeros((1, 2, N - 2), dtype=bool),
+    ],
+    ids=["short", "long", "N", "1-D", "3-D"],
+)
+def test_masks_of_wrong_shape(masks):
+    with pytest.raises(ValueError, match=rf"masks must have shape \(B, N - 2\) = \(B, {N - 2}\)"):
+        evaluate_masks(U, Q, masks, 3)
+
+
+def test_masks_with_other_values():
+    masks = MASKS.astype(int)
+    masks[0, 0] = 2
+    with pytest.raises(ValueError, match="only 0 and 1"):
+        evaluate_masks(U, Q, masks, 3)
+    with pytest.raises(ValueError, match="only 0 and 1"):
+        evaluate_masks(U, Q, np.where(MASKS, 1.0, np.nan), 3)
+
+
+@pytest.mark.parametrize(
+    ("indices", "message"),
+    [
+        (np.array([3, 6]), r"indices must have shape \(B, K\)"),
+        (np.ones((1, 2, 2), dtype=int), r"indices must have shape \(B, K\)"),
+        ([[0, 3]], rf"indices must lie in 1..{N - 2}"),
+        ([[3, N - 1]], rf"indices must lie in 1..{N - 2}"),
+        ([[-4, 3]], rf"indices must lie in 1..{N - 2}"),
+        ([[2.5, 3.0]], "indices must be integers"),
+        ([[np.nan, 3.0]], "indices must be integers"),
+    ],
+)
+def test_bad_indices(indices, message):
+    with pytest.raises(ValueError, match=message):
+        evaluate_indices(U, Q, indices, 3)
+
+
+@pytest.mark.parametrize("positions", [np.array([0.3, 0.6]), np.ones((1, 2, 2)), 0.5])
+def test_positions_of_wrong_shape(positions):
+    with pytest.raises(ValueError, match=r"positions must have shape \(B, K\)"):
+        evaluate_positions(U, Q, positions, 3)
+
+
+@pytest.mark.parametrize(
+    "values", [np.arange(N - 1.0), np.arange(N + 1.0), np.arange(float(N))[:, None], 0.5],
+    ids=["short", "long", "column", "scalar"],
+)
+def test_explicit_parameters_of_wrong_shape(values):
+    with pytest.raises(ValueError, match=rf"explicit parameter values must have shape \({N},\)"):
+        parameterize(Q, values)
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        (np.r_[0.0, 2.0, 1.0, np.arange(3.0, N)], r"strictly increasing; values\[1\]"),
+        (np.r_[0.0, 0.0, np.arange(2.0, N)], r"strictly increasing; values\[0\]"),
+        (np.r_[np.nan, np.arange(1.0, N)], "NaN or infinite"),
+        (np.r_[np.arange(N - 1.0), np.inf], "NaN or infinite"),
+        (["a"] * N, "numeric"),
+    ],
+)
+def test_bad_explicit_parameters(values, message):
+    with pytest.raises(ValueError, match=message):
+        parameterize(Q, values)
+
+
+_EVALUATORS = {
+    "evaluate_masks": lambda u: evaluate_masks(u, Q, MASKS, 3),
+    "evaluate_indices": lambda u: evaluate_indices(u, Q, INDICES, 3),
+    "evaluate_positions": lambda u: evaluate_positions(u, Q, POSITIONS, 3),
+    "fit_spline": lambda u: fit_spline(u, Q, [0.5], 3),
+}
+
+
+@pytest.mark.parametrize("call", _EVALUATORS.values(), ids=_EVALUATORS.keys())
+@pytest.mark.parametrize(
+    ("u", "message"),
+    [
+        (U[::-1].copy(), "finite and strictly increasing"),
+        (np.r_[U[:3], U[2:-1]], "finite and strictly increasing"),
+        (np.r_[np.nan, U[1:]], "finite and strictly increasing"),
+        (np.r_[U[:-1], np.inf], "finite and strictly increasing"),
+    ],
+    ids=["decreasing", "repeated", "nan", "inf"],
+)
+def test_bad_parameter_values(call, u, message):
+    with pytest.raises(ValueError, match=message):
+        call(u)
+
+
+@pytest.mark.parametrize("call", _EVALUATORS.values(), ids=_EVALUATORS.keys())
+@pytest.mark.parametrize(
+    "u", [U[:, None], U[None, :], U.reshape(2, N // 2)], ids=["column", "row", "2x5"]
+)
+def test_parameter_values_of_wrong_shape(call, u):
+    """A 2-D parameter array must be rejected with a ValueError about its shape."""
+    with pytest.raises(ValueError, match="shape"):
+        call(u)
+
+
+@pytest.mark.parametrize("call", _EVALUATORS.values(), ids=_EVALUATORS.keys())
+def test_parameter_values_of_wrong_length(call):
+    with pytest.raises(ValueError, match="shape"):
+        call(np.linspace(0.0, 1.0, N + 1))
+
+
+def test_fit_spline_interior_of_wrong_shape():
+    with pytest.raises(ValueError, match="interior_knots must be 1-D"):
+        fit_spline(U, Q, [[0.3, 0.6]], 3)
+    with pytest.raises(ValueError, match="interior_knots must be 1-D"):
+        fit_spline(U, Q, 0.5, 3)
+
+
+def _with_data(call):
+    return lambda deg: call(Q, U, deg)
+
+
+_DEGREE_CALLS = {
+    **{name: _with_data(call) for name, call in CALLS.items()},
+    "check_degree": check_degree,
+    "clamped_knot_vector": lambda deg: clamped_knot_vector(U, [0.5], deg),
+    "averaging_knots": lambda deg: averaging_knots(U, 2, deg),
+}
+
+
+@pytest.mark.parametrize("call", _DEGREE_CALLS.values(), ids=_DEGREE_CALLS.keys())
+@pytest.mark.parametrize(
+    ("degree", "message"),
+    [
+        (0, "between 1 and 5, got 0"),
+        (6, "between 1 and 5, got 6"),
+        (-1, "between 1 and 5, got -1"),
+        (np.int64(9), "between 1 and 5, got 9"),
+        (2.5, "must be an integer between 1 and 5, got 2.5"),
+        (3.0, "must be an integer between 1 and 5, got 3.0"),
+        (True, "must be an integer between 1 and 5, got True"),
+        (False, "must be an integer between 1 and 5, got False"),
+        ("3", "must be an integer between 1 and 5, got '3'"),
+        (None, "must be an integer between 1 and 5, got None"),
+    ],
+)
+def test_degree_out_of_range(call, degree, message):
+    with pytest.raises(ValueError, match=message):
+        call(degree)
+
+
+@pytest.mark.parametrize("method", ["foo", "Chord", "", "centripetal "])
+def test_unknown_parameterization(method):
+    with pytest.raises(ValueError, match=f"unknown parameterization {method!r}"):
+        parameterize(Q, method)
+    with pytest.raises(ValueError, match="unknown parameterization"):
+        KnotSelection(points=Q, parameterization=method)
+
+
+@pytest.mark.parametrize(
+    ("x", "message"),
+    [
+        (np.ones((2, N - 3)), r"candidates must have shape \(B, 8\)"),
+        (np.ones((2, 2, N - 2)), r"candidates must have shape \(B, 8\)"),
+        (np.full((2, N - 2), 2), r"must lie in \[0.0, 1.0\]"),
+        (np.full((1, N - 2), 0.5), "whole numbers"),
+        (np.full((1, N - 2), np.nan), "whole numbers"),
+        (np.array([["a"] * (N - 2)]), "numeric"),
+    ],
+)
+def test_knot_selection_bad_candidates(x, message):
+    problem = KnotSelection(points=Q, degree=3)
+    with pytest.raises(ValueError, match=message):
+        problem.evaluate(x)
+
+
+@pytest.mark.parametrize(
+    ("knots", "offsets", "message"),
+    [
+        ([0.3, 0.6], [0, 1], "offsets must run from 0 to len"),
+        ([0.3, 0.6], [1, 2], "offsets must run from 0 to len"),
+        ([0.3, 0.6], [], "offsets must run from 0 to len"),
+        ([0.3, 0.6], [[0, 2]], "offsets must run from 0 to len"),
+        ([0.3, 0.6], [0, 2, 1, 2], "offsets must be non-decreasing"),
+    ],
+)
+def test_evaluate_knots_bad_offsets(knots, offsets, message):
+    with pytest.raises(ValueError, match=message):
+        evaluate_knots(U, Q, knots, offsets, 3)
+
+
+# --------------------------------------------------------------------------------------------
+# huge but finite coordinates: overflow must not turn into NaN
+
+
+HUGE = np.array([[0.0, 0.0], [1e308, 0.0], [-1e308, 1.0], [1e308, 2.0], [0.0, 3.0], [1.0, 4.0]])
+
+
+@pytest.mark.parametrize("method", ["chord", "centripetal"])
+def test_parameterize_huge_coordinates(method):
+    """Chord lengths overflow to inf here; the result must still be valid parameters (or a
+    ValueError), never NaN."""
+    with np.errstate(all="ignore"):
+        try:
+            u = parameterize(HUGE, method, degree=1)
+        except ValueError:
+            return
+    assert np.isfinite(u).all(), f"parameterize returned {u}"
+    assert (np.diff(u) > 0).all()
+
+
+@pytest.mark.parametrize("scale", [1e101, 1e305, 1e308])
+def test_evaluators_reject_overflowing_coordinates(scale):
+    u = np.linspace(0.0, 1.0, 8)
+    q = scale * np.column_stack(((-1.0) ** np.arange(8), np.linspace(-1.0, 1.0, 8)))
+    masks = np.zeros((1, 6), dtype=bool)
+    with pytest.raises(ValueError, match="magnitude above 1e\\+100"):
+        evaluate_masks(u, q, masks, 1)
+
+
+@pytest.mark.parametrize("scale", [1e-150, 1e99])
+def test_evaluators_extreme_but_accepted_coordinates(scale):
+    u = np.linspace(0.0, 1.0, 8)
+    q = scale * np.column_stack(((-1.0) ** np.arange(8), np.linspace(-1.0, 1.0, 8)))
+    masks = np.array([[0] * 6, [0, 1, 0, 0, 1, 0], [1, 0, 1, 1, 0, 1]], dtype=bool)
+    fit = evaluate_masks(u, q, masks, 1)
+    assert np.isfinite(fit.sse).all(), f"sse {fit.sse}"
+    assert np.isfinite(fit.max_deviation).all(), f"max_deviation {fit.max_deviation}"
+    # the data are not on a line: the largest deviation is not zero, and its square is at
+    # least the mean of the squared deviations
+    assert (fit.max_deviation > 0).all(), f"max_deviation {fit.max_deviation}"
+    assert (fit.max_deviation**2 >= fit.sse / u.size * (1 - 1e-12)).all()
+
+
+def test_fit_spline_huge_coordinates():
+    u = np.linspace(0.0, 1.0, 6)
+    q = np.array([1e308, -1e308, 1e308, -1e308, 1e308, -1e308])
+    with np.errstate(all="ignore"):
+        try:
+            fit = fit_spline(u, q, [0.4], 1)
+        except ValueError:
+            return
+        metrics = fit.metrics()
+    assert not any(np.isnan(v) for v in metrics.values()), metrics
+
+
+def test_knot_selection_huge_coordinates():
+    q = np.array([1e308, -1e308, 1e308, -1e308, 1e308, -1e308])
+    x = np.array([[0, 0, 0, 0], [0, 1, 0, 0], [1, 1, 1, 1]])
+    with np.errstate(all="ignore"):
+        try:
+            values = KnotSelection(points=q, degree=1, parameterization="uniform").evaluate(x)
+        except ValueError:
+            return
+    assert not np.isnan(values).any(), values
+
+
+# --------------------------------------------------------------------------------------------
+# property-based: random malformed and well-formed input
+
+SETTINGS = settings(
+    max_examples=150,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+
+BAD_DEGREES = [0, 6, -1, 2.5, True, None, "3", np.float64(3.0)]
+degrees = st.one_of(st.integers(1, 5), st.integers(1, 5), st.sampled_from(BAD_DEGREES))
+
+SPECIAL = [0.0, -0.0, 1.0, np.nan, np.inf, -np.inf, 1e308, -1e308, 1e-320, 1e154]
+floats = st.one_of(
+    st.floats(-10.0, 10.0),
+    st.floats(-10.0, 10.0),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.sampled_from(SPECIAL),
+)
+
+
+@st.composite
+def point_arrays(draw):
+    """Mostly (N, d) float arrays, some with NaN/inf/huge values, duplicates or bad shapes."""
+    n = draw(st.integers(0, 14))
+    d = draw(st.integers(1, 3))
+    clean = draw(st.booleans())
+    elements = st.floats(-10.0, 10.0) if clean else floats
+    pts = draw(hnp.arrays(np.float64, (n, d), elements=elements))
+    change = draw(st.sampled_from(
+        ["none", "none", "none", "duplicate", "nan", "1-D", "3-D", "no columns", "transpose"]
+    ))
+    if change == "duplicate" and n >= 2:
+        i = draw(st.integers(0, n - 2))
+        pts[i + 1] = pts[i]
+    elif change == "nan" and n >= 1:
+        pts[draw(st.integers(0, n - 1)), 0] = np.nan
+    elif change == "1-D":
+        pts = pts[:, 0]
+    elif change == "3-D":
+        pts = pts[:, :, None]
+    elif change == "no columns":
+        pts = pts[:, :0]
+    elif change == "transpose":
+        pts = pts.T
+    return pts
+
+
+def _n_rows(points) -> int:
+    arr = np.asarray(points)
+    return arr.shape[0] if arr.ndim >= 1 else 1
+
+
+@st.composite
+def params_for(draw, points):
+    """Parameter values for ``points``: mostly valid, sometimes of wrong length, shape, order."""
+    n = _n_rows(points)
+    kind = draw(st.sampled_from(["uniform", "uniform", "random", "wrong length", "column",
+                                 "unsorted", "nan"]))
+    if kind == "uniform":
+        return np.linspace(0.0, 1.0, n)
+    if kind == "random":
+        gaps = draw(hnp.arrays(np.float64, max(n - 1, 0), elements=st.floats(0.01, 10.0)))
+        start = draw(st.floats(-100.0, 100.0))
+        return start + np.concatenate(([0.0], np.cumsum(gaps)))
+    if kind == "wrong length":
+        return np.linspace(0.0, 1.0, max(n + draw(st.sampled_from([-2, -1, 1, 3])), 0))
+    if kind == "column":
+        return np.linspace(0.0, 1.0, n)[:, None]
+    if kind == "unsorted":
+        return draw(hnp.arrays(np.float64, n, elements=st.floats(0.0, 1.0)))
+    u = np.linspace(0.0, 1.0, n)
+    if n:
+        u[draw(st.integers(0, n - 1))] = np.nan
+    return u
+
+
+def _check_batch(fit: BatchFit, n_candidates: int) -> None:
+    assert isinstance(fit, BatchFit)
+    for arr in (fit.sse, fit.max_deviation, fit.n_control_points, fit.reason):
+        assert arr.shape == (n_candidates,)
+    assert len(fit) == n_candidates
+    assert not np.isnan(fit.sse).any(), f"NaN sse: {fit.sse}"
+    assert not np.isnan(fit.max_deviation).any(), f"NaN max_deviation: {fit.max_deviation}"
+    assert (fit.sse >= 0).all() and (fit.max_deviation >= 0).all()
+    assert set(fit.reason.tolist()) <= {int(r) for r in Infeasibility}
+    bad = ~fit.feasible
+    assert (fit.sse[bad] == np.inf).all() and (fit.max_deviation[bad] == np.inf).all()
+
+
+def _accept(call):
+    """Run ``call``: a ValueError is accepted (returns None); anything else propagates."""
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            result = call()
+        except ValueError:
+            event("ValueError")
+            return None
+    event("clean result")
+    return result
+
+
+@SETTINGS
+@given(data=st.data())
+def test_fuzz_parameterize(data):
+    points = data.draw(point_arrays())
+    degree = data.draw(degrees)
+    method = data.draw(st.one_of(
+        st.sampled_from(["uniform", "chord", "centripetal", "bogus"]), params_for(points)
+    ))
+    u = _accept(lambda: parameterize(points, method, degree=degree))
+    if u is None:
+        return
+    n = _n_rows(points)
+    assert u.shape == (n,)
+    assert np.isfinite(u).all(), f"parameters {u}"
+    assert (np.diff(u) > 0).all(), f"parameters {u}"
+    if isinstance(method, str):
+        assert u[0] == 0.0 and u[-1] == 1.0
+
+
+@st.composite
+def mask_batches(draw, n):
+    b = draw(st.integers(0, 5))
+    width = max(n - 2, 0) if draw(st.integers(0, 4)) else max(n + draw(st.integers(-4, 2)), 0)
+    values = draw(st.sampled_from([(0, 1), (0, 1), (0, 1, 2), (0.0, 1.0, 0.5)]))
+    masks = draw(hnp.arrays(np.float64, (b, width), elements=st.sampled_from(values)))
+    if draw(st.booleans()) and set(values) <= {0, 1}:
+        masks = masks.astype(bool)
+    return masks
+
+
+@SETTINGS
+@given(data=st.data())
+def test_fuzz_evaluate_masks(data):
+    points = data.draw(point_arrays())
+    u = data.draw(params_for(points))
+    masks = data.draw(mask_batches(_n_rows(points)))
+    degree = data.draw(degrees)
+    fit = _accept(lambda: evaluate_masks(u, points, masks, degree))
+    if fit is not None:
+        _check_batch(fit, masks.shape[0])
+        np.testing.assert_array_equal(fit.n_control_points,
+                                      masks.astype(bool).sum(axis=1) + degree + 1)
+
+
+@SETTINGS
+@given(data=st.data())
+def test_fuzz_evaluate_indices(data):
+    points = data.draw(point_arrays())
+    n = _n_rows(points)
+    u = data.draw(params_for(points))
+    b = data.draw(st.integers(0, 5))
+    k = data.draw(st.integers(0, n + 2))
+    lo, hi = (1, max(n - 2, 1)) if data.draw(st.integers(0, 4)) else (-1, n + 1)
+    indices = data.draw(hnp.arrays(np.int64, (b, k), elements=st.integers(lo, hi)))
+    if data.draw(st.integers(0, 5)) == 0:
+        indices = indices.astype(np.float64) + data.draw(st.sampled_from([0.0, 0.5, np.nan]))
+    degree = data.draw(degrees)
+    fit = _accept(lambda: evaluate_indices(u, points, indices, degree))
+    if fit is not None:
+        _check_batch(fit, b)
+        assert (fit.n_control_points == k + degree + 1).all()
+
+
+@SETTINGS
+@given(data=st.data())
+def test_fuzz_evaluate_positions(data):
+    points = data.draw(point_arrays())
+    n = _n_rows(points)
+    u = data.draw(params_for(points))
+    b = data.draw(st.integers(0, 5))
+    k = data.draw(st.integers(0, n + 2))
+    elements = st.one_of(st.floats(-0.2, 1.2), floats)
+    positions = data.draw(hnp.arrays(np.float64, (b, k), elements=elements))
+    degree = data.draw(degrees)
+    fit = _accept(lambda: evaluate_positions(u, points, positions, degree))
+    if fit is not None:
+        _check_batch(fit, b)
+        assert (fit.n_control_points == k + degree + 1).all()
+
+
+@SETTINGS
+@given(data=st.data())
+def test_fuzz_fit_spline(data):
+    points = data.draw(point_arrays())
+    n = _n_rows(points)
+    u = data.draw(params_for(points))
+    k = data.draw(st.integers(0, n + 1))
+    interior = data.draw(hnp.arrays(np.float64, k, elements=st.one_of(st.floats(0.0, 1.0),
+                                                                      floats)))
+    if data.draw(st.booleans()):
+        interior = np.sort(interior)
+    degree = data.draw(degrees)
+    fit = _accept(lambda: fit_spline(u, points, interior, degree))
+    if fit is None:
+        return
+    assert isinstance(fit, SplineFit)
+    d = np.asarray(points).reshape(n, -1).shape[1]
+    assert fit.control_points.shape == (k + degree + 1, d)
+    with np.errstate(all="ignore"):
+        metrics = fit.metrics()
+    for key, value in metrics.items():
+        assert not np.isnan(value) and value >= 0, f"{key} = {value}"
+
+
+@SETTINGS
+@given(data=st.data())
+def test_fuzz_knot_selection(data):
+    points = data.draw(point_arrays())
+    degree = data.draw(degrees)
+    method = data.draw(st.sampled_from(["uniform", "chord", "centripetal"]))
+    objective = data.draw(st.sampled_from(["paper", "bic", "error_bounded"]))
+    problem = _accept(lambda: KnotSelection(points=points, degree=degree,
+                                            parameterization=method, objective=objective))
+    if problem is None:
+        return
+    n_var = problem.encoding.n_var
+    b = data.draw(st.integers(0, 5))
+    width = n_var if data.draw(st.integers(0, 4)) else data.draw(st.integers(0, n_var + 2))
+    values = data.draw(st.sampled_from([(0, 1), (0, 1), (0, 1), (0, 1, 2), (0.0, 1.0, np.nan)]))
+    x = data.draw(hnp.arrays(np.float64, (b, width), elements=st.sampled_from(values)))
+    out = _accept(lambda: problem.evaluate(x))
+    if out is None:
+        return
+    assert out.shape == (b,)
+    assert not np.isnan(out).any(), f"objective values {out}"
+    assert (out > -np.inf).all(), f"objective values {out}"
