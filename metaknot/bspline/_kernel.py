@@ -17,6 +17,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ._rows import rows
+
 FEASIBLE = 0
 TOO_MANY_CONTROL_POINTS = 1
 KNOT_OUT_OF_RANGE = 2
@@ -26,7 +28,7 @@ SINGULAR = 5
 
 # A diagonal entry of R below this fraction of the largest one counts as singular.
 RCOND = 1e-12
-# A least-squares system whose estimated 1-norm condition number exceeds this is reported as
+# A least-squares system whose (infinity-norm) condition number exceeds this is reported as
 # numerically singular: its control points (and the curve between data points) would be noise.
 COND_LIMIT = 1e11
 
@@ -73,93 +75,34 @@ def _schoenberg_whitney(u, t, p, n):
 
 
 @njit(cache=True)
-def _basis(t, p, span, x, out, left, right):
-    """Non-zero basis functions N[span-p..span](x) (NURBS Book A2.2)."""
-    out[0] = 1.0
-    for j in range(1, p + 1):
-        left[j] = x - t[span + 1 - j]
-        right[j] = t[span + j] - x
-        saved = 0.0
-        for r in range(j):
-            temp = out[r] / (right[r + 1] + left[j - r])
-            out[r] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        out[j] = saved
+def reciprocal_differences(t, p):
+    """``iv[lo * p + j - 1] = 1 / (t[lo + j] - t[lo])`` for ``j = 1..p`` (0 where not positive):
+    the denominators of the basis recurrence, computed once per knot vector."""
+    iv = np.zeros(t.size * p)
+    for lo in range(t.size):
+        for j in range(1, p + 1):
+            if lo + j < t.size and t[lo + j] > t[lo]:
+                iv[lo * p + j - 1] = 1.0 / (t[lo + j] - t[lo])
+    return iv
 
 
 @njit(cache=True)
 def _solve(u, q, t, p, n, coef, basis, spans):
     """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
 
-    Square-root-free Givens rotations (Gentleman 1973): the triangular factor is
-    ``R = diag(sqrt(1 / dinv)) @ rb`` with unit-diagonal ``rb``; a data row enters with weight
-    ``w = 1 / big_w``. Tracking ``big_w`` and ``dinv`` (reciprocals) keeps every division off the
-    chain of dependent operations, so rotations pipeline. The sum of squared residuals is what
-    the rotations leave of the data rows (as in FITPACK), so no second pass is needed for it.
-    Basis values and spans of every data point are stored in ``basis`` / ``spans`` for
-    :func:`_max_deviation`.
+    Square-root-free Givens rotations (Gentleman 1973), row by row as in FITPACK's ``fpcurf``:
+    the triangular factor is ``R = diag(sqrt(1 / dinv)) @ rb`` with unit-diagonal ``rb``; a data
+    row enters with weight ``w = 1 / big_w``. Tracking ``big_w`` and ``dinv`` (reciprocals)
+    keeps every division off the chain of dependent operations, so rotations pipeline. The sum of
+    squared residuals is what the rotations leave of the data rows, so no second pass is needed
+    for it. The row loop itself is generated per degree (``_rows.py``). If ``basis`` is not empty,
+    basis values and spans of every data point are stored for :func:`_max_deviation`.
     """
-    m, d = q.shape
+    d = q.shape[1]
     rb = np.zeros((n, p + 1))
     dinv = np.full(n, np.inf)
     z = np.zeros((n, d))
-    h = np.empty(p + 1)
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
-    rhs = np.empty(d)
-    span = p
-    sse = 0.0
-    for j in range(m):
-        x = u[j]
-        while span < n - 1 and t[span + 1] <= x:
-            span += 1
-        _basis(t, p, span, x, h, left, right)
-        spans[j] = span
-        for i in range(p + 1):
-            basis[j, i] = h[i]
-        for k in range(d):
-            rhs[k] = q[j, k]
-        first = span - p
-        big_w = 1.0
-        absorbed = False
-        for i in range(p + 1):
-            xi = h[i]
-            if xi == 0.0:
-                continue
-            col = first + i
-            di_inv = dinv[col]
-            if di_inv == np.inf:
-                # first row reaching this column: it becomes the column's row of the factor
-                inv_x = 1.0 / xi
-                dinv[col] = big_w * inv_x * inv_x
-                for k in range(d):
-                    z[col, k] = rhs[k] * inv_x
-                for a in range(i + 1, p + 1):
-                    rb[col, a - i] = h[a] * inv_x
-                absorbed = True  # weight is now zero: the row is used up
-                break
-            big_w_new = big_w + xi * xi * di_inv
-            inv_new = 1.0 / big_w_new
-            cb = big_w * inv_new
-            sb = xi * di_inv * inv_new
-            dinv[col] = di_inv * cb
-            for k in range(d):
-                yk = rhs[k]
-                zk = z[col, k]
-                rhs[k] = yk - xi * zk
-                z[col, k] = cb * zk + sb * yk
-            for a in range(i + 1, p + 1):
-                xa = h[a]
-                ra = rb[col, a - i]
-                h[a] = xa - xi * ra
-                rb[col, a - i] = cb * ra + sb * xa
-            big_w = big_w_new
-        if not absorbed:
-            # what is left of the row, with its weight, is its share of the residual
-            left_over = 0.0
-            for k in range(d):
-                left_over += rhs[k] * rhs[k]
-            sse += left_over / big_w
+    sse = rows(u, q, t, reciprocal_differences(t, p), p, n, rb, dinv, z, basis, spans)
     # 1 / dinv is the squared diagonal of R: compare its smallest entry with its largest
     largest_dinv = 0.0
     smallest_dinv = np.inf
@@ -168,62 +111,90 @@ def _solve(u, q, t, p, n, coef, basis, spans):
         smallest_dinv = min(smallest_dinv, dinv[i])
     if not (smallest_dinv > 0.0 and smallest_dinv >= RCOND * RCOND * largest_dinv):
         return SINGULAR, np.inf
-    if not _condition_estimate(rb, dinv, p, n) <= COND_LIMIT:
+    if not (_conditioning_bound(rb, p, n, smallest_dinv, largest_dinv) <= COND_LIMIT
+            or _condition_estimate(rb, dinv, p, n) <= COND_LIMIT):
         return SINGULAR, np.inf
     for i in range(n - 1, -1, -1):
         for k in range(d):
             acc = z[i, k]
-            for a in range(1, min(p, n - 1 - i) + 1):
+            for a in range(min(p, n - 1 - i), 0, -1):  # nearest neighbour last: short chain
                 acc -= rb[i, a] * coef[i + a, k]
             coef[i, k] = acc
     return FEASIBLE, sse
 
 
 @njit(cache=True)
-def _condition_estimate(rb, dinv, p, n):
-    """Estimate the 1-norm condition number of ``R = diag(sqrt(1 / dinv)) @ rb``.
+def _conditioning_bound(rb, p, n, smallest_dinv, largest_dinv):
+    """Cheap upper bound of the infinity-norm condition number of ``R``.
 
-    ``||R||_1`` exactly, ``||R^-1||_1`` by Hager's estimator (Higham 1988, as in LAPACK's
-    ``xLACON``): a few banded triangular solves, O(n p) each. The estimate is a lower bound,
-    almost always within a factor 3.
+    ``|R^-1| <= M^-1`` elementwise, with ``M`` the comparison matrix of ``R`` (unit diagonal,
+    minus the absolute off-diagonal entries of ``rb``), so ``||R^-1||_inf`` is at most the
+    largest entry of ``M^-1 e`` times the largest ``1 / R_ii``. One banded pass, no division;
+    usually within a small factor of the true value for B-spline systems.
     """
-    sd = np.empty(n)
-    for i in range(n):
-        sd[i] = 1.0 / math.sqrt(dinv[i])
+    v = np.empty(n)
+    v_max = 0.0
+    row_max = 0.0
+    for i in range(n - 1, -1, -1):
+        acc = 1.0
+        row = 1.0
+        for a in range(min(p, n - 1 - i), 0, -1):
+            r = abs(rb[i, a])
+            row += r
+            acc += r * v[i + a]
+        v[i] = acc
+        v_max = max(v_max, acc)
+        row_max = max(row_max, row)
+    # (largest R_ii) * (largest 1 / R_ii) = sqrt(largest dinv / smallest dinv)
+    return math.sqrt(largest_dinv / smallest_dinv) * row_max * v_max
+
+
+@njit(cache=True)
+def _condition_estimate(rb, dinv, p, n):
+    """Estimate the infinity-norm condition number of ``R = diag(sqrt(1 / dinv)) @ rb``.
+
+    ``||R||_inf`` exactly, ``||R^-1||_inf = ||R^-T||_1`` by Hager's estimator (Higham 1988, as
+    in LAPACK's ``xLACON``): a few rounds of two banded triangular solves, O(n p) each. The
+    estimate is a lower bound, almost always within a factor 3.
+    """
+    sq = np.empty(n)  # 1 / R_ii
     norm_r = 0.0
-    for j in range(n):
-        col = sd[j]
-        for a in range(1, min(p, j) + 1):
-            col += sd[j - a] * abs(rb[j - a, a])
-        norm_r = max(norm_r, col)
+    for i in range(n):
+        sq[i] = math.sqrt(dinv[i])
+        row = 1.0
+        for a in range(1, min(p, n - 1 - i) + 1):
+            row += abs(rb[i, a])
+        norm_r = max(norm_r, row / sq[i])
     x = np.full(n, 1.0 / n)
     y = np.empty(n)
-    w = np.empty(n)
+    z = np.empty(n)
     est = 0.0
     for it in range(5):
         total = 0.0
-        for i in range(n - 1, -1, -1):  # y = R^-1 x
-            acc = x[i] / sd[i]
-            for a in range(1, min(p, n - 1 - i) + 1):
-                acc -= rb[i, a] * y[i + a]
+        for i in range(n):  # y = R^-T x
+            acc = x[i]
+            for a in range(min(p, i), 0, -1):
+                acc -= rb[i - a, a] * y[i - a]
             y[i] = acc
-            total += abs(acc)
+        for i in range(n):
+            y[i] *= sq[i]
+            total += abs(y[i])
         if it > 0 and total <= est:
             break
         est = total
-        for i in range(n):  # w = R^-T sign(y), scaled back below
-            acc = 1.0 if y[i] >= 0.0 else -1.0
-            for a in range(1, min(p, i) + 1):
-                acc -= rb[i - a, a] * w[i - a]
-            w[i] = acc
         best = 0
+        z_best = -1.0
         zx = 0.0
-        for i in range(n):
-            w[i] /= sd[i]
-            zx += w[i] * x[i]
-            if abs(w[i]) > abs(w[best]):
+        for i in range(n - 1, -1, -1):  # z = R^-1 sign(y)
+            acc = sq[i] if y[i] >= 0.0 else -sq[i]
+            for a in range(min(p, n - 1 - i), 0, -1):
+                acc -= rb[i, a] * z[i + a]
+            z[i] = acc
+            zx += acc * x[i]
+            if abs(acc) > z_best:
                 best = i
-        if it > 0 and abs(w[best]) <= zx:
+                z_best = abs(acc)
+        if it > 0 and z_best <= zx:
             break
         x[:] = 0.0
         x[best] = 1.0
@@ -268,9 +239,9 @@ def fit_one(u, q, interior, p):
     n = interior.size + p + 1
     t = np.empty(n + p + 1)
     coef = np.zeros((n, q.shape[1]))
-    basis = np.empty((u.size, p + 1))
-    spans = np.empty(u.size, dtype=np.int64)
-    reason, _ = _fit_into(u, q, interior, p, t, coef, basis, spans)
+    no_basis = np.empty((0, p + 1))
+    no_spans = np.empty(0, dtype=np.int64)
+    reason, _ = _fit_into(u, q, interior, p, t, coef, no_basis, no_spans)
     return reason, t, coef
 
 
@@ -292,8 +263,8 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
         # one workspace per chunk, sized for the largest candidate
         t_ws = np.empty(n_max + p + 1)
         coef_ws = np.empty((n_max, q.shape[1]))
-        basis = np.empty((u.size, p + 1))
-        spans = np.empty(u.size, dtype=np.int64)
+        basis = np.empty((u.size if want_max_dev else 0, p + 1))
+        spans = np.empty(u.size if want_max_dev else 0, dtype=np.int64)
         for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
             interior = knots[offsets[b] : offsets[b + 1]]
             n = interior.size + p + 1
@@ -310,19 +281,21 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
                     else np.inf
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def masks_to_knots(u, masks):
     """Interior knots and row offsets of a (B, N-2) boolean mask batch."""
     n_cand, n_var = masks.shape
+    counts = np.zeros(n_cand, dtype=np.int64)
+    for b in prange(n_cand):
+        c = 0
+        for i in range(n_var):
+            c += masks[b, i]
+        counts[b] = c
     offsets = np.zeros(n_cand + 1, dtype=np.int64)
     for b in range(n_cand):
-        count = 0
-        for i in range(n_var):
-            if masks[b, i]:
-                count += 1
-        offsets[b + 1] = offsets[b] + count
+        offsets[b + 1] = offsets[b] + counts[b]
     knots = np.empty(offsets[n_cand])
-    for b in range(n_cand):
+    for b in prange(n_cand):
         pos = offsets[b]
         for i in range(n_var):
             if masks[b, i]:
