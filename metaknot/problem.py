@@ -100,6 +100,48 @@ class Encoding:
         return np.sort(X, axis=1) if self.distinct_sorted else X
 
 
+    def repair(self, X: np.ndarray) -> np.ndarray:
+        """Nearest valid candidates: values clipped to the bounds; for set encodings each row
+        sorted, and (integer sets) every repeated value moved to the nearest unused one.
+
+        Optimizers whose operators can leave the encoding (mutation past a bound, crossover of
+        two index sets) call this on their offspring.
+        """
+        X = np.clip(np.asarray(X), self.lower, self.upper)
+        if self.kind != "continuous":
+            X = np.rint(X).astype(np.int64)
+        if not self.distinct_sorted:
+            return X
+        X = np.sort(X, axis=1)
+        if self.kind == "continuous":
+            return X
+        lo, hi = int(self.lower.min()), int(self.upper.max())
+        if self.n_var > hi - lo + 1:
+            raise ValueError(f"cannot pick {self.n_var} distinct values from {lo}..{hi}")
+        for row in np.flatnonzero((np.diff(X, axis=1) == 0).any(axis=1)):
+            X[row] = _distinct_nearest(X[row], lo, hi)
+        return X
+
+
+def _distinct_nearest(values: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Sorted distinct values: each repeat moved to the nearest free value (ties: lower)."""
+    used = set()
+    out = []
+    for v in values.tolist():
+        step = 0
+        while True:
+            for c in (v - step, v + step):
+                if lo <= c <= hi and c not in used:
+                    break
+            else:
+                step += 1
+                continue
+            break
+        used.add(c)
+        out.append(c)
+    return np.sort(np.asarray(out, dtype=np.int64))
+
+
 class Problem(ABC):
     """A minimisation problem over an :class:`Encoding`.
 

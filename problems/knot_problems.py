@@ -194,21 +194,39 @@ class FreeKnots(KnotProblem):
 
     A candidate is sorted before fitting; coincident knots, knots on or outside the range ends,
     and knot spans that leave a basis function without data are infeasible.
+
+    With ``variable_count=True``, ``n_knots`` is the largest number of knots and a NaN entry
+    means "no knot": a search over the number of knots (as the objectives ``paper``, ``bic`` and
+    ``error_bounded`` need) pads its candidates with NaN.
     """
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
-                 n_knots: int = 20, **kwargs: Any) -> None:
+                 n_knots: int = 20, variable_count: bool = False, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
         self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree)
+        self.variable_count = bool(variable_count)
         self.encoding = Encoding.continuous(self.n_knots, self.params[0], self.params[-1],
                                             distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
         return evaluate_positions(self.params, self.points, X, self.degree,
-                                  max_deviation=self.objective.needs_max_deviation)
+                                  max_deviation=self.objective.needs_max_deviation,
+                                  nan_is_absent=self.variable_count)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
-        return np.sort(x)
+        x = np.sort(x)
+        return x[~np.isnan(x)] if self.variable_count else x
+
+    def pad(self, positions: ArrayLike) -> np.ndarray:
+        """A candidate from fewer than ``n_knots`` positions (NaN-padded; ``variable_count``)."""
+        positions = np.sort(np.asarray(positions, dtype=np.float64).ravel())
+        if positions.size > self.n_knots:
+            raise ValueError(f"at most {self.n_knots} knots; got {positions.size}")
+        if positions.size < self.n_knots and not self.variable_count:
+            raise ValueError(f"exactly {self.n_knots} knots needed (variable_count is off); "
+                             f"got {positions.size}")
+        return np.concatenate((positions, np.full(self.n_knots - positions.size, np.nan)))
 
     def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "n_knots": self.n_knots}
+        return {**super().describe(), "n_knots": self.n_knots,
+                "variable_count": self.variable_count}

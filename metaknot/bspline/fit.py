@@ -164,14 +164,16 @@ def evaluate_indices(u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree
 
 
 def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, degree: int = 3,
-                       *, max_deviation: bool = True) -> BatchFit:
+                       *, max_deviation: bool = True, nan_is_absent: bool = False) -> BatchFit:
     """Score a ``(B, K)`` batch of continuous interior knot positions.
 
-    Positions that are NaN, outside the open parameter range or coincident make their candidate
-    infeasible (reported, not raised).
+    Positions outside the open parameter range or coincident make their candidate infeasible
+    (reported, not raised); so does NaN, unless ``nan_is_absent`` (then NaN means "no knot",
+    so rows may have different knot counts).
     """
     u, q = _prepare(u, points, degree)
-    return _evaluate(u, q, *stack_positions(positions), int(degree), max_deviation)
+    knots, offsets = stack_positions(positions, nan_is_absent=nan_is_absent)
+    return _evaluate(u, q, knots, offsets, int(degree), max_deviation)
 
 
 @dataclass(frozen=True, eq=False)

@@ -141,15 +141,20 @@ def stack_indices(u: np.ndarray, indices: ArrayLike) -> tuple[np.ndarray, np.nda
     return np.ascontiguousarray(u[idx].ravel()), _offsets(counts)
 
 
-def stack_positions(positions: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def stack_positions(positions: ArrayLike, *, nan_is_absent: bool = False
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Flatten a ``(B, K)`` batch of continuous knot positions (sorted per row) plus offsets.
 
-    Values outside the parameter range, NaN and coincident positions are left for the
-    evaluator to report as infeasible.
+    Values outside the parameter range and coincident positions are left for the evaluator to
+    report as infeasible; so is NaN, unless ``nan_is_absent``: then a NaN entry means "no knot"
+    (rows of different knot counts in one batch).
     """
     pos = np.asarray(positions, dtype=np.float64)
     if pos.ndim != 2:
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
-    pos = np.sort(pos, axis=1)
+    pos = np.sort(pos, axis=1)  # NaN sorts last
+    if nan_is_absent:
+        present = ~np.isnan(pos)
+        return np.ascontiguousarray(pos[present]), _offsets(present.sum(axis=1))
     counts = np.full(pos.shape[0], pos.shape[1], dtype=np.int64)
     return np.ascontiguousarray(pos.ravel()), _offsets(counts)
