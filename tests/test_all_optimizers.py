@@ -1,0 +1,100 @@
+"""Every registered optimizer: the budget holds, runs are reproducible, progress is reported."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import metaknot as mk
+from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
+
+DATA = get_curve("archimedean", n_points=40)
+
+
+def make_problem(kind: str) -> mk.Problem:
+    if kind == "binary":
+        return KnotSelection(DATA)
+    if kind == "integer":
+        return KnotIndices(DATA, n_knots=6)
+    return FreeKnots(DATA, n_knots=6)
+
+
+class CountingProblem(mk.Problem):
+    """Wraps a problem and counts every candidate that reaches ``evaluate``."""
+
+    def __init__(self, inner: mk.Problem) -> None:
+        self.inner = inner
+        self.encoding = inner.encoding
+        self.name = inner.name
+        self.seen = 0
+
+    def __getattr__(self, attr: str):
+        return getattr(self.inner, attr)
+
+    def evaluate(self, X: np.ndarray) -> np.ndarray:
+        self.seen += len(X)
+        return self.inner.evaluate(X)
+
+    def decode(self, x: np.ndarray):
+        return self.inner.decode(x)
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        return self.inner.sample(rng, n)
+
+
+def cases() -> list[tuple[str, str]]:
+    out = []
+    for name in mk.available_optimizers():
+        optimizer = mk.get_optimizer(name)
+        out += [(name, kind) for kind in ("binary", "integer", "continuous")
+                if kind in optimizer.encodings]
+    return out
+
+
+CASES = cases()
+IDS = [f"{name}-{kind}" for name, kind in CASES]
+
+
+def test_every_optimizer_has_a_case() -> None:
+    assert {name for name, _ in CASES} == set(mk.available_optimizers())
+
+
+@pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
+@pytest.mark.parametrize("budget", [1, 37, 150])
+def test_budget_is_never_exceeded(name: str, kind: str, budget: int) -> None:
+    problem = CountingProblem(make_problem(kind))
+    result = mk.minimize(problem, name, budget=budget, seed=11)
+    assert problem.seen == result.n_evaluations <= budget
+    assert result.n_evaluations >= 1
+    if result.best_x is not None:
+        assert np.isfinite(result.best_f)
+        assert result.best_f == pytest.approx(float(problem.inner.evaluate(result.best_x)[0]))
+
+
+@pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
+def test_same_seed_same_run(name: str, kind: str) -> None:
+    runs = [mk.minimize(make_problem(kind), name, budget=120, seed=5) for _ in range(2)]
+    a, b = runs
+    assert a.n_evaluations == b.n_evaluations
+    assert a.best_f == b.best_f
+    np.testing.assert_array_equal(a.best_x, b.best_x)
+    np.testing.assert_array_equal(a.trace_evaluations, b.trace_evaluations)
+    np.testing.assert_array_equal(a.trace_best, b.trace_best)
+
+
+@pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
+def test_progress_reaches_callbacks(name: str, kind: str) -> None:
+    seen: list[mk.Progress] = []
+    result = mk.minimize(make_problem(kind), name, budget=80, seed=2, callbacks=[seen.append])
+    assert seen, "no progress reported"
+    counts = [p.n_evaluations for p in seen]
+    assert counts == sorted(counts) and counts[-1] == result.n_evaluations
+    assert seen[-1].best_f == result.best_f
+
+
+@pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
+def test_callback_can_stop_the_run(name: str, kind: str) -> None:
+    problem = CountingProblem(make_problem(kind))
+    result = mk.minimize(problem, name, budget=500, seed=2, callbacks=[lambda p: True])
+    # the run stops after the first evaluated batch, well before the budget
+    assert problem.seen == result.n_evaluations < 500
