@@ -115,7 +115,7 @@ class KnotProblem(Problem):
             If the candidate's knots cannot be fitted (the message names the reason).
         """
         x = self.encoding.check(x)[0]
-        value = float(self.evaluate(x[None, :])[0])
+        value = float(self.evaluate_details(x[None, :])[0][0])
         fit = fit_spline(self.params, self.points, self._interior_knots(x), self.degree)
         return KnotSolution(x=x, objective=value, fit=fit)
 

@@ -1,0 +1,217 @@
+"""Free-knot baselines: the K interior knot positions of a ``FreeKnots`` problem optimised by nlopt.
+
+Knots stay ordered and separated by construction. nlopt searches ``y`` in the unit box
+``[0, 1]^K`` (finite bounds, as the GN_* algorithms need), mapped to knots by *sort plus a minimum
+gap*: on the parameter range ``[a, b]``, with ``gap = min_gap * (b - a)`` and
+``free = (b - a) - (K + 1) * gap``, knot ``i`` (0-based) is
+``a + (i + 1) * gap + free * sort(y)_i``. Every span, the end spans included, is then at least
+``gap`` long, whatever ``y`` is. Infeasible fits (+inf, e.g. a span without data) reach nlopt as a
+finite penalty: the worst finite value seen plus its magnitude plus 1.
+
+With ``variable_count=True`` an outer search picks K in ``1..n_knots``: about half the budget
+goes to short runs (one start each, from the averaging knots) on a coarse grid of ``k_grid``
+values and on the midpoints between the best K and its nearest tried neighbours, repeated until
+those neighbours are adjacent; the rest polishes the best K (with the restarts). Candidates are
+NaN-padded with ``problem.pad``, so ``paper``, ``bic`` and ``error_bounded`` work as for the
+discrete methods.
+"""
+
+from __future__ import annotations
+
+import nlopt
+import numpy as np
+
+from metaknot.bspline import averaging_knots
+from metaknot.budget import BudgetExhausted, Evaluator
+from metaknot.optimizer import Optimizer, check_param
+from metaknot.problems import FreeKnots
+from metaknot.registry import register
+
+LOCAL_ALGORITHMS = ("LN_BOBYQA", "LN_SBPLX", "LN_COBYLA", "LN_NELDERMEAD")
+GLOBAL_ALGORITHMS = ("GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS")
+ALGORITHMS = LOCAL_ALGORITHMS + GLOBAL_ALGORITHMS
+#: How nlopt runs end on these problems; the run goes on with the next start. RuntimeError is
+#: nlopt's generic failure (a problem raising RuntimeError is therefore not reported).
+NLOPT_STOPS = (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError)
+
+
+def _check_name(name: str, value: object, valid: tuple[str, ...]) -> str:
+    if value not in valid:
+        raise ValueError(f"{name} must be one of {', '.join(valid)}; got {value!r}")
+    return str(value)
+
+
+@register("nlopt")
+class NloptKnots(Optimizer):
+    """nlopt on free knot positions; local runs start from the averaging knots (NURBS Book).
+
+    Parameters
+    ----------
+    algorithm
+        One of :data:`ALGORITHMS`.
+    local_algorithm
+        Local optimiser of ``G_MLSL_LDS`` (one of :data:`LOCAL_ALGORITHMS`).
+    restarts
+        Extra runs from perturbed copies of the best point, sharing the budget equally; budget
+        left when runs converge early funds further perturbed restarts, so all of it is used.
+    min_gap
+        Smallest knot span (end spans included) as a fraction of the parameter range, in
+        ``(0, 0.5]``; :meth:`setup` also needs ``(n_knots + 1) * min_gap < 1``.
+    initial_step
+        nlopt's initial step in the unit box ``(0, 1]``.
+    perturbation
+        Standard deviation of the restart perturbation in the unit box (> 0).
+    k_grid
+        Number of coarse grid values of K (``variable_count`` only, >= 2).
+    """
+
+    encodings = ("continuous",)
+
+    def __init__(self, algorithm: str = "LN_BOBYQA", local_algorithm: str = "LN_BOBYQA",
+                 restarts: int = 0, min_gap: float = 1e-4, initial_step: float = 0.1,
+                 perturbation: float = 0.05, k_grid: int = 5) -> None:
+        self.algorithm = _check_name("algorithm", algorithm, ALGORITHMS)
+        self.local_algorithm = _check_name("local_algorithm", local_algorithm, LOCAL_ALGORITHMS)
+        self.restarts = check_param("restarts", restarts, low=0, integer=True)
+        self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)
+        self.initial_step = check_param("initial_step", initial_step, low=0, high=1,
+                                        low_open=True)
+        self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
+        self.k_grid = check_param("k_grid", k_grid, low=2, integer=True)
+
+    def setup(self, problem: FreeKnots, rng: np.random.Generator) -> None:
+        if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots", "pad")):
+            # duck-typed, so wrappers of a FreeKnots (counting, logging) work as well
+            raise ValueError(f"optimizer 'nlopt' needs a FreeKnots problem (continuous knot "
+                             f"positions); got {problem.name!r}")
+        if (problem.n_knots + 1) * self.min_gap >= 1:
+            raise ValueError(f"min_gap={self.min_gap} leaves no room for {problem.n_knots} knots; "
+                             f"it must be < 1 / {problem.n_knots + 1}")
+        super().setup(problem, rng)
+        self._worst_finite = -np.inf
+
+    def _frame(self, n_knots: int) -> tuple[float, np.ndarray, float]:
+        """Start ``a``, the minimum offsets ``(i + 1) * gap`` and the free length."""
+        a, b = self.problem.params[0], self.problem.params[-1]
+        gap = self.min_gap * (b - a)
+        return a, gap * np.arange(1, n_knots + 1), (b - a) - (n_knots + 1) * gap
+
+    def knots(self, y: np.ndarray) -> np.ndarray:
+        """Knot positions of the unit-box vector ``y`` (sorted, spans >= the minimum gap)."""
+        a, offsets, free = self._frame(y.size)
+        return a + offsets + free * np.sort(y)
+
+    def unit(self, knots: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`knots` for sorted knots (clipped to the unit box)."""
+        a, offsets, free = self._frame(knots.size)
+        return np.clip((knots - a - offsets) / free, 0.0, 1.0)
+
+    def ask(self) -> np.ndarray:
+        raise NotImplementedError("nlopt calls the objective itself: use run(evaluator)")
+
+    def tell(self, X: np.ndarray, F: np.ndarray) -> None:
+        raise NotImplementedError("nlopt calls the objective itself: use run(evaluator)")
+
+    def run(self, evaluator: Evaluator) -> None:
+        try:
+            if self.problem.variable_count:
+                self._search_count(evaluator)
+            else:
+                self._optimize(evaluator, self.problem.n_knots, evaluator.remaining,
+                               self.restarts + 1)
+        except BudgetExhausted:
+            pass
+
+    def _search_count(self, evaluator: Evaluator) -> None:
+        n = self.problem.n_knots
+        grid = np.unique(np.round(np.linspace(1, n, min(n, self.k_grid))).astype(int))
+        widest = int(np.diff(grid).max()) if grid.size > 1 else 1
+        n_trials = grid.size + 2 * int(np.ceil(np.log2(widest + 1)))
+        trial_budget = max(1, evaluator.remaining // (2 * n_trials))
+        results: dict[int, tuple[float, np.ndarray]] = {}
+        pending = [int(k) for k in grid]
+        while pending:
+            for k in pending:
+                results[k] = self._optimize(evaluator, k, trial_budget, 1)
+            tried = sorted(results)
+            best = min(tried, key=lambda k: results[k][0])
+            i = tried.index(best)
+            lower, upper = tried[max(i - 1, 0)], tried[min(i + 1, len(tried) - 1)]
+            pending = sorted({(lower + best) // 2, (best + upper + 1) // 2} - set(results))
+        best = min(results, key=lambda k: results[k][0])
+        self._optimize(evaluator, best, evaluator.remaining, self.restarts + 1,
+                       results[best][1])
+
+    def _optimize(self, evaluator: Evaluator, n_knots: int, budget: int, starts: int,
+                  start: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+        """Runs on ``n_knots`` knots within ``budget`` evaluations; the best value and point.
+
+        Nothing raises through nlopt (GN_CRS2_LM keeps calling after an exception, with a Python
+        error pending): the objective records the exception, force-stops nlopt and answers
+        further calls at once; afterwards nlopt's own stop exceptions are passed over and any
+        other (``BudgetExhausted``, a real error) is raised again.
+        """
+        if start is None:
+            start = self.unit(averaging_knots(self.problem.params, n_knots, self.problem.degree))
+        best, caught, current = [np.inf, start.copy()], [], []
+        pad = self.problem.pad if self.problem.variable_count else (lambda x: x)
+        cache: dict[bytes, float] = {}  # nlopt may re-send a point; do not pay for it twice
+
+        def objective(y: np.ndarray, grad: np.ndarray) -> float:
+            if caught:
+                return self._penalty()
+            key = y.tobytes()
+            try:
+                if key not in cache:
+                    cache[key] = float(evaluator(pad(self.knots(y))[None, :])[0])
+            except Exception as exc:  # handed back after nlopt returns
+                caught.append(exc)
+                current[0].force_stop()
+                return self._penalty()
+            f = cache[key]
+            if f < best[0]:
+                best[0], best[1] = f, y.copy()
+            if not np.isfinite(f):
+                return self._penalty()
+            self._worst_finite = max(self._worst_finite, f)
+            return f
+
+        first, idle, run = evaluator.n_evaluations, 0, 0
+        while idle < 3 and (left := budget - (evaluator.n_evaluations - first)) > 0:
+            x0 = start if run == 0 else np.clip(
+                best[1] + self.rng.normal(0.0, self.perturbation, n_knots), 0.0, 1.0)
+            before = evaluator.n_evaluations
+            current[:] = [self._build(n_knots, objective, max(1, left // max(starts - run, 1)))]
+            caught.clear()
+            try:
+                if run == 0:  # the start itself first (BOBYQA may shift it off a bound)
+                    objective(start, np.empty(0))
+                if not caught:
+                    current[0].optimize(x0)
+            except NLOPT_STOPS:
+                pass  # the best point seen is kept by the objective and the evaluator
+            if caught and not isinstance(caught[0], NLOPT_STOPS):
+                raise caught[0]
+            idle = idle + 1 if evaluator.n_evaluations == before else 0
+            run += 1
+        return best[0], best[1]
+
+    def _penalty(self) -> float:
+        """Finite stand-in for +inf: worse than every finite value seen so far."""
+        worst = self._worst_finite
+        return worst + abs(worst) + 1.0 if np.isfinite(worst) else 1e12
+
+    def _build(self, n_knots: int, objective, maxeval: int) -> nlopt.opt:
+        nlopt.srand(int(self.rng.integers(2**31)))  # nlopt's RNG, for the GN_* / MLSL draws
+        opt = nlopt.opt(getattr(nlopt, self.algorithm), n_knots)
+        opt.set_min_objective(objective)
+        opt.set_lower_bounds(np.zeros(n_knots))
+        opt.set_upper_bounds(np.ones(n_knots))
+        opt.set_initial_step(self.initial_step)
+        opt.set_maxeval(int(maxeval))
+        if self.algorithm == "G_MLSL_LDS":
+            local = nlopt.opt(getattr(nlopt, self.local_algorithm), n_knots)
+            local.set_xtol_rel(1e-4)
+            local.set_initial_step(self.initial_step)
+            opt.set_local_optimizer(local)
+        return opt

@@ -1,0 +1,283 @@
+"""The nlopt free-knot baselines (``nlopt``): budget, knot recovery, K search, robustness."""
+
+from __future__ import annotations
+
+import itertools
+
+import nlopt
+import numpy as np
+import pytest
+from scipy.interpolate import make_lsq_spline
+
+import metaknot as mk
+from metaknot.algorithms.nlopt_knots import (
+    ALGORITHMS,
+    GLOBAL_ALGORITHMS,
+    LOCAL_ALGORITHMS,
+    NloptKnots,
+)
+from metaknot.bspline import averaging_knots
+from metaknot.problems import FreeKnots, KnotIndices, PointSet
+
+KINK = 0.37
+
+
+class Recording(FreeKnots):
+    """FreeKnots that keeps every candidate it evaluates."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.seen: list[np.ndarray] = []
+
+    def evaluate(self, X: np.ndarray) -> np.ndarray:
+        self.seen.extend(np.array(X, dtype=float))
+        return super().evaluate(X)
+
+
+def spiral(**kwargs) -> FreeKnots:
+    return FreeKnots("archimedean", n_knots=5, **kwargs)
+
+
+def scipy_sse(problem: FreeKnots, interior: np.ndarray) -> float:
+    """Least-squares SSE for the given interior knots, by scipy (independent of the core)."""
+    u, p = problem.params, problem.degree
+    t = np.concatenate((np.full(p + 1, u[0]), np.sort(interior), np.full(p + 1, u[-1])))
+    spline = make_lsq_spline(u, problem.points, t, k=p)
+    return float(((spline(u) - problem.points) ** 2).sum())
+
+
+def kink_problem(n_points: int = 60) -> FreeKnots:
+    """y = |x - 0.37| + x / 2: only a degree-1 knot at exactly 0.37 fits it exactly."""
+    x = np.linspace(0.0, 1.0, n_points)
+    y = np.abs(x - KINK) + 0.5 * x
+    return FreeKnots(PointSet(y[:, None], params=x), n_knots=1, degree=1, objective="paper",
+                     objective_options={"error_floor": 0.0})
+
+
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+def test_every_algorithm_spends_the_budget_and_never_worsens_the_averaging_start(algorithm):
+    problem = spiral()
+    start = averaging_knots(problem.params, 5, problem.degree)
+    result = mk.minimize(problem, NloptKnots(algorithm=algorithm, restarts=1), budget=150, seed=2)
+    assert result.n_evaluations == 150
+    # paper objective = control points x sqrt(SSE) (the error floor is far below these errors)
+    sse_best = scipy_sse(problem, result.best_x)
+    assert result.best_f == pytest.approx(9 * np.sqrt(sse_best), rel=1e-6)
+    if algorithm in LOCAL_ALGORITHMS or algorithm == "G_MLSL_LDS":
+        assert sse_best < 0.9 * scipy_sse(problem, start)
+    else:
+        assert sse_best <= scipy_sse(problem, start) * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("algorithm", LOCAL_ALGORITHMS)
+def test_local_methods_recover_a_kink(algorithm):
+    result = mk.minimize(kink_problem(), NloptKnots(algorithm=algorithm), budget=300, seed=0)
+    assert abs(result.best_x[0] - KINK) < 1e-3  # data sites are 1/59 apart: not a grid effect
+    assert result.best_f < 1e-6
+
+
+@pytest.mark.parametrize("algorithm", ["LN_BOBYQA", "GN_CRS2_LM", "GN_ISRES"])
+def test_every_candidate_is_sorted_and_separated(algorithm):
+    min_gap = 0.05
+    problem = Recording("archimedean", n_knots=5)
+    mk.minimize(problem, NloptKnots(algorithm=algorithm, min_gap=min_gap, restarts=2),
+                budget=120, seed=4)
+    X = np.array(problem.seen)
+    assert X.shape == (120, 5)  # decoding the best is not an evaluation
+    u = problem.params
+    spans = np.diff(np.column_stack((np.full(len(X), u[0]), X, np.full(len(X), u[-1]))), axis=1)
+    assert (spans >= min_gap * (u[-1] - u[0]) * (1 - 1e-9)).all()
+
+
+def test_unit_box_map_round_trips_separated_knots():
+    optimizer = NloptKnots(min_gap=0.01)
+    optimizer.setup(spiral(), np.random.default_rng(0))
+    knots = averaging_knots(optimizer.problem.params, 5, 3)
+    np.testing.assert_allclose(optimizer.knots(optimizer.unit(knots)), knots, atol=1e-12)
+    np.testing.assert_allclose(optimizer.knots(np.zeros(3)), [0.01, 0.02, 0.03], atol=1e-12)
+    np.testing.assert_allclose(optimizer.knots(np.ones(1)), [0.99], atol=1e-12)
+
+
+# BOBYQA itself is deterministic: different seeds differ only through the restart perturbations
+@pytest.mark.parametrize("params", [{"algorithm": "LN_BOBYQA", "restarts": 2},
+                                    {"algorithm": "GN_CRS2_LM"}, {"algorithm": "G_MLSL_LDS"}])
+def test_deterministic_by_seed(params):
+    def run(seed):
+        values = []  # every evaluated value, in order: the whole search path
+        result = mk.minimize(spiral(), NloptKnots(**params), budget=200, seed=seed,
+                             callbacks=[lambda p: values.extend(p.batch_f)])
+        return result, np.array(values)
+
+    (a, path_a), (b, path_b), (_, path_c) = run(5), run(5), run(6)
+    np.testing.assert_array_equal(a.best_x, b.best_x)
+    assert a.best_f == b.best_f
+    np.testing.assert_array_equal(a.trace_evaluations, b.trace_evaluations)
+    np.testing.assert_array_equal(a.trace_best, b.trace_best)
+    np.testing.assert_array_equal(path_a, path_b)
+    assert not np.array_equal(path_a, path_c)
+
+
+def three_kink_problem(n_knots: int) -> FreeKnots:
+    """Continuous piecewise-linear data with kinks at 0.23, 0.52, 0.79 (101 sites, step 0.01).
+
+    Reference for error_bounded(tolerance 1e-3), value CP + err/tol within tolerance:
+    * K = 3 knots at the kinks fit exactly: value 5 (CP = K + 2 for degree 1).
+    * K >= 4: value >= CP >= 6.
+    * K <= 2: one of the open windows (c - 0.1, c + 0.1) around the kinks holds no knot, so the
+      spline is linear on it; the best line through the sites c - 0.1, c, c + 0.1 of a kink with
+      slope change D misses one of them by D * 0.1 / 4 >= 2.5 * 0.1 / 4 = 0.0625 > tolerance.
+    So K = 3 is the unique best count.
+    """
+    x = np.linspace(0.0, 1.0, 101)
+    slopes, kinks = [1.0, -2.0, 1.5, -1.0], [0.23, 0.52, 0.79]
+    y = slopes[0] * x + sum((slopes[i + 1] - slopes[i]) * np.maximum(x - kinks[i], 0.0)
+                            for i in range(3))
+    return FreeKnots(PointSet(y[:, None], params=x), n_knots=n_knots, degree=1,
+                     variable_count=True, objective="error_bounded",
+                     objective_options={"tolerance": 1e-3})
+
+
+def test_three_kink_reference_by_exhaustive_evaluation_of_every_count():
+    problem = three_kink_problem(8)
+    kinks = np.array([0.23, 0.52, 0.79])
+    extra = np.linspace(0.05, 0.95, 8)
+    values = {}
+    for k in range(1, 9):  # good knots: the kinks first, then well-spread extra knots
+        knots = np.sort(np.concatenate((kinks, extra[: max(k - 3, 0)])))[:k] if k >= 3 else \
+            kinks[:k]
+        values[k] = problem.evaluate(problem.pad(knots)[None, :])[0]
+    assert min(values, key=values.get) == 3
+    assert values[3] == pytest.approx(5.0)
+    assert all(values[k] > 101 + 2 for k in (1, 2))
+
+
+@pytest.mark.parametrize("algorithm", ["LN_BOBYQA", "LN_SBPLX"])
+@pytest.mark.parametrize("n_knots", [6, 8])
+def test_variable_count_search_finds_the_best_number_of_knots(algorithm, n_knots):
+    result = mk.minimize(three_kink_problem(n_knots), NloptKnots(algorithm=algorithm),
+                         budget=1500, seed=1)
+    assert result.n_evaluations == 1500
+    present = result.best_x[~np.isnan(result.best_x)]
+    assert present.size == 3
+    np.testing.assert_allclose(present, [0.23, 0.52, 0.79], atol=1e-3)
+    assert 5.0 <= result.best_f < 6.0
+
+
+@pytest.mark.parametrize("objective", ["paper", "bic", "error_bounded"])
+def test_variable_count_search_beats_the_averaging_knots_at_both_ends_of_the_range(objective):
+    problem = FreeKnots("archimedean", n_knots=12, variable_count=True, objective=objective)
+    ends = [problem.evaluate(problem.pad(averaging_knots(problem.params, k, 3))[None, :])[0]
+            for k in (1, 12)]  # K = 1 and K = n_knots are always on the coarse grid
+    result = mk.minimize(problem, NloptKnots(restarts=1), budget=600, seed=3)
+    assert result.n_evaluations == 600
+    assert result.best_f < min(ends)
+    assert 1 <= np.count_nonzero(~np.isnan(result.best_x)) <= 12
+
+
+def test_variable_count_with_a_global_method_respects_the_budget():
+    problem = Recording(three_kink_problem(6).data, n_knots=6, degree=1, variable_count=True,
+                        objective="error_bounded", objective_options={"tolerance": 1e-3})
+    result = mk.minimize(problem, NloptKnots(algorithm="GN_CRS2_LM"), budget=400, seed=0)
+    assert result.n_evaluations == len(problem.seen) == 400
+    counts = {int((~np.isnan(x)).sum()) for x in problem.seen}
+    assert counts <= set(range(1, 7)) and len(counts) >= 3  # several K were tried
+
+
+class RaisesOnce(FreeKnots):
+    """Raises nlopt.RoundoffLimited from inside the objective on its 7th call."""
+
+    calls = 0
+
+    def evaluate(self, X: np.ndarray) -> np.ndarray:
+        self.calls += 1
+        if self.calls == 7:
+            raise nlopt.RoundoffLimited("simulated")
+        return super().evaluate(X)
+
+
+class Flat(FreeKnots):
+    value = 1.0
+
+    def evaluate(self, X: np.ndarray) -> np.ndarray:
+        return np.full(len(X), self.value)
+
+
+@pytest.mark.parametrize("algorithm", ["LN_BOBYQA", "GN_CRS2_LM", "G_MLSL_LDS"])
+def test_roundoff_limited_inside_the_objective_does_not_crash(algorithm):
+    problem = RaisesOnce("archimedean", n_knots=5)
+    result = mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=80, seed=0)
+    # 80 counted + the raising call (not counted)
+    assert problem.calls == 81
+    assert result.n_evaluations == 80 and np.isfinite(result.best_f)
+
+
+class Broken(FreeKnots):
+    def evaluate(self, X: np.ndarray) -> np.ndarray:
+        raise ZeroDivisionError("a real bug")
+
+
+@pytest.mark.parametrize("algorithm", ["LN_BOBYQA", "GN_CRS2_LM"])
+def test_a_real_error_in_the_problem_is_not_swallowed(algorithm):
+    with pytest.raises(ZeroDivisionError, match="a real bug"):
+        mk.minimize(Broken("archimedean", n_knots=5), NloptKnots(algorithm=algorithm),
+                    budget=50, seed=0)
+
+
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+@pytest.mark.parametrize("budget", [1, 2, 7, 33])
+def test_small_budgets_are_spent_exactly(algorithm, budget):
+    # 33 stops GN_CRS2_LM (population 60) and GN_ISRES while they draw their first population
+    result = mk.minimize(spiral(), NloptKnots(algorithm=algorithm, restarts=2), budget=budget,
+                         seed=0)
+    assert result.n_evaluations == budget
+
+
+@pytest.mark.parametrize("value", [1.0, np.inf])
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+def test_flat_or_infeasible_objective_spends_the_budget(algorithm, value):
+    problem = Flat("archimedean", n_knots=3)
+    problem.value = value
+    result = mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=60, seed=0)
+    assert result.n_evaluations == 60
+    assert result.best_f == value
+
+
+def test_callbacks_see_every_evaluation_and_can_stop_the_run():
+    seen = []
+    result = mk.minimize(spiral(), NloptKnots(restarts=1), budget=50, seed=0,
+                         callbacks=[lambda p: seen.append((p.n_evaluations, p.best_f))])
+    assert [n for n, _ in seen] == list(range(1, 51))
+    assert all(b <= a for (_, a), (_, b) in itertools.pairwise(seen))
+    assert seen[-1][1] == result.best_f
+    stopped = mk.minimize(spiral(), NloptKnots(), budget=50, seed=0,
+                          callbacks=[lambda p: p.n_evaluations >= 20])
+    assert stopped.n_evaluations == 20
+
+
+def test_registered_by_name():
+    optimizer = mk.get_optimizer("nlopt", algorithm="LN_SBPLX")
+    assert isinstance(optimizer, NloptKnots) and optimizer.params()["algorithm"] == "LN_SBPLX"
+    assert set(GLOBAL_ALGORITHMS) >= {"GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS"}
+
+
+@pytest.mark.parametrize(("name", "value"), [
+    ("algorithm", "LN_FOO"), ("algorithm", "bobyqa"), ("local_algorithm", "GN_CRS2_LM"),
+    ("restarts", -1), ("restarts", 1.5), ("min_gap", 0.0), ("min_gap", -0.1),
+    ("min_gap", 0.6), ("min_gap", float("nan")), ("initial_step", 0.0), ("perturbation", 0.0),
+    ("k_grid", 1),
+])
+def test_bad_parameters_are_rejected(name, value):
+    with pytest.raises(ValueError, match=name):
+        NloptKnots(**{name: value})
+
+
+def test_unknown_algorithm_lists_the_valid_names():
+    with pytest.raises(ValueError, match=r"LN_BOBYQA.*LN_SBPLX.*GN_CRS2_LM.*GN_ISRES"):
+        NloptKnots(algorithm="LN_FOO")
+
+
+def test_min_gap_too_large_for_the_knot_count_and_other_problems_are_rejected():
+    with pytest.raises(ValueError, match="min_gap"):
+        mk.minimize(spiral(), NloptKnots(min_gap=0.2), budget=10)  # 6 spans x 0.2 > 1
+    with pytest.raises(ValueError, match="FreeKnots"):
+        mk.minimize(KnotIndices("archimedean", n_knots=5), NloptKnots(), budget=10)
