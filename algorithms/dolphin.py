@@ -33,7 +33,7 @@ import math
 import numpy as np
 from scipy.stats import rankdata
 
-from metaknot.budget import BudgetExhausted, Evaluator
+from metaknot.budget import Evaluator
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
@@ -175,13 +175,10 @@ class DolphinEcholocation(Optimizer):
         """Run ``loops`` loops (or as many as the budget allows, if ``loops`` is None)."""
         if self.loops is None:
             self._set_loops(max(1, math.ceil(evaluator.remaining / self.population)))
-        while not evaluator.done and self.loop < self.n_loops:
-            X = self.ask()
-            try:
-                F = evaluator(X)
-            except BudgetExhausted:
-                return
-            self.tell(X[: F.size], F)
+        super().run(evaluator)
+
+    def finished(self) -> bool:
+        return self.n_loops is not None and self.loop >= self.n_loops
 
     def ask(self) -> np.ndarray:
         return self._locations.copy()

@@ -75,9 +75,14 @@ class Optimizer(ABC):
         ``X`` may hold fewer rows than were asked for: the last batch is truncated to the budget.
         """
 
+    def finished(self) -> bool:
+        """True when the optimizer has nothing more to try (default: never; the budget ends
+        the run)."""
+        return False
+
     def run(self, evaluator: Evaluator) -> None:
-        """Ask, evaluate and tell until the budget is spent."""
-        while not evaluator.done:
+        """Ask, evaluate and tell until the budget is spent or :meth:`finished`."""
+        while not evaluator.done and not self.finished():
             X = self.ask()
             try:
                 F = evaluator(X)
