@@ -106,12 +106,6 @@ class NloptKnots(Optimizer):
         a, offsets, free = self._frame(knots.size)
         return np.clip((knots - a - offsets) / free, 0.0, 1.0)
 
-    def ask(self) -> np.ndarray:
-        raise NotImplementedError("nlopt calls the objective itself: use run(evaluator)")
-
-    def tell(self, X: np.ndarray, F: np.ndarray) -> None:
-        raise NotImplementedError("nlopt calls the objective itself: use run(evaluator)")
-
     def run(self, evaluator: Evaluator) -> None:
         try:
             if self.problem.variable_count:

@@ -1,7 +1,7 @@
 """The :class:`Optimizer` interface: ask for candidates, be told their objective values.
 
 A new optimizer implements :meth:`Optimizer.setup`, :meth:`Optimizer.ask` and
-:meth:`Optimizer.tell`; :meth:`Optimizer.run` drives them through an
+:meth:`Optimizer.tell` (or only :meth:`Optimizer.run`); :meth:`Optimizer.run` drives them through an
 :class:`~metaknot.budget.Evaluator`, which enforces the evaluation budget. Optimizers that must
 call the objective themselves (nlopt, for instance) override :meth:`run` and call the evaluator
 directly: the budget still holds.
@@ -10,7 +10,7 @@ directly: the budget still holds.
 from __future__ import annotations
 
 import inspect
-from abc import ABC, abstractmethod
+from abc import ABC
 from typing import Any, ClassVar
 
 import numpy as np
@@ -64,16 +64,16 @@ class Optimizer(ABC):
         self.problem = problem
         self.rng = rng
 
-    @abstractmethod
     def ask(self) -> np.ndarray:
         """Next batch of candidates, shape ``(B, n_var)``."""
+        raise NotImplementedError(f"{type(self).__name__} implements neither ask/tell nor run")
 
-    @abstractmethod
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         """Objective values ``F`` of the candidates ``X`` returned by the last :meth:`ask`.
 
         ``X`` may hold fewer rows than were asked for: the last batch is truncated to the budget.
         """
+        raise NotImplementedError(f"{type(self).__name__} implements neither ask/tell nor run")
 
     def finished(self) -> bool:
         """True when the optimizer has nothing more to try (default: never; the budget ends

@@ -95,9 +95,21 @@ def minimize(
         optimizer.run(evaluator)
     except BudgetExhausted:
         pass
+    except Exception as exc:
+        # keep what was computed: the best so far rides on the exception
+        if evaluator.n_evaluations:
+            exc.partial_result = _record(problem, optimizer, seed, evaluator, start)
+            exc.add_note(f"metaknot: the run stopped after {evaluator.n_evaluations} "
+                         "evaluations; the exception's `partial_result` holds the best so far")
+        raise
     finally:
         if bar is not None:
             bar.close()
+    return _record(problem, optimizer, seed, evaluator, start)
+
+
+def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evaluator,
+            start: float) -> RunResult:
     evals, best = evaluator.trace()
     best_x = evaluator.best_x
     solution = problem.decode(best_x) if best_x is not None else None

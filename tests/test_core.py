@@ -783,3 +783,34 @@ def test_entry_points_gone_without_distribution():
     assert "fake_problem" not in mk.available_problems()
     with pytest.raises(ValueError, match="unknown optimizer"):
         mk.get_optimizer("fake_search")
+
+
+class _FailsLater(mk.Optimizer):
+    """Random candidates, then a crash in its third step."""
+
+    def setup(self, problem, rng):
+        super().setup(problem, rng)
+        self.steps = 0
+
+    def ask(self):
+        self.steps += 1
+        if self.steps == 3:
+            raise ZeroDivisionError("bug in the optimizer")
+        return self.problem.sample(self.rng, 10)
+
+    def tell(self, X, F):
+        pass
+
+
+def test_a_crashing_optimizer_keeps_what_was_computed():
+    problem = KnotSelection("archimedean")
+    with pytest.raises(ZeroDivisionError) as info:
+        mk.minimize(problem, _FailsLater(), budget=100, seed=1)
+    partial = info.value.partial_result
+    assert partial.n_evaluations == 20
+    assert partial.trace_evaluations[-1] == 20
+    # the run's first batch, drawn again from the same seed: the best can only be better
+    first_batch = problem.sample(mk.make_rng(1), 10)
+    assert partial.best_f <= problem.evaluate(first_batch).min()
+    assert partial.solution.objective == pytest.approx(partial.best_f)
+    assert any("partial_result" in note for note in info.value.__notes__)
