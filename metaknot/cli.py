@@ -1,4 +1,4 @@
-"""Command line: ``metaknot demo`` (quick fit of the seed curves), ``metaknot list``."""
+"""Command line: ``metaknot demo`` (optimizers on the seed curves), ``metaknot list``."""
 
 from __future__ import annotations
 
@@ -15,29 +15,29 @@ SEED_CURVES = ("epitrochoid", "archimedean", "vivaldi")
 def _demo(args: argparse.Namespace) -> int:
     from metaknot.problems import Paper, get_curve
 
-    header = (f"{'curve':<12} {'N':>4} {'d':>2} {'CP':>4} {'objective':>11} {'RMSE':>10} "
+    header = (f"{'curve':<12} {'optimizer':<14} {'CP':>4} {'objective':>11} {'RMSE':>10} "
               f"{'ED':>10} {'max dev':>10} {'evals':>6} {'sec':>6}")
     rows = []
     for name in args.curves:
         data = get_curve(name)
-        result = minimize(
-            "knot_selection", args.optimizer, budget=args.budget, seed=args.seed,
-            problem_kwargs={"points": data, "degree": args.degree,
-                            "objective": "paper"},
-            progress=not args.quiet,
-        )
-        if result.solution is None:
-            rows.append(f"{name:<12} {data.n_points:>4} {data.dim:>2}   no feasible candidate")
-            continue
-        m = result.solution.fit.metrics()
-        rows.append(
-            f"{name:<12} {data.n_points:>4} {data.dim:>2} {m['n_control_points']:>4} "
-            f"{result.best_f:>11.4g} {m['rmse']:>10.3e} {m['euclidean_distance']:>10.3e} "
-            f"{m['max_deviation']:>10.3e} {result.n_evaluations:>6} {result.elapsed:>6.2f}"
-        )
-    print(f"{args.optimizer} on the seed curves: degree {args.degree}, centripetal, "
+        for optimizer in args.optimizers:
+            result = minimize(
+                "knot_selection", optimizer, budget=args.budget, seed=args.seed,
+                problem_kwargs={"points": data, "degree": args.degree, "objective": "paper"},
+                progress=not args.quiet,
+            )
+            if result.solution is None:
+                rows.append(f"{name:<12} {optimizer:<14}   no feasible candidate")
+                continue
+            m = result.solution.fit.metrics()
+            rows.append(
+                f"{name:<12} {optimizer:<14} {m['n_control_points']:>4} "
+                f"{result.best_f:>11.4g} {m['rmse']:>10.3e} {m['euclidean_distance']:>10.3e} "
+                f"{m['max_deviation']:>10.3e} {result.n_evaluations:>6} {result.elapsed:>6.2f}"
+            )
+    print(f"The seed paper's setting: 0/1 knot masks, degree {args.degree}, centripetal, "
           f"objective 'paper' (control points x Euclidean distance, error floor "
-          f"{Paper().error_floor:g} x diagonal), seed {args.seed}")
+          f"{Paper().error_floor:g} x diagonal); {args.budget} evaluations, seed {args.seed}")
     print(header)
     print("\n".join(rows))
     return 0
@@ -52,8 +52,8 @@ def _list(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="metaknot", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    demo = sub.add_parser("demo", help="quick fit of the seed paper's three curves")
-    demo.add_argument("--optimizer", default="random_search")
+    demo = sub.add_parser("demo", help="optimizers compared on the seed paper's three curves")
+    demo.add_argument("--optimizers", nargs="+", default=["dolphin", "ga", "random_search"])
     demo.add_argument("--budget", type=int, default=3000)
     demo.add_argument("--seed", type=int, default=0)
     demo.add_argument("--degree", type=int, default=3)
