@@ -20,7 +20,6 @@ import numpy as np
 from scipy.interpolate import splprep
 
 from metaknot.bspline import averaging_knots, fit_spline
-from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Encoding, Problem
 from metaknot.problems import KnotProblem
@@ -78,6 +77,7 @@ class _KnotCountBaseline(Optimizer):
         else:
             self.counts = [problem.n_knots]
         self._pending = (self.candidate(t) for t in self.knot_sets())
+        self._scanned = False
 
     @abstractmethod
     def knot_sets(self) -> Iterator[np.ndarray]:
@@ -102,18 +102,14 @@ class _KnotCountBaseline(Optimizer):
     def ask(self) -> np.ndarray:
         """The next batch of up to ``batch_size`` candidates (no rows once the scan is done)."""
         batch = list(itertools.islice(self._pending, self.batch_size))
+        self._scanned = not batch
         return np.array(batch) if batch else np.empty((0, self.problem.encoding.n_var))
 
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         pass  # the evaluator keeps the best
 
-    def run(self, evaluator: Evaluator) -> None:
-        """Evaluate the scan batch by batch until it, or the budget, is spent."""
-        while not evaluator.done and (X := self.ask()).shape[0]:
-            try:
-                evaluator(X)
-            except BudgetExhausted:
-                return
+    def finished(self) -> bool:
+        return self._scanned
 
 
 @register("uniform")
