@@ -28,6 +28,8 @@ from metaknot.bspline import (
     evaluate_masks,
     evaluate_positions,
     fit_spline,
+    interior_from_indices,
+    interior_from_mask,
     parameterize,
 )
 from metaknot.problem import Encoding, Problem
@@ -148,7 +150,7 @@ class KnotSelection(KnotProblem):
                               max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
-        return self.params[1:-1][x.astype(bool)]
+        return interior_from_mask(self.params, x)
 
 
 def _check_n_knots(n_knots: int, n_points: int, degree: int) -> int:
@@ -182,7 +184,7 @@ class KnotIndices(KnotProblem):
                                 max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
-        return self.params[np.sort(x)]
+        return interior_from_indices(self.params, x)
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "n_knots": self.n_knots}
