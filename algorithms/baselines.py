@@ -24,6 +24,7 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Encoding, Problem
 from metaknot.problems import KnotProblem
 from metaknot.registry import register
+from metaknot.task import problem_type
 
 __all__ = ["AveragingKnots", "FitpackKnots", "UniformKnots", "fitpack_knots", "with_count"]
 
@@ -66,7 +67,7 @@ class _KnotCountBaseline(Optimizer):
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
-        if not isinstance(problem, KnotProblem):
+        if not issubclass(problem_type(problem), KnotProblem):
             raise ValueError(f"optimizer {self.name!r} needs a knot problem; got {problem.name!r}")
         kind = problem.encoding.kind
         self.free_count = kind == "binary" or bool(getattr(problem, "variable_count", False))
@@ -166,11 +167,15 @@ class FitpackKnots(_KnotCountBaseline):
             raise ValueError("target='tolerance' lets FITPACK choose the knot count, but this "
                              "problem fixes it; use target='count'")
         fp0 = fit_spline(problem.params, problem.points, [], problem.degree).sse
+        self.count_fits(1)
         self._top = float(np.log(max(fp0, np.finfo(float).tiny)))
         self._counts_at = {self._top: 0}  # log s -> FITPACK's knot count (the probes so far)
         self._found: dict[int, tuple[float, np.ndarray]] = {0: (fp0, np.empty(0))}
 
     def _knots(self, s: float) -> np.ndarray:
+        """FITPACK's interior knots at smoothing ``s`` (one ``splprep`` call, counted as an
+        external fit: it is not an evaluation of the problem's objective)."""
+        self.count_fits(1)
         return fitpack_knots(self.problem.params, self.problem.points, self.problem.degree, s)
 
     def _probe(self, log_s: float) -> int:

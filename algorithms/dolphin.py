@@ -16,9 +16,10 @@ Choices the paper leaves open:
   feasible values are positive, else rank. Infeasible locations get 0. Fitness is scaled so the
   loop-best has 1; as probabilities depend on fitness only relative to ``epsilon``, ``epsilon``
   is in units of the loop-best's fitness (default 1e-3: below the lowest fitness of a loop).
-* ``loops=None``: ``ceil(budget / population)`` loops, so PP reaches 1 at the last loop (whose
-  sampled locations go unused, as in the paper). An explicit ``loops`` ends the run after that
-  many loops, even with budget left. ``loops = 1`` gives ``PP(1) = pp1``.
+* ``loops=None``: ``ceil(budget / population)`` loops, derived at ``setup`` from the task's
+  budget, so PP reaches 1 at the last loop (whose sampled locations go unused, as in the
+  paper). An explicit ``loops`` ends the run after that many loops, even with budget left.
+  ``loops = 1`` gives ``PP(1) = pp1``.
 * Index sets (``KnotIndices``) cannot hold an index twice: sampled locations pass through
   ``encoding.repair`` (sorted, repeats moved to the nearest free index), the one departure from
   the paper. Variable ``j`` is then the ``j``-th knot along the curve.
@@ -33,7 +34,6 @@ import math
 import numpy as np
 from scipy.stats import rankdata
 
-from metaknot.budget import Evaluator
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
@@ -160,33 +160,32 @@ class DolphinEcholocation(Optimizer):
         super().setup(problem, rng)
         self._lower = np.asarray(problem.encoding.lower).astype(np.int64)
         self._n_alt = np.asarray(problem.encoding.upper).astype(np.int64) - self._lower + 1
-        self._set_loops(self.loops)
+        if self.loops is None:
+            budget = getattr(problem, "budget", None)
+            if budget is None:
+                raise ValueError("loops=None derives the number of loops from the budget; set "
+                                 "the optimizer up on a Task (Evaluator(problem, budget).task) "
+                                 "or give loops")
+            self._set_loops(max(1, math.ceil(budget / self.population)))
+        else:
+            self._set_loops(self.loops)
         self.loop = 0
         self.best_x: np.ndarray | None = None
         self.best_f = np.inf
         self.probabilities: np.ndarray | None = None
         self._locations = problem.sample(rng, self.population)
 
-    def _set_loops(self, loops: int | None) -> None:
+    def _set_loops(self, loops: int) -> None:
         self.n_loops = loops
-        self.pp = None if loops is None else pp_schedule(loops, self.pp1, self.power)
-
-    def run(self, evaluator: Evaluator) -> None:
-        """Run ``loops`` loops (or as many as the budget allows, if ``loops`` is None)."""
-        if self.loops is None:
-            self._set_loops(max(1, math.ceil(evaluator.remaining / self.population)))
-        super().run(evaluator)
+        self.pp = pp_schedule(loops, self.pp1, self.power)
 
     def finished(self) -> bool:
-        return self.n_loops is not None and self.loop >= self.n_loops
+        return self.loop >= self.n_loops
 
     def ask(self) -> np.ndarray:
         return self._locations.copy()
 
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
-        if self.pp is None:
-            raise RuntimeError("loops=None is derived from the budget in run(); "
-                               "give loops to drive ask/tell directly")
         X, F = np.asarray(X, dtype=np.int64), np.asarray(F, dtype=np.float64)
         pp = float(self.pp[min(self.loop, self.n_loops - 1)])
         self.loop += 1

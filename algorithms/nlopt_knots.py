@@ -31,7 +31,8 @@ LOCAL_ALGORITHMS = ("LN_BOBYQA", "LN_SBPLX", "LN_COBYLA", "LN_NELDERMEAD")
 GLOBAL_ALGORITHMS = ("GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS")
 ALGORITHMS = LOCAL_ALGORITHMS + GLOBAL_ALGORITHMS
 #: How nlopt runs end on these problems; the run goes on with the next start. RuntimeError is
-#: nlopt's generic failure (a problem raising RuntimeError is therefore not reported).
+#: nlopt's generic failure. An exception raised by the objective (the problem, the budget) is
+#: never one of these: it is caught in the objective and raised again after nlopt returns.
 NLOPT_STOPS = (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError)
 
 
@@ -142,8 +143,9 @@ class NloptKnots(Optimizer):
 
         Nothing raises through nlopt (GN_CRS2_LM keeps calling after an exception, with a Python
         error pending): the objective records the exception, force-stops nlopt and answers
-        further calls at once; afterwards nlopt's own stop exceptions are passed over and any
-        other (``BudgetExhausted``, a real error) is raised again.
+        further calls at once; afterwards nlopt's own stop exceptions are passed over and the
+        objective's exception (``BudgetExhausted``, or any error of the problem, a
+        ``RuntimeError`` included) is raised again.
         """
         if start is None:
             start = self.unit(averaging_knots(self.problem.params, n_knots, self.problem.degree))
@@ -184,7 +186,7 @@ class NloptKnots(Optimizer):
                     current[0].optimize(x0)
             except NLOPT_STOPS:
                 pass  # the best point seen is kept by the objective and the evaluator
-            if caught and not isinstance(caught[0], NLOPT_STOPS):
+            if caught:
                 raise caught[0]
             idle = idle + 1 if evaluator.n_evaluations == before else 0
             run += 1

@@ -8,7 +8,8 @@ The public API::
     result.solution.fit.spline       # a scipy.interpolate.BSpline
 """
 
-from .budget import BudgetExhausted, Evaluator, Progress
+from .budget import BudgetExhausted, Evaluator
+from .callbacks import Callback, Progress, ProgressBar, RunStart, Trace, TraceRecorder
 from .optimizer import Optimizer, check_param
 from .problem import Encoding, Problem
 from .registry import (
@@ -19,12 +20,14 @@ from .registry import (
     register,
 )
 from .result import RunResult
-from .runner import ProgressBar, make_rng, minimize
+from .runner import make_rng, minimize
+from .task import Task
 
 __version__ = "0.1.0"
 
 __all__ = [
     "BudgetExhausted",
+    "Callback",
     "Encoding",
     "Evaluator",
     "Optimizer",
@@ -32,6 +35,10 @@ __all__ = [
     "Progress",
     "ProgressBar",
     "RunResult",
+    "RunStart",
+    "Task",
+    "Trace",
+    "TraceRecorder",
     "available_optimizers",
     "available_problems",
     "check_param",

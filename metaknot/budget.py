@@ -1,9 +1,9 @@
 """The evaluation budget: the only path from an optimizer to the problem's objective.
 
-An optimizer never calls ``problem.evaluate`` itself; it calls an :class:`Evaluator`, which
-truncates a batch to what is left of the budget, records the best-so-far trace, runs the
-callbacks and raises :class:`BudgetExhausted` once nothing is left. So an optimizer cannot use
-more evaluations than it was given, whatever it does.
+An optimizer never calls ``problem.evaluate`` itself (it is set up on a :class:`~metaknot.Task`,
+which cannot evaluate); it calls an :class:`Evaluator`, which truncates a batch to what is left of
+the budget, keeps the best candidate, runs the callbacks and raises :class:`BudgetExhausted` once
+nothing is left. So an optimizer cannot use more evaluations than it was given, whatever it does.
 """
 
 from __future__ import annotations
@@ -11,11 +11,12 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
+from .callbacks import Callback, Progress, as_callback
 from .problem import Problem
+from .task import Task
 
 __all__ = ["BudgetExhausted", "Evaluator", "Progress"]
 
@@ -25,18 +26,12 @@ class BudgetExhausted(Exception):
     asked to stop)."""
 
 
-@dataclass(frozen=True)
-class Progress:
-    """What callbacks see after every evaluated batch."""
-
-    n_evaluations: int
-    budget: int
-    best_f: float
-    batch_f: np.ndarray
-    elapsed: float
-
-
-Callback = Callable[[Progress], bool | None]
+def check_budget(budget: object) -> int:
+    """``budget`` as an int, or a ``ValueError`` unless it is a positive integer."""
+    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 1:
+        raise ValueError(f"budget must be a positive integer number of evaluations; "
+                         f"got {budget!r}")
+    return int(budget)
 
 
 class Evaluator:
@@ -45,27 +40,36 @@ class Evaluator:
     Parameters
     ----------
     problem
-        The problem whose ``evaluate`` is called.
+        The problem whose objective is called.
     budget
         Maximum number of candidate evaluations (>= 1).
     callbacks
-        Called with a :class:`Progress` after every batch; a callback returning ``True`` stops the
-        run (the next request raises :class:`BudgetExhausted`).
+        :class:`~metaknot.callbacks.Callback` objects or plain callables; their ``on_batch`` is
+        called with a :class:`Progress` after every batch, and returning ``True`` stops the run
+        (the next request raises :class:`BudgetExhausted`).
+
+    Attributes
+    ----------
+    task
+        The optimizer's view of the problem (no evaluation), bound to this budget.
+    best_x, best_f, best_metrics
+        Best candidate so far, its value and its metrics (``None``, ``inf``, ``{}`` at first).
+    external_fits
+        Fits the optimizer reported making on its own (:meth:`Task.count_fits`).
     """
 
-    def __init__(self, problem: Problem, budget: int, callbacks: Sequence[Callback] = ()):
-        if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 1:
-            raise ValueError(f"budget must be a positive integer number of evaluations; "
-                             f"got {budget!r}")
+    def __init__(self, problem: Problem, budget: int,
+                 callbacks: Sequence[Callback | Callable[[Progress], bool | None]] = ()):
         self.problem = problem
-        self.budget = int(budget)
-        self.callbacks = list(callbacks)
+        self.budget = check_budget(budget)
+        self.callbacks = [as_callback(c) for c in callbacks]
         self.n_evaluations = 0
         self.best_x: np.ndarray | None = None
         self.best_f = np.inf
+        self.best_metrics: dict[str, float] = {}
+        self.external_fits = 0
         self.stop_requested = False
-        self._trace_evals: list[int] = []
-        self._trace_best: list[float] = []
+        self.task = Task(problem, self)
         self._start = time.perf_counter()
 
     @property
@@ -94,7 +98,8 @@ class Evaluator:
         X = X[: self.remaining]
         if X.shape[0] == 0:
             return np.empty(0)
-        F = np.asarray(self.problem.evaluate(X), dtype=np.float64)
+        F, metrics = self.problem.evaluate_with_metrics(X)
+        F = np.asarray(F, dtype=np.float64)
         if F.shape != (X.shape[0],):
             raise ValueError(
                 f"{type(self.problem).__name__}.evaluate returned shape {F.shape}; "
@@ -106,36 +111,15 @@ class Evaluator:
                 RuntimeWarning, stacklevel=2,
             )
             F = np.where(np.isnan(F), np.inf, F)
-        self._record(X, F)
+        self.n_evaluations += F.size
+        best = int(np.argmin(F))
+        if F[best] < self.best_f:
+            self.best_f = float(F[best])
+            self.best_x = X[best].copy()
+            self.best_metrics = {k: float(np.asarray(v)[best]) for k, v in metrics.items()}
         progress = Progress(self.n_evaluations, self.budget, self.best_f, F,
-                            time.perf_counter() - self._start)
+                            time.perf_counter() - self._start, metrics)
         for callback in self.callbacks:
-            if callback(progress):
+            if callback.on_batch(progress):
                 self.stop_requested = True
         return F
-
-    def _record(self, X: np.ndarray, F: np.ndarray) -> None:
-        first = self.n_evaluations
-        self.n_evaluations += F.size
-        running = np.minimum.accumulate(np.concatenate(([self.best_f], F)))[1:]
-        improved = np.flatnonzero(running < np.concatenate(([self.best_f], running[:-1])))
-        for i in improved:
-            self._trace_evals.append(first + int(i) + 1)
-            self._trace_best.append(float(running[i]))
-        if improved.size:
-            i = int(improved[-1])
-            self.best_f = float(F[i])
-            self.best_x = X[i].copy()
-
-    def trace(self) -> tuple[np.ndarray, np.ndarray]:
-        """Best-so-far objective against evaluations: one entry per improvement, plus the end.
-
-        ``evals[k]`` is the evaluation count (1-based) at which ``best[k]`` was first reached;
-        the last entry repeats the final best at the total number of evaluations.
-        """
-        evals = list(self._trace_evals)
-        best = list(self._trace_best)
-        if self.n_evaluations and (not evals or evals[-1] != self.n_evaluations):
-            evals.append(self.n_evaluations)
-            best.append(best[-1] if best else np.inf)
-        return np.asarray(evals, dtype=np.int64), np.asarray(best, dtype=np.float64)

@@ -5,6 +5,16 @@ A new optimizer implements :meth:`Optimizer.setup`, :meth:`Optimizer.ask` and
 :class:`~metaknot.budget.Evaluator`, which enforces the evaluation budget. Optimizers that must
 call the objective themselves (nlopt, for instance) override :meth:`run` and call the evaluator
 directly: the budget still holds.
+
+``setup`` receives a :class:`~metaknot.Task`: the problem's encoding, sampler and settings plus
+the budget (``self.problem.budget``), but no way to evaluate. An external loop drives an
+optimizer the same way::
+
+    evaluator = Evaluator(problem, budget)
+    optimizer.setup(evaluator.task, rng)
+    while not evaluator.done and not optimizer.finished():
+        X = optimizer.ask()
+        optimizer.tell(X, evaluator(X))      # the last batch may come back shorter
 """
 
 from __future__ import annotations
@@ -17,6 +27,7 @@ import numpy as np
 
 from .budget import BudgetExhausted, Evaluator
 from .problem import Problem
+from .task import Task
 
 __all__ = ["Optimizer", "check_param"]
 
@@ -51,11 +62,12 @@ class Optimizer(ABC):
     name: ClassVar[str] = "optimizer"
     encodings: ClassVar[tuple[str, ...]] = ("binary", "integer", "continuous")
 
-    problem: Problem
+    problem: Problem | Task
     rng: np.random.Generator
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
-        """Bind to a problem and a random generator; subclasses extend to build their state."""
+    def setup(self, problem: Problem | Task, rng: np.random.Generator) -> None:
+        """Bind to a problem (normally its :class:`~metaknot.Task`) and a random generator;
+        subclasses extend to build their state."""
         if problem.encoding.kind not in self.encodings:
             raise ValueError(
                 f"optimizer {self.name!r} handles {', '.join(self.encodings)} encodings; "
@@ -80,10 +92,31 @@ class Optimizer(ABC):
         the run)."""
         return False
 
+    def count_fits(self, n: int = 1) -> None:
+        """Report ``n`` fits made outside the evaluator (recorded as ``external_fits``)."""
+        count = getattr(self.problem, "count_fits", None)
+        if count is not None:
+            count(n)
+
     def run(self, evaluator: Evaluator) -> None:
-        """Ask, evaluate and tell until the budget is spent or :meth:`finished`."""
+        """Ask, evaluate and tell until the budget is spent or :meth:`finished`.
+
+        Raises
+        ------
+        RuntimeError
+            If :meth:`ask` returns no candidates while :meth:`finished` is false (the run would
+            never end).
+        """
         while not evaluator.done and not self.finished():
             X = self.ask()
+            if len(X) == 0:
+                if self.finished():
+                    return
+                raise RuntimeError(
+                    f"{type(self).__name__}.ask() returned no candidates but finished() is "
+                    "False; return candidates, or True from finished() when there is nothing "
+                    "left to try"
+                )
             try:
                 F = evaluator(X)
             except BudgetExhausted:

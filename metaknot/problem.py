@@ -161,6 +161,12 @@ class Problem(ABC):
     def decode(self, x: np.ndarray) -> Any:
         """The solution a single candidate stands for (for knot problems: the fitted spline)."""
 
+    def evaluate_with_metrics(self, X: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Objective values plus per-candidate metrics for the run's trace (for knot problems:
+        ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``). The default has
+        no metrics; override to provide some without a second evaluation."""
+        return self.evaluate(X), {}
+
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """``n`` random candidates; the default draws uniformly from the encoding."""
         return self.encoding.sample(rng, n)

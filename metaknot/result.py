@@ -7,7 +7,12 @@ from typing import Any
 
 import numpy as np
 
+from .callbacks import Trace
+
 __all__ = ["RunResult"]
+
+#: Fit metrics every knot-problem record has (NaN when nothing feasible was found).
+METRICS = ("n_control_points", "sse", "rmse", "euclidean_distance", "max_deviation")
 
 
 @dataclass(frozen=True, eq=False)
@@ -19,16 +24,24 @@ class RunResult:
     problem, optimizer
         Names; ``problem_info`` and ``optimizer_params`` hold their settings.
     seed
-        The seed the run's random generator was made from.
+        The integer seed the run's generator was made from (for a ``SeedSequence``: its
+        entropy), or ``None``; ``seed_spawn_key`` is the sequence's spawn key (``()`` for an
+        int seed).
     budget, n_evaluations
         Evaluations allowed and used.
     best_x, best_f
         Best candidate and its objective value (``best_x`` is ``None`` if nothing feasible was
         found).
-    trace_evaluations, trace_best
-        Best-so-far objective against evaluations (one entry per improvement, plus the end).
+    trace
+        Best-so-far history: improvements and log-spaced checkpoints, with the incumbent's
+        metrics (:class:`~metaknot.callbacks.Trace`).
     elapsed
-        Wall-clock seconds.
+        Wall-clock seconds of the whole run; ``timings`` splits them into ``setup_seconds``,
+        ``optimize_seconds`` and ``decode_seconds``.
+    external_fits
+        Fits the optimizer made on its own, outside the evaluation budget (a FITPACK scan).
+    status, error
+        ``"ok"``, or ``"failed"`` with the error (a partial result of a crashed run).
     solution
         ``problem.decode(best_x)`` (for knot problems: the fitted spline and its metrics).
     """
@@ -40,21 +53,78 @@ class RunResult:
     n_evaluations: int
     best_x: np.ndarray | None
     best_f: float
-    trace_evaluations: np.ndarray
-    trace_best: np.ndarray
+    trace: Trace
     elapsed: float
     problem_info: dict[str, Any] = field(default_factory=dict)
     optimizer_params: dict[str, Any] = field(default_factory=dict)
     solution: Any = None
+    seed_spawn_key: tuple[int, ...] = ()
+    timings: dict[str, float] = field(default_factory=dict)
+    external_fits: int = 0
+    status: str = "ok"
+    error: str | None = None
+
+    @property
+    def trace_evaluations(self) -> np.ndarray:
+        """Evaluation counts of the improvements, plus the last evaluation."""
+        return self.trace.evaluations[self._trace_rows()]
+
+    @property
+    def trace_best(self) -> np.ndarray:
+        """Best-so-far values at :attr:`trace_evaluations`."""
+        return self.trace.best_f[self._trace_rows()]
+
+    def _trace_rows(self) -> np.ndarray:
+        rows = self.trace.improvement.copy()
+        if rows.size:
+            rows[-1] = True
+        return rows
+
+    def metrics(self) -> dict[str, float]:
+        """The solution's fit metrics (NaN for each if there is no solution)."""
+        found = getattr(self.solution, "metrics", None)
+        values = found() if callable(found) else {}
+        return {**dict.fromkeys(METRICS, np.nan), **values}
 
     def summary(self) -> dict[str, Any]:
-        """Flat dictionary of the scalar outcome (for tables and stores)."""
-        out: dict[str, Any] = {
+        """Flat dictionary of the scalar outcome: names, seed, budget, ``best_f`` (the objective
+        value), the fit metrics and the time."""
+        return {
             "problem": self.problem, "optimizer": self.optimizer, "seed": self.seed,
             "budget": self.budget, "n_evaluations": self.n_evaluations,
-            "best_f": self.best_f, "elapsed": self.elapsed,
+            "best_f": self.best_f, "elapsed": self.elapsed, **self.metrics(),
         }
-        metrics = getattr(self.solution, "metrics", None)
-        if callable(metrics):
-            out.update(metrics())
-        return out
+
+    def record(self) -> dict[str, Any]:
+        """The complete flat record of the run (one row of a results table).
+
+        Problem settings under their own names (``data``, ``data_fingerprint``, ``noise``,
+        ``degree``, ``parameterization``, ``encoding``, ``n_knots``, ...), ``objective`` (its
+        name) with ``objective.<option>``, ``algorithm`` with ``algorithm.<hyperparameter>``,
+        the seed (``seed``, ``seed_spawn_key``), budget and evaluations used, ``best_f`` and the
+        fit metrics, the timings, ``external_fits``, ``status`` / ``error``. The study layer
+        adds the run id, study name, versions and time stamp.
+        """
+        params = {f"algorithm.{k}": _plain(v) for k, v in self.optimizer_params.items()}
+        return {
+            **{k: _plain(v) for k, v in self.problem_info.items()},
+            "problem": self.problem,
+            "algorithm": self.optimizer,
+            **params,
+            "seed": self.seed,
+            "seed_spawn_key": ",".join(str(k) for k in self.seed_spawn_key),
+            "budget": self.budget,
+            "n_evaluations": self.n_evaluations,
+            "best_f": float(self.best_f),
+            **self.metrics(),
+            "elapsed_seconds": float(self.elapsed),
+            **{k: float(v) for k, v in self.timings.items()},
+            "external_fits": int(self.external_fits),
+            "status": self.status,
+            "error": self.error,
+        }
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars as Python scalars (for tables and JSON)."""
+    return value.item() if isinstance(value, np.generic) else value

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
-from tqdm.auto import tqdm
 
-from .budget import BudgetExhausted, Callback, Evaluator, Progress
+from .budget import BudgetExhausted, Evaluator
+from .callbacks import Callback, Progress, ProgressBar, RunStart, TraceRecorder, as_callback
 from .optimizer import Optimizer
 from .problem import Problem
 from .registry import get_optimizer, get_problem
@@ -18,36 +18,19 @@ from .result import RunResult
 __all__ = ["ProgressBar", "make_rng", "minimize"]
 
 
+def _check_seed(seed: object) -> None:
+    if seed is not None and not isinstance(seed, np.random.SeedSequence) and (
+            isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0):
+        raise ValueError(f"seed must be a non-negative integer, a numpy SeedSequence or None; "
+                         f"got {seed!r}")
+
+
 def make_rng(seed: int | np.random.SeedSequence | None) -> np.random.Generator:
     """The run's single random generator, built from a ``SeedSequence``."""
+    _check_seed(seed)
     if isinstance(seed, np.random.SeedSequence):
         return np.random.default_rng(seed)
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
-                             or seed < 0):
-        raise ValueError(f"seed must be a non-negative integer or None; got {seed!r}")
     return np.random.default_rng(np.random.SeedSequence(seed))
-
-
-class ProgressBar:
-    """Callback showing a tqdm progress bar over the evaluation budget."""
-
-    def __init__(self, description: str = "") -> None:
-        self.description = description
-        self._bar: Any = None
-
-    def __call__(self, progress: Progress) -> None:
-        if self._bar is None:
-            self._bar = tqdm(total=progress.budget, desc=self.description, unit="eval",
-                             leave=False)
-        self._bar.update(progress.n_evaluations - self._bar.n)
-        self._bar.set_postfix(best=f"{progress.best_f:.6g}", refresh=False)
-        if progress.n_evaluations >= progress.budget:
-            self.close()
-
-    def close(self) -> None:
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
 
 
 def minimize(
@@ -56,10 +39,11 @@ def minimize(
     *,
     budget: int,
     seed: int | np.random.SeedSequence | None = None,
-    callbacks: Sequence[Callback] = (),
+    callbacks: Sequence[Callback | Callable[[Progress], bool | None]] = (),
     progress: bool = False,
     problem_kwargs: dict[str, Any] | None = None,
     optimizer_kwargs: dict[str, Any] | None = None,
+    checkpoints_per_decade: int = 10,
 ) -> RunResult:
     """Minimise ``problem`` with ``optimizer`` using at most ``budget`` evaluations.
 
@@ -67,64 +51,124 @@ def minimize(
     ----------
     problem, optimizer
         Instances, or registry names (built with ``problem_kwargs`` / ``optimizer_kwargs``).
+        The optimizer is set up on the problem's :class:`~metaknot.Task` (it cannot evaluate).
     budget
         Hard cap on objective evaluations, enforced by the framework.
     seed
-        Seed of the run's single ``numpy.random.Generator`` (``SeedSequence``); the same seed
-        gives the same result.
+        Seed of the run's single ``numpy.random.Generator``: an int or a ``SeedSequence`` (its
+        entropy and spawn key are recorded); the same seed gives the same result.
     callbacks
-        Called after every evaluated batch with a :class:`~metaknot.budget.Progress`; returning
-        ``True`` stops the run.
+        :class:`~metaknot.callbacks.Callback` objects (start / batch / end) or plain callables
+        called after every evaluated batch with a :class:`~metaknot.callbacks.Progress`;
+        returning ``True`` stops the run.
     progress
-        Show a progress bar.
+        Show a progress bar over the evaluations (hidden when the output is not a terminal).
+    checkpoints_per_decade
+        Density of the trace's log-spaced checkpoints.
 
     Returns
     -------
     RunResult
-        Best solution, its decoded spline, and the best-so-far trace.
+        Best solution, its decoded spline, the trace and the timings.
+
+    Raises
+    ------
+    Exception
+        Whatever the optimizer or problem raised; if anything was evaluated, the exception's
+        ``partial_result`` holds the best so far (status ``"failed"``).
     """
+    _check_seed(seed)
     if isinstance(problem, str):
         problem = get_problem(problem, **(problem_kwargs or {}))
     if isinstance(optimizer, str):
         optimizer = get_optimizer(optimizer, **(optimizer_kwargs or {}))
-    bar = ProgressBar(f"{optimizer.name} on {problem.name}") if progress else None
-    evaluator = Evaluator(problem, budget, [*callbacks, *([bar] if bar else [])])
-    start = time.perf_counter()
-    optimizer.setup(problem, make_rng(seed))
+    recorder = TraceRecorder(checkpoints_per_decade)
+    hooks = [recorder, *(as_callback(c) for c in callbacks),
+             *([ProgressBar()] if progress else [])]
+    evaluator = Evaluator(problem, budget, hooks)
+    for hook in hooks:
+        hook.on_start(RunStart(problem, optimizer, evaluator.budget))
+    clock = _Clock()
+    result = None
     try:
-        optimizer.run(evaluator)
-    except BudgetExhausted:
-        pass
+        with clock("setup_seconds"):
+            optimizer.setup(evaluator.task, make_rng(seed))
+        with clock("optimize_seconds"):
+            try:
+                optimizer.run(evaluator)
+            except BudgetExhausted:
+                pass
+        result = _record(problem, optimizer, seed, evaluator, recorder, clock)
     except Exception as exc:
         # keep what was computed: the best so far rides on the exception
         if evaluator.n_evaluations:
-            exc.partial_result = _record(problem, optimizer, seed, evaluator, start)
+            result = _record(problem, optimizer, seed, evaluator, recorder, clock,
+                             error=f"{type(exc).__name__}: {exc}")
+            exc.partial_result = result
             exc.add_note(f"metaknot: the run stopped after {evaluator.n_evaluations} "
                          "evaluations; the exception's `partial_result` holds the best so far")
         raise
     finally:
-        if bar is not None:
-            bar.close()
-    return _record(problem, optimizer, seed, evaluator, start)
+        for hook in hooks:
+            hook.on_end(result)
+    return result
+
+
+class _Clock:
+    """Named wall-clock sections."""
+
+    def __init__(self) -> None:
+        self.start = time.perf_counter()
+        self.seconds: dict[str, float] = {}
+
+    def __call__(self, name: str) -> _Section:
+        return _Section(self, name)
+
+
+class _Section:
+    def __init__(self, clock: _Clock, name: str) -> None:
+        self.clock, self.name = clock, name
+
+    def __enter__(self) -> None:
+        self.t0 = time.perf_counter()
+
+    def __exit__(self, *exc: object) -> None:
+        self.clock.seconds[self.name] = time.perf_counter() - self.t0
 
 
 def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evaluator,
-            start: float) -> RunResult:
-    evals, best = evaluator.trace()
+            recorder: TraceRecorder, clock: _Clock, error: str | None = None) -> RunResult:
     best_x = evaluator.best_x
-    solution = problem.decode(best_x) if best_x is not None else None
+    with clock("decode_seconds"):
+        try:
+            solution = problem.decode(best_x) if best_x is not None else None
+        except Exception:
+            if error is None:
+                raise
+            solution = None  # already failing: keep the record without the spline
+    timings = {k: clock.seconds.get(k, 0.0)
+               for k in ("setup_seconds", "optimize_seconds", "decode_seconds")}
+    if isinstance(seed, np.random.SeedSequence):
+        entropy = seed.entropy if isinstance(seed.entropy, int) else None
+        seed_value, spawn_key = entropy, tuple(int(k) for k in seed.spawn_key)
+    else:
+        seed_value, spawn_key = (None if seed is None else int(seed)), ()
     return RunResult(
         problem=problem.name,
         optimizer=optimizer.name,
-        seed=None if seed is None or isinstance(seed, np.random.SeedSequence) else int(seed),
+        seed=seed_value,
         budget=evaluator.budget,
         n_evaluations=evaluator.n_evaluations,
         best_x=best_x,
         best_f=evaluator.best_f,
-        trace_evaluations=evals,
-        trace_best=best,
-        elapsed=time.perf_counter() - start,
+        trace=recorder.trace(),
+        elapsed=time.perf_counter() - clock.start,
         problem_info=problem.describe(),
         optimizer_params=optimizer.params(),
         solution=solution,
+        seed_spawn_key=spawn_key,
+        timings=timings,
+        external_fits=evaluator.external_fits,
+        status="ok" if error is None else "failed",
+        error=error,
     )

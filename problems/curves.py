@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,11 +36,16 @@ class PointSet:
     params
         Explicit parameter values (function data ``y = f(x)``: the ``x``), or ``None`` to
         parameterize the points.
+    noise, noise_seed
+        Standard deviation of the Gaussian noise added by :func:`add_noise` (0: none) and a
+        description of the seed it was drawn with (recorded with every run).
     """
 
     points: np.ndarray
     name: str = "points"
     params: np.ndarray | None = field(default=None)
+    noise: float = 0.0
+    noise_seed: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "points", as_points(self.points, degree=1, name=self.name))
@@ -59,6 +65,21 @@ class PointSet:
     @property
     def dim(self) -> int:
         return int(self.points.shape[1])
+
+    @property
+    def fingerprint(self) -> str:
+        """Short SHA-256 of the points (and explicit parameters): equal data, equal print."""
+        digest = hashlib.sha256(np.ascontiguousarray(self.points, dtype="<f8").tobytes())
+        digest.update(str(self.points.shape).encode())
+        if self.params is not None:
+            digest.update(np.ascontiguousarray(self.params, dtype="<f8").tobytes())
+        return digest.hexdigest()[:16]
+
+    def describe(self) -> dict[str, object]:
+        """What run records store about the data."""
+        return {"data": self.name, "data_fingerprint": self.fingerprint,
+                "n_points": self.n_points, "dim": self.dim, "noise": self.noise,
+                "noise_seed": self.noise_seed}
 
     @property
     def scale(self) -> float:
@@ -182,14 +203,26 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def add_noise(data: PointSet, sigma: float, seed: int | np.random.Generator | None) -> PointSet:
+def add_noise(data: PointSet, sigma: float,
+              seed: int | np.random.SeedSequence | np.random.Generator | None) -> PointSet:
     """Copy of ``data`` with Gaussian noise of standard deviation ``sigma`` on every coordinate.
 
-    ``seed`` (an int, ``SeedSequence``-compatible, or a ``Generator``) makes the noise
-    reproducible.
+    ``seed`` (an int, a ``SeedSequence`` or a ``Generator``) makes the noise reproducible; ints
+    and seed sequences are recorded in the result's ``noise_seed``.
     """
     if not np.isfinite(sigma) or sigma < 0:
         raise ValueError(f"noise sigma must be a finite value >= 0; got {sigma}")
     rng = np.random.default_rng(seed)
     noisy = data.points + rng.normal(0.0, sigma, size=data.points.shape)
-    return PointSet(noisy, name=f"{data.name}+noise{sigma:g}", params=data.params)
+    return PointSet(noisy, name=f"{data.name}+noise{sigma:g}", params=data.params,
+                    noise=float(sigma), noise_seed=describe_seed(seed))
+
+
+def describe_seed(seed: object) -> str | None:
+    """A seed as text: an int as itself, a ``SeedSequence`` as ``entropy/spawn,key``."""
+    if isinstance(seed, np.random.SeedSequence):
+        key = ",".join(str(k) for k in seed.spawn_key)
+        return f"{seed.entropy}/{key}" if key else str(seed.entropy)
+    if isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+        return str(int(seed))
+    return None

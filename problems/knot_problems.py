@@ -43,14 +43,25 @@ __all__ = ["FreeKnots", "KnotIndices", "KnotProblem", "KnotSelection", "KnotSolu
 
 @dataclass(frozen=True, eq=False)
 class KnotSolution:
-    """A decoded candidate: its fitted spline and objective value."""
+    """A decoded candidate: its fitted spline and objective value.
+
+    Attributes
+    ----------
+    x
+        The candidate.
+    objective_value
+        Its objective value (the problem's ``objective`` names the objective).
+    fit
+        The fitted spline and its metrics.
+    """
 
     x: np.ndarray
-    objective: float
+    objective_value: float
     fit: SplineFit
 
     def metrics(self) -> dict[str, float]:
-        return {"objective": self.objective, **self.fit.metrics()}
+        """The fit's metrics (control points, SSE, RMSE, Euclidean distance, max deviation)."""
+        return self.fit.metrics()
 
 
 def _as_point_set(points: PointSet | str | ArrayLike) -> PointSet:
@@ -108,6 +119,25 @@ class KnotProblem(Problem):
     def evaluate(self, X: np.ndarray) -> np.ndarray:
         return self.evaluate_details(X)[0]
 
+    def evaluate_with_metrics(self, X: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Objective values plus ``rmse``, ``n_control_points`` (and ``max_deviation`` when the
+        objective computes it) per candidate; NaN for infeasible candidates.
+
+        A subclass that overrides :meth:`evaluate` is respected: its values are returned,
+        without metrics.
+        """
+        if type(self).evaluate is not KnotProblem.evaluate:
+            return self.evaluate(X), {}
+        values, fit = self.evaluate_details(X)
+        ok = fit.feasible
+        metrics = {
+            "rmse": np.where(ok, np.sqrt(fit.sse / self.data.n_points), np.nan),
+            "n_control_points": np.where(ok, fit.n_control_points, np.nan),
+        }
+        if fit.max_deviation is not None:
+            metrics["max_deviation"] = np.where(ok, fit.max_deviation, np.nan)
+        return values, metrics
+
     def decode(self, x: ArrayLike) -> KnotSolution:
         """Fit the spline for candidate ``x``.
 
@@ -119,11 +149,12 @@ class KnotProblem(Problem):
         x = self.encoding.check(x)[0]
         value = float(self.evaluate_details(x[None, :])[0][0])
         fit = fit_spline(self.params, self.points, self._interior_knots(x), self.degree)
-        return KnotSolution(x=x, objective=value, fit=fit)
+        return KnotSolution(x=x, objective_value=value, fit=fit)
 
     def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "data": self.data.name, "n_points": self.data.n_points,
-                "dim": self.data.dim, "degree": self.degree,
+        """Problem name, encoding and every setting: the data (name, fingerprint, size, noise),
+        degree, parameterization, the objective's name and options (``objective.<option>``)."""
+        return {**super().describe(), **self.data.describe(), "degree": self.degree,
                 "parameterization": self.parameterization, **self.objective.describe()}
 
 
@@ -151,6 +182,9 @@ class KnotSelection(KnotProblem):
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
         return interior_from_mask(self.params, x)
+
+    def describe(self) -> dict[str, Any]:
+        return {**super().describe(), "density": self.density}
 
 
 def _check_n_knots(n_knots: int, n_points: int, degree: int) -> int:

@@ -37,10 +37,15 @@ class Objective(ABC):
     @abstractmethod
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray: ...
 
+    def options(self) -> dict[str, Any]:
+        """The objective's options (its constructor arguments)."""
+        return {k: v for k, v in vars(self).items()
+                if not k.startswith("_") and k != "needs_max_deviation"}
+
     def describe(self) -> dict[str, Any]:
-        return {"objective": self.name, **{k: v for k, v in vars(self).items()
-                                           if not k.startswith("_")
-                                           and k != "needs_max_deviation"}}
+        """``{"objective": name, "objective.<option>": value, ...}``."""
+        return {"objective": self.name,
+                **{f"objective.{k}": v for k, v in self.options().items()}}
 
 
 def _check_nonneg(name: str, value: float) -> float:

@@ -86,9 +86,55 @@ def test_progress_reaches_callbacks(name: str, kind: str) -> None:
     assert seen[-1].best_f == result.best_f
 
 
+#: Deterministic baselines on a problem that fixes K evaluate one candidate: their run is a
+#: single batch whether or not a callback stops it.
+ONE_CANDIDATE = {(name, kind) for name in ("uniform", "averaging", "fitpack")
+                 for kind in ("integer", "continuous")}
+LONG_DATA = get_curve("archimedean", n_points=240)  # baselines scan 236 knot counts on masks
+
+
 @pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
 def test_callback_can_stop_the_run(name: str, kind: str) -> None:
-    problem = counting(make_problem(kind))
-    result = mk.minimize(problem, name, budget=500, seed=2, callbacks=[lambda p: True])
-    # the run stops after the first evaluated batch, well before the budget
-    assert problem.seen == result.n_evaluations < 500
+    def problem():
+        if kind == "binary":
+            return counting(KnotSelection(LONG_DATA))
+        return counting(make_problem(kind))
+
+    batches: list[int] = []
+    free = mk.minimize(problem(), name, budget=500, seed=2, callbacks=[batches.append])
+    if (name, kind) in ONE_CANDIDATE:
+        assert free.n_evaluations == len(batches) == 1
+        return
+    assert len(batches) > 1, "the unstopped run must take several batches for the test to bite"
+    stopped_problem = problem()
+    stopped: list[int] = []
+    result = mk.minimize(stopped_problem, name, budget=500, seed=2,
+                         callbacks=[lambda p: stopped.append(p) or True])
+    # the run stops after the first evaluated batch
+    assert len(stopped) == 1
+    assert stopped_problem.seen == result.n_evaluations == stopped[0].n_evaluations
+    assert result.n_evaluations < free.n_evaluations
+
+
+class Lifecycle(mk.Callback):
+    def __init__(self) -> None:
+        self.events: list[str] = []
+
+    def on_start(self, run):
+        self.events.append("start")
+
+    def on_batch(self, progress):
+        self.events.append("batch")
+
+    def on_end(self, result):
+        self.events.append("end" if result is not None and result.status == "ok" else "bad")
+
+
+@pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
+def test_lifecycle_callbacks(name: str, kind: str) -> None:
+    hooks = Lifecycle()
+    result = mk.minimize(make_problem(kind), name, budget=90, seed=1, callbacks=[hooks])
+    assert hooks.events[0] == "start" and hooks.events[-1] == "end"
+    assert set(hooks.events[1:-1]) == {"batch"}
+    assert len(result.trace) >= 1 and result.trace.checkpoint[-1]
+    assert result.trace.evaluations[-1] == result.n_evaluations

@@ -310,19 +310,26 @@ def test_evaluate_knots_bad_offsets(knots, offsets, message):
 
 
 HUGE = np.array([[0.0, 0.0], [1e308, 0.0], [-1e308, 1.0], [1e308, 2.0], [0.0, 3.0], [1.0, 4.0]])
+#: Coordinates just below the accepted magnitude (1e100): accepted, and must stay finite.
+SHAPE = np.array([[0.0, 0.0], [1.0, 0.0], [-1.0, 1.0], [1.0, 2.0], [0.0, 3.0], [1.0, 4.0]])
+LARGE = 2e99 * SHAPE  # largest coordinate 8e99
 
 
 @pytest.mark.parametrize("method", ["chord", "centripetal"])
-def test_parameterize_huge_coordinates(method):
-    """Chord lengths overflow to inf here; the result must still be valid parameters (or a
-    ValueError), never NaN."""
-    with np.errstate(all="ignore"):
-        try:
-            u = parameterize(HUGE, method, degree=1)
-        except ValueError:
-            return
+def test_parameterize_rejects_overflowing_coordinates(method):
+    with pytest.raises(ValueError, match="magnitude above 1e\\+100"):
+        parameterize(HUGE, method, degree=1)
+
+
+@pytest.mark.parametrize("method", ["chord", "centripetal"])
+def test_parameterize_large_coordinates(method):
+    """Chord lengths of 1e100 do not overflow: valid parameters, matching the closed form."""
+    u = parameterize(LARGE, method, degree=1)
     assert np.isfinite(u).all(), f"parameterize returned {u}"
     assert (np.diff(u) > 0).all()
+    d = np.linalg.norm(np.diff(SHAPE, axis=0), axis=1)  # the same chords, at unit scale
+    d = d if method == "chord" else np.sqrt(d)
+    np.testing.assert_allclose(u, np.concatenate(([0.0], np.cumsum(d))) / d.sum(), rtol=1e-12)
 
 
 @pytest.mark.parametrize("scale", [1e101, 1e305, 1e308])
@@ -348,27 +355,38 @@ def test_evaluators_extreme_but_accepted_coordinates(scale):
     assert (fit.max_deviation**2 >= fit.sse / u.size * (1 - 1e-12)).all()
 
 
-def test_fit_spline_huge_coordinates():
+ALTERNATING = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+
+
+def test_fit_spline_rejects_overflowing_coordinates():
+    with pytest.raises(ValueError, match="magnitude above 1e\\+100"):
+        fit_spline(np.linspace(0.0, 1.0, 6), 1e308 * ALTERNATING, [0.4], 1)
+
+
+def test_fit_spline_large_coordinates_scale_exactly():
+    """Just under the limit the fit is the unit-scale fit times the scale: no overflow."""
     u = np.linspace(0.0, 1.0, 6)
-    q = np.array([1e308, -1e308, 1e308, -1e308, 1e308, -1e308])
-    with np.errstate(all="ignore"):
-        try:
-            fit = fit_spline(u, q, [0.4], 1)
-        except ValueError:
-            return
-        metrics = fit.metrics()
-    assert not any(np.isnan(v) for v in metrics.values()), metrics
+    unit = fit_spline(u, ALTERNATING, [0.4], 1)
+    large = fit_spline(u, 9e99 * ALTERNATING, [0.4], 1)
+    for name, value in large.metrics().items():
+        assert np.isfinite(value), (name, value)
+    assert large.rmse == pytest.approx(9e99 * unit.rmse, rel=1e-12)
+    assert large.max_deviation == pytest.approx(9e99 * unit.max_deviation, rel=1e-12)
 
 
-def test_knot_selection_huge_coordinates():
-    q = np.array([1e308, -1e308, 1e308, -1e308, 1e308, -1e308])
-    x = np.array([[0, 0, 0, 0], [0, 1, 0, 0], [1, 1, 1, 1]])
-    with np.errstate(all="ignore"):
-        try:
-            values = KnotSelection(points=q, degree=1, parameterization="uniform").evaluate(x)
-        except ValueError:
-            return
-    assert not np.isnan(values).any(), values
+def test_knot_selection_rejects_overflowing_coordinates():
+    with pytest.raises(ValueError, match="magnitude above 1e\\+100"):
+        KnotSelection(points=1e308 * ALTERNATING, degree=1, parameterization="uniform")
+
+
+def test_knot_selection_large_coordinates_scale_exactly():
+    x = np.array([[0, 0, 0, 0], [0, 1, 0, 0], [1, 1, 0, 1]])
+    options = {"degree": 1, "parameterization": "uniform", "objective": "paper",
+               "objective_options": {"error_floor": 0.0}}
+    unit = KnotSelection(points=ALTERNATING, **options).evaluate(x)
+    large = KnotSelection(points=9e99 * ALTERNATING, **options).evaluate(x)
+    assert np.isfinite(large).all(), large
+    np.testing.assert_allclose(large, 9e99 * unit, rtol=1e-12)
 
 
 # --------------------------------------------------------------------------------------------

@@ -172,7 +172,7 @@ def test_exact_budget_on_knot_problem(spiral_problem):
     assert result.best_f == pytest.approx(float(spiral_problem.evaluate(result.best_x[None])[0]),
                                           rel=1e-12)
     assert result.best_f == pytest.approx(problem.all_values().min(), rel=0, abs=0)
-    assert result.solution.objective == pytest.approx(result.best_f, rel=1e-12)
+    assert result.solution.objective_value == pytest.approx(result.best_f, rel=1e-12)
 
 
 def test_budget_given_by_names():
@@ -230,9 +230,42 @@ def test_evaluator_direct():
     assert problem.n_calls == 5
     np.testing.assert_array_equal(ev.best_x, [0.0, 0.0])
     assert ev.best_f == 0.0
-    evals, best = ev.trace()
-    np.testing.assert_array_equal(evals, [1, 2, 4, 5])
-    np.testing.assert_allclose(best, [0.5, 0.01, 0.0, 0.0], rtol=1e-15)
+
+
+def test_trace_recorder_on_an_evaluator():
+    """Improvements at every strict decrease, checkpoints on the log grid, the last evaluation
+    always a checkpoint; the incumbent's metrics beside its value."""
+    problem = KnotSelection("archimedean")
+    recorder = mk.TraceRecorder(per_decade=1)  # checkpoints 1, 10, 100 (budget 150: and 150)
+    ev = mk.Evaluator(problem, 150, [recorder])
+    X = problem.sample(np.random.default_rng(3), 150)
+    F = np.concatenate([ev(X[i : i + 40]) for i in range(0, 150, 40)])
+    trace = recorder.trace()
+    running = np.minimum.accumulate(F)
+    improved = np.flatnonzero(np.diff(np.concatenate(([np.inf], running))) < 0) + 1
+    np.testing.assert_array_equal(trace.evaluations[trace.improvement], improved)
+    np.testing.assert_array_equal(trace.evaluations[trace.checkpoint], [1, 10, 100, 150])
+    np.testing.assert_array_equal(
+        np.union1d(improved, [1, 10, 100, 150]), trace.evaluations)
+    np.testing.assert_array_equal(trace.best_f, running[trace.evaluations - 1])
+    # metrics of the incumbent at each row, recomputed from its candidate
+    incumbent = [int(np.argmin(F[:e])) for e in trace.evaluations]
+    fits = [problem.decode(X[i]).fit for i in incumbent]
+    np.testing.assert_allclose(trace.metrics["rmse"], [f.rmse for f in fits], rtol=1e-9)
+    np.testing.assert_array_equal(trace.metrics["n_control_points"],
+                                  [f.n_control_points for f in fits])
+
+
+def test_checkpoint_grid():
+    from metaknot.callbacks import checkpoint_grid
+
+    np.testing.assert_array_equal(checkpoint_grid(1000, 1), [1, 10, 100, 1000])
+    np.testing.assert_array_equal(checkpoint_grid(250, 2), [1, 3, 10, 32, 100, 250])
+    grid = checkpoint_grid(100_000, 10)
+    assert grid[0] == 1 and grid[-1] == 100_000 and (np.diff(grid) > 0).all()
+    # shared below the budget: a longer run's grid extends a shorter one's
+    short = checkpoint_grid(5000, 10)
+    np.testing.assert_array_equal(short[:-1], grid[: short.size - 1])
 
 
 @pytest.mark.parametrize("budget", [0, -5, 2.5, True, "10", None])
@@ -548,13 +581,17 @@ def test_optimizer_rejects_unsupported_encoding():
 # --------------------------------------------------------------------------------------------
 
 
-@pytest.fixture
-def clean_registry(monkeypatch):
-    """Let a test add registry entries; the originals are restored afterwards."""
+def _clean_registry_steps(monkeypatch):
     for kind in ("problem", "optimizer"):
         registry._load_builtin(kind)
         monkeypatch.setitem(registry._REGISTRY, kind, dict(registry._REGISTRY[kind]))
     return registry._REGISTRY
+
+
+@pytest.fixture
+def clean_registry(monkeypatch):
+    """Let a test add registry entries; the originals are restored afterwards."""
+    return _clean_registry_steps(monkeypatch)
 
 
 def test_get_by_name():
@@ -670,11 +707,26 @@ def test_register_without_name_uses_class_name(clean_registry):
     assert "optimizer" not in mk.available_optimizers()
 
 
-def test_registry_is_restored_after_tests():
-    # runs after the tests above (file order): their additions must be gone
-    names = set(mk.available_optimizers()) | set(mk.available_problems())
-    assert not {"test_new_search", "test_sphere_problem", "test_factory", "optimizer",
-                "FirstUnnamedSearch"} & names
+def test_clean_registry_fixture_restores_the_registry():
+    """The fixture the registry tests use undoes their additions (checked here on its own,
+    whatever the order the tests run in)."""
+    for kind in ("problem", "optimizer"):
+        registry._load_builtin(kind)
+    before = {kind: dict(entries) for kind, entries in registry._REGISTRY.items()}
+    with pytest.MonkeyPatch.context() as patch:
+        _clean_registry_steps(patch)
+
+        @mk.register("test_transient_search")
+        class Transient(mk.Optimizer):
+            def ask(self):
+                return self.problem.sample(self.rng, 1)
+
+            def tell(self, X, F):
+                pass
+
+        assert "test_transient_search" in mk.available_optimizers()
+    assert "test_transient_search" not in mk.available_optimizers()
+    assert registry._REGISTRY == before
 
 
 # --------------------------------------------------------------------------------------------
@@ -812,5 +864,5 @@ def test_a_crashing_optimizer_keeps_what_was_computed():
     # the run's first batch, drawn again from the same seed: the best can only be better
     first_batch = problem.sample(mk.make_rng(1), 10)
     assert partial.best_f <= problem.evaluate(first_batch).min()
-    assert partial.solution.objective == pytest.approx(partial.best_f)
+    assert partial.solution.objective_value == pytest.approx(partial.best_f)
     assert any("partial_result" in note for note in info.value.__notes__)

@@ -333,9 +333,25 @@ def test_inverse_fitness_refused_on_negative_objective():
         mk.minimize(problem, "dolphin", budget=60, seed=0, optimizer_kwargs={"fitness": "inverse"})
 
 
-def test_ask_tell_without_loops_needs_run(small_indices):
-    opt = DolphinEcholocation()
-    opt.setup(small_indices, np.random.default_rng(0))
-    X = opt.ask()
-    with pytest.raises(RuntimeError, match="loops"):
-        opt.tell(X, small_indices.evaluate(X))
+def test_loops_from_the_budget_need_a_task(small_indices):
+    with pytest.raises(ValueError, match="loops=None derives the number of loops"):
+        DolphinEcholocation().setup(small_indices, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("budget", [50, 333])
+def test_external_ask_tell_loop_without_loops(small_indices, budget):
+    """Set up on a task, DE knows its budget at setup: an external ask/tell loop runs the same
+    run as minimize."""
+    evaluator = mk.Evaluator(small_indices, budget)
+    opt = DolphinEcholocation(population=20)
+    opt.setup(evaluator.task, mk.make_rng(4))
+    assert opt.n_loops == -(-budget // 20)
+    while not evaluator.done and not opt.finished():
+        X = opt.ask()
+        F = evaluator(X)
+        opt.tell(X[: F.size], F)
+    reference = mk.minimize(small_indices, DolphinEcholocation(population=20), budget=budget,
+                            seed=4)
+    assert evaluator.n_evaluations == reference.n_evaluations == budget
+    assert evaluator.best_f == reference.best_f
+    np.testing.assert_array_equal(evaluator.best_x, reference.best_x)

@@ -184,14 +184,15 @@ def test_variable_count_with_a_global_method_respects_the_budget():
 
 
 class RaisesOnce(FreeKnots):
-    """Raises nlopt.RoundoffLimited from inside the objective on its 7th call."""
+    """Raises ``error`` from inside the objective on its 7th call."""
 
     calls = 0
+    error: Exception = RuntimeError("the problem failed")
 
     def evaluate(self, X: np.ndarray) -> np.ndarray:
         self.calls += 1
         if self.calls == 7:
-            raise nlopt.RoundoffLimited("simulated")
+            raise self.error
         return super().evaluate(X)
 
 
@@ -202,13 +203,18 @@ class Flat(FreeKnots):
         return np.full(len(X), self.value)
 
 
-@pytest.mark.parametrize("algorithm", ["LN_BOBYQA", "GN_CRS2_LM", "G_MLSL_LDS"])
-def test_roundoff_limited_inside_the_objective_does_not_crash(algorithm):
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+@pytest.mark.parametrize("error", [RuntimeError("the problem failed"),
+                                   nlopt.RoundoffLimited("raised by the problem")])
+def test_an_error_of_the_problem_is_raised_even_if_nlopt_uses_its_type(algorithm, error):
+    """RuntimeError is also nlopt's generic failure: raised by the problem, it must reach the
+    caller all the same, with the six evaluations before it kept."""
     problem = RaisesOnce("archimedean", n_knots=5)
-    result = mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=80, seed=0)
-    # 80 counted + the raising call (not counted)
-    assert problem.calls == 81
-    assert result.n_evaluations == 80 and np.isfinite(result.best_f)
+    problem.error = error
+    with pytest.raises(type(error), match=str(error)) as info:
+        mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=80, seed=0)
+    assert problem.calls == 7
+    assert info.value.partial_result.n_evaluations == 6
 
 
 class Broken(FreeKnots):

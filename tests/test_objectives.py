@@ -164,7 +164,7 @@ def test_decode_returns_scipy_spline(noisy_spiral, masks_batch):
         assert solution.fit.n_control_points == ref.n_cp
         assert solution.fit.sse == pytest.approx(ref.sse, rel=1e-7, abs=1e-14)
         assert solution.fit.max_deviation == pytest.approx(ref.max_dev, rel=1e-7, abs=1e-12)
-        assert solution.objective == pytest.approx(float(problem.evaluate(mask[None])[0]),
+        assert solution.objective_value == pytest.approx(float(problem.evaluate(mask[None])[0]),
                                                    rel=1e-12)
         np.testing.assert_array_equal(solution.x, mask)
 

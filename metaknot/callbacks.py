@@ -1,0 +1,272 @@
+"""Run callbacks with a lifecycle: start, after each evaluated batch, end.
+
+A callback is a :class:`Callback` (override any of :meth:`~Callback.on_start`,
+:meth:`~Callback.on_batch`, :meth:`~Callback.on_end`) or a plain callable, which is called after
+every batch like :meth:`Callback.on_batch`. Returning ``True`` from ``on_batch`` stops the run.
+The progress bar (:class:`ProgressBar`) and the anytime trace (:class:`TraceRecorder`) are
+callbacks like any other.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from tqdm.auto import tqdm
+
+if TYPE_CHECKING:
+    from .optimizer import Optimizer
+    from .problem import Problem
+    from .result import RunResult
+
+__all__ = [
+    "Callback",
+    "Progress",
+    "ProgressBar",
+    "RunStart",
+    "Trace",
+    "TraceRecorder",
+    "as_callback",
+    "checkpoint_grid",
+]
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What callbacks see after every evaluated batch.
+
+    Attributes
+    ----------
+    n_evaluations
+        Evaluations used so far (this batch included).
+    budget
+        Evaluations allowed.
+    best_f
+        Best objective value so far.
+    batch_f
+        Objective values of this batch (evaluations ``n_evaluations - len(batch_f) + 1`` to
+        ``n_evaluations``).
+    elapsed
+        Seconds since the evaluator was created.
+    batch_metrics
+        Per-candidate metrics of this batch that the problem provides (knot problems:
+        ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``).
+    """
+
+    n_evaluations: int
+    budget: int
+    best_f: float
+    batch_f: np.ndarray
+    elapsed: float
+    batch_metrics: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RunStart:
+    """What :meth:`Callback.on_start` sees: the run's problem, optimizer and budget."""
+
+    problem: Problem
+    optimizer: Optimizer
+    budget: int
+
+
+class Callback:
+    """Base class of run callbacks; every hook is optional."""
+
+    def on_start(self, run: RunStart) -> None:
+        """Before the optimizer is set up."""
+
+    def on_batch(self, progress: Progress) -> bool | None:
+        """After every evaluated batch; return ``True`` to stop the run."""
+        return None
+
+    def on_end(self, result: RunResult | None) -> None:
+        """After the run, also when it failed (``result`` is then the best so far, or ``None``
+        if nothing was evaluated)."""
+
+
+class _PlainCallable(Callback):
+    def __init__(self, function: Callable[[Progress], bool | None]) -> None:
+        self.function = function
+
+    def on_batch(self, progress: Progress) -> bool | None:
+        return self.function(progress)
+
+
+def as_callback(obj: Callback | Callable[[Progress], bool | None]) -> Callback:
+    """``obj`` itself if it is a :class:`Callback`, else a callback calling it after every
+    batch."""
+    if isinstance(obj, Callback):
+        return obj
+    if not callable(obj):
+        raise TypeError(f"a callback must be a Callback or a callable; got {obj!r}")
+    return _PlainCallable(obj)
+
+
+class ProgressBar(Callback):
+    """A tqdm progress bar over the evaluation budget, showing the best value so far.
+
+    Parameters
+    ----------
+    description
+        Label of the bar; defaults to ``"<optimizer> on <problem>"``.
+    disable
+        ``None`` (default) hides the bar when the output is not a terminal.
+    """
+
+    def __init__(self, description: str = "", disable: bool | None = None) -> None:
+        self.description = description
+        self.disable = disable
+        self._bar: Any = None
+
+    def on_start(self, run: RunStart) -> None:
+        self.close()
+        label = self.description or f"{run.optimizer.name} on {run.problem.name}"
+        self._bar = tqdm(total=run.budget, desc=label, unit="eval", leave=False,
+                         disable=self.disable)
+
+    def on_batch(self, progress: Progress) -> None:
+        if self._bar is None:  # used without on_start (directly on an Evaluator)
+            self._bar = tqdm(total=progress.budget, desc=self.description, unit="eval",
+                             leave=False, disable=self.disable)
+        self._bar.update(progress.n_evaluations - self._bar.n)
+        self._bar.set_postfix(best=f"{progress.best_f:.6g}", refresh=False)
+
+    def on_end(self, result: RunResult | None) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+def checkpoint_grid(budget: int, per_decade: int = 10) -> np.ndarray:
+    """Log-spaced evaluation counts ``round(10 ** (i / per_decade))`` up to ``budget``, plus
+    ``budget``.
+
+    The grid does not depend on the budget below it, so runs of different budgets share their
+    checkpoints and fixed-budget or fixed-target views need no interpolation.
+    """
+    if budget < 1:
+        return np.empty(0, dtype=np.int64)
+    top = int(np.ceil(np.log10(budget) * per_decade)) + 1
+    grid = np.unique(np.round(10.0 ** (np.arange(top) / per_decade)).astype(np.int64))
+    return np.union1d(grid[grid <= budget], [budget])
+
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """Best-so-far history of a run, one row per recorded evaluation count.
+
+    A row is recorded at every improvement of the best value and at every checkpoint of
+    :func:`checkpoint_grid` (and at the run's last evaluation, marked as a checkpoint).
+
+    Attributes
+    ----------
+    evaluations
+        Evaluation count (1-based) of the row, increasing.
+    best_f
+        Best objective value after that many evaluations.
+    metrics
+        The incumbent's metrics after that many evaluations (``rmse``, ``n_control_points``,
+        ... as the problem provides them; NaN while nothing feasible was found).
+    improvement, checkpoint
+        Whether the row is an improvement, a checkpoint, or both.
+    """
+
+    evaluations: np.ndarray
+    best_f: np.ndarray
+    metrics: dict[str, np.ndarray]
+    improvement: np.ndarray
+    checkpoint: np.ndarray
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The trace as named columns (for a table)."""
+        return {"evaluations": self.evaluations, "best_f": self.best_f, **self.metrics,
+                "improvement": self.improvement, "checkpoint": self.checkpoint}
+
+    def __len__(self) -> int:
+        return int(self.evaluations.size)
+
+
+class TraceRecorder(Callback):
+    """Record the best-so-far trace with the incumbent's metrics (see :class:`Trace`).
+
+    Parameters
+    ----------
+    per_decade
+        Checkpoints per decade of evaluations (default 10).
+    """
+
+    def __init__(self, per_decade: int = 10) -> None:
+        if isinstance(per_decade, bool) or not isinstance(per_decade, int) or per_decade < 1:
+            raise ValueError(f"per_decade must be a positive integer; got {per_decade!r}")
+        self.per_decade = per_decade
+        self._grid: np.ndarray | None = None
+        self._reset()
+
+    def _reset(self) -> None:
+        self._evals: list[np.ndarray] = []
+        self._best: list[np.ndarray] = []
+        self._improved: list[np.ndarray] = []
+        self._metrics: dict[str, list[np.ndarray]] = {}
+        self._best_f = np.inf
+        self._incumbent: dict[str, float] = {}
+        self._n = 0
+
+    def on_start(self, run: RunStart) -> None:
+        self._reset()
+        self._grid = checkpoint_grid(run.budget, self.per_decade)
+
+    def on_batch(self, progress: Progress) -> None:
+        if self._grid is None:  # used without on_start (directly on an Evaluator)
+            self._grid = checkpoint_grid(progress.budget, self.per_decade)
+        F = np.asarray(progress.batch_f, dtype=np.float64)
+        first = progress.n_evaluations - F.size  # evaluations before this batch
+        if F.size == 0:
+            return
+        running = np.minimum.accumulate(np.concatenate(([self._best_f], F)))
+        improved = running[1:] < running[:-1]
+        at = np.arange(F.size)
+        # index in the batch of the incumbent after each evaluation (-1: an earlier batch)
+        incumbent = np.maximum.accumulate(np.where(improved, at, -1))
+        on_grid = np.isin(first + 1 + at, self._grid)
+        rows = np.flatnonzero(improved | on_grid)
+        names = set(self._metrics) | set(progress.batch_metrics)
+        for name in names:
+            values = np.asarray(progress.batch_metrics.get(name, np.full(F.size, np.nan)),
+                                dtype=np.float64)
+            previous = self._incumbent.get(name, np.nan)
+            column = np.where(incumbent[rows] >= 0, values[np.maximum(incumbent[rows], 0)],
+                              previous)
+            # a metric first seen now: earlier rows get NaN
+            self._metrics.setdefault(name, [np.full(len(r), np.nan) for r in self._evals])
+            self._metrics[name].append(column)
+            if incumbent[-1] >= 0:
+                self._incumbent[name] = float(values[incumbent[-1]])
+        self._evals.append(first + 1 + rows)
+        self._best.append(running[1:][rows])
+        self._improved.append(improved[rows])
+        self._best_f = float(running[-1])
+        self._n = progress.n_evaluations
+
+    def trace(self) -> Trace:
+        """The trace so far; the last evaluation is always a checkpoint row."""
+        evals = np.concatenate([*self._evals, np.empty(0, dtype=np.int64)]).astype(np.int64)
+        best = np.concatenate([*self._best, np.empty(0)])
+        improved = np.concatenate([*self._improved, np.empty(0, dtype=bool)])
+        metrics = {k: np.concatenate([*v, np.empty(0)]) for k, v in self._metrics.items()}
+        checkpoint = np.isin(evals, self._grid if self._grid is not None else [])
+        if self._n and (evals.size == 0 or evals[-1] != self._n):
+            evals = np.append(evals, self._n)
+            best = np.append(best, self._best_f)
+            improved = np.append(improved, False)
+            metrics = {k: np.append(v, self._incumbent.get(k, np.nan))
+                       for k, v in metrics.items()}
+            checkpoint = np.append(checkpoint, True)
+        elif self._n:
+            checkpoint[-1] = True
+        return Trace(evals, best, metrics, improved, checkpoint)
