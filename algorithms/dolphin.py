@@ -39,7 +39,8 @@ from metaknot.problem import Problem
 from metaknot.registry import register
 
 __all__ = ["DolphinEcholocation", "accumulative_fitness", "alternative_probabilities",
-           "fitness_values", "pp_schedule", "reflect"]
+           "binary_probabilities", "fitness_values", "pp_schedule", "reflect",
+           "sample_alternatives"]
 
 
 def pp_schedule(loops: int, pp1: float, power: float) -> np.ndarray:
@@ -104,6 +105,26 @@ def alternative_probabilities(af: np.ndarray, best: np.ndarray, pp: float) -> np
     return p
 
 
+def binary_probabilities(best: np.ndarray, pp: float) -> np.ndarray:
+    """Steps 4-6 for two alternatives per variable, shape ``(2, NV)``: ``pp`` for the loop-best's
+    alternative, ``1 - pp`` for the other, whatever the fitness (epsilon > 0 leaves the other
+    alternative all of the remaining AF). Equal, bit for bit, to
+    :func:`alternative_probabilities` of any :func:`accumulative_fitness` with ``epsilon > 0``.
+    """
+    best = np.asarray(best)
+    return np.stack((np.where(best == 0, pp, 1.0 - pp), np.where(best == 1, pp, 1.0 - pp)))
+
+
+def sample_alternatives(probabilities: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Step 7: alternative of every variable of every new location, by inverting each column's
+    cumulative probabilities at the uniform draws ``u`` (shape ``(NL, NV)``)."""
+    cumulative = np.cumsum(probabilities, axis=0)
+    picked = np.empty(u.shape, dtype=np.int64)
+    for j in range(u.shape[1]):
+        picked[:, j] = np.searchsorted(cumulative[:, j], u[:, j], side="right")
+    return picked
+
+
 def fitness_values(objective: np.ndarray, transform: str = "auto") -> np.ndarray:
     """Fitness of one loop (see the module notes); the loop-best gets 1, infeasible gets 0."""
     objective = np.asarray(objective, dtype=np.float64)
@@ -160,6 +181,7 @@ class DolphinEcholocation(Optimizer):
         super().setup(problem, rng)
         self._lower = np.asarray(problem.encoding.lower).astype(np.int64)
         self._n_alt = np.asarray(problem.encoding.upper).astype(np.int64) - self._lower + 1
+        self._binary = bool((self._n_alt == 2).all())
         if self.loops is None:
             budget = getattr(problem, "budget", None)
             if budget is None:
@@ -193,12 +215,16 @@ class DolphinEcholocation(Optimizer):
         if F[best] < self.best_f:
             self.best_x, self.best_f = X[best].copy(), float(F[best])
         alternatives = X - self._lower
-        af = accumulative_fitness(alternatives, fitness_values(F, self.fitness), self._n_alt,
-                                  self.re, self.epsilon, best=alternatives[best])
-        self.probabilities = alternative_probabilities(af, alternatives[best], pp)
-        cumulative = np.cumsum(self.probabilities, axis=0)
         u = self.rng.random((self.population, X.shape[1]))
-        picked = (u[:, :, None] >= cumulative.T[None, :, :]).sum(axis=2)
+        if self._binary:  # the reduction of the module notes: AF and re play no part
+            self.probabilities = binary_probabilities(alternatives[best], pp)
+            picked = (u >= self.probabilities[0]).astype(np.int64)
+        else:
+            af = accumulative_fitness(alternatives, fitness_values(F, self.fitness),
+                                      self._n_alt, self.re, self.epsilon,
+                                      best=alternatives[best])
+            self.probabilities = alternative_probabilities(af, alternatives[best], pp)
+            picked = sample_alternatives(self.probabilities, u)
         new = np.minimum(picked, self._n_alt - 1) + self._lower
         encoding = self.problem.encoding
         self._locations = encoding.repair(new) if encoding.distinct_sorted else new

@@ -242,8 +242,8 @@ class TraceRecorder(Callback):
             previous = self._incumbent.get(name, np.nan)
             column = np.where(incumbent[rows] >= 0, values[np.maximum(incumbent[rows], 0)],
                               previous)
-            # a metric first seen now: earlier rows get NaN
-            self._metrics.setdefault(name, [np.full(len(r), np.nan) for r in self._evals])
+            if name not in self._metrics:  # first seen now: earlier rows get NaN
+                self._metrics[name] = [np.full(len(r), np.nan) for r in self._evals]
             self._metrics[name].append(column)
             if incumbent[-1] >= 0:
                 self._incumbent[name] = float(values[incumbent[-1]])

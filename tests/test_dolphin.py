@@ -355,3 +355,46 @@ def test_external_ask_tell_loop_without_loops(small_indices, budget):
     assert evaluator.n_evaluations == reference.n_evaluations == budget
     assert evaluator.best_f == reference.best_f
     np.testing.assert_array_equal(evaluator.best_x, reference.best_x)
+
+
+@pytest.mark.parametrize("problem_factory", [
+    lambda: KnotSelection(archimedean_spiral(60)),
+    # one knot among two data indices (1 or 2): two alternatives, offset by the lower bound
+    lambda: KnotIndices(archimedean_spiral(4), n_knots=1, degree=1),
+])
+def test_binary_fast_path_is_the_general_formula_bit_for_bit(problem_factory, monkeypatch):
+    """On two alternatives per variable DE samples through binary_probabilities; forcing the
+    general AF path must give the very same locations and probabilities, loop after loop."""
+    problem = problem_factory()
+    runs = []
+    for general in (False, True):
+        opt = DolphinEcholocation(population=12, loops=15)
+        evaluator = mk.Evaluator(problem, 10_000)
+        opt.setup(evaluator.task, mk.make_rng(9))
+        if general:
+            assert opt._binary
+            opt._binary = False
+        locations, probabilities = [], []
+        while not opt.finished():
+            X = opt.ask()
+            opt.tell(X, evaluator(X))
+            locations.append(opt.ask())
+            probabilities.append(opt.probabilities.copy())
+        runs.append((locations, probabilities))
+    (loc_a, p_a), (loc_b, p_b) = runs
+    assert len(loc_a) == len(loc_b) == 15
+    for a, b in zip(loc_a, loc_b, strict=True):
+        np.testing.assert_array_equal(a, b)
+    for a, b in zip(p_a, p_b, strict=True):
+        np.testing.assert_array_equal(a[:2], b[:2])
+
+
+def test_sample_alternatives_inverts_the_cumulative_distribution():
+    rng = np.random.default_rng(0)
+    p = rng.random((7, 5))
+    p /= p.sum(axis=0)
+    u = rng.random((400, 5))
+    picked = dolphin_module.sample_alternatives(p, u)
+    cumulative = np.cumsum(p, axis=0)
+    reference = (u[:, :, None] >= cumulative.T[None, :, :]).sum(axis=2)
+    np.testing.assert_array_equal(picked, reference)
