@@ -1,4 +1,5 @@
-"""Command line: ``metaknot demo`` (optimizers on the seed curves), ``metaknot list``."""
+"""Command line: ``metaknot run`` (Hydra runs and sweeps into the results store), ``metaknot
+demo`` (optimizers on the seed curves), ``metaknot list``."""
 
 from __future__ import annotations
 
@@ -62,11 +63,23 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=_demo)
     lst = sub.add_parser("list", help="registered problems and optimizers")
     lst.set_defaults(func=_list)
+    sub.add_parser("run", add_help=False,
+                   help="runs and sweeps from Hydra overrides into the results store "
+                        "(metaknot run --help lists the config groups)")
     return parser
+
+
+def _run(rest: list[str]) -> int:
+    from metaknot.experiments.app import main as run_main
+
+    return run_main(rest)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``metaknot`` command."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "run":
+        return _run(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

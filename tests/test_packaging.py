@@ -136,7 +136,16 @@ def test_wheel_contents(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     top = {n.split("/")[0] for n in names}
     assert "metaknot" in top
-    assert all(t == "metaknot" or t.endswith(".dist-info") for t in top), sorted(top)
+    # besides metaknot: only the study sweeper, in Hydra's plugin namespace (no __init__.py)
+    assert all(t in ("metaknot", "hydra_plugins") or t.endswith(".dist-info") for t in top), \
+        sorted(top)
+    plugins = {n.split("/")[1] for n in names if n.startswith("hydra_plugins/")}
+    assert plugins == {"metaknot_study_sweeper"}
+    assert "hydra_plugins/__init__.py" not in names
+    # the Hydra configuration ships with the package
+    for yaml in (REPO / "experiments" / "conf").rglob("*.yaml"):
+        relative = yaml.relative_to(REPO / "experiments").as_posix()
+        assert f"metaknot/experiments/{relative}" in names, relative
     for needed in ("metaknot/__init__.py", "metaknot/problems/__init__.py",
                    "metaknot/problems/curves.py", "metaknot/problems/objectives.py",
                    "metaknot/problems/knot_problems.py", "metaknot/algorithms/__init__.py",
@@ -152,7 +161,7 @@ def test_wheel_contents(wheel):
     top_level = [n for n in names if n.endswith(".dist-info/top_level.txt")]
     if top_level:
         listed = zipfile.ZipFile(wheel).read(top_level[0]).decode().split()
-        assert listed == ["metaknot"]
+        assert sorted(listed) == ["hydra_plugins", "metaknot"]
 
 
 @pytest.mark.slow
@@ -175,6 +184,9 @@ def test_wheel_imports_without_the_repo(wheel, tmp_path):
         'c = mp.get_curve("epitrochoid")\n'
         'out["curve"] = [c.n_points, c.dim, float(c.points[180, 0])]\n'
         'out["optimizers"] = metaknot.available_optimizers()\n'
+        'from hydra.core.plugins import Plugins\n'
+        'from hydra.plugins.sweeper import Sweeper\n'
+        'out["sweepers"] = [c.__name__ for c in Plugins.instance().discover(Sweeper)]\n'
         'print(json.dumps(out))',
     )
     out = _run(code, cwd=tmp_path, env=env, python=str(python))
@@ -189,3 +201,5 @@ def test_wheel_imports_without_the_repo(wheel, tmp_path):
     assert out["curve"][:2] == [361, 2]
     assert out["curve"][2] == pytest.approx(2.0, abs=1e-12)
     assert "random_search" in out["optimizers"]
+    # installed from a wheel, Hydra's own plugin scan finds the study sweeper
+    assert "StudySweeper" in out["sweepers"]

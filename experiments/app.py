@@ -1,0 +1,206 @@
+"""``metaknot run``: one optimisation run per Hydra job, stored in the results store.
+
+Single run::
+
+    metaknot run algorithm=ga problem=vivaldi seed=3
+
+Sweep (Hydra multirun; the study sweeper validates every job first, skips the runs already
+stored and the algorithm/encoding pairs that cannot work, and shows a bar over the jobs)::
+
+    metaknot run -m algorithm=dolphin,ga problem=archimedean,vivaldi seed='range(0,30)'
+    metaknot run -m experiment=seed_paper launcher=joblib
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, run_spec
+from .store import Store
+
+__all__ = ["execute", "main", "register_hydra_plugins", "register_plugin_configs"]
+
+CONFIG_DIR = Path(__file__).resolve().parent / "conf"
+
+
+def register_hydra_plugins() -> None:
+    """Make the study sweeper known to Hydra (its plugin scan misses editable installs) and
+    register the configs of plugin optimizers (:func:`register_plugin_configs`)."""
+    from hydra.core.plugins import Plugins
+
+    # the plugin scan re-executes Hydra's core plugin modules: let it run before the sweeper
+    # module subclasses BasicSweeper, or the subclass would refer to a stale class
+    plugins = Plugins.instance()
+    from hydra_plugins.metaknot_study_sweeper.study_sweeper import StudySweeper
+
+    plugins.register(StudySweeper)
+    register_plugin_configs()
+
+
+def register_plugin_configs() -> None:
+    """Give every registered optimizer without a YAML of its own (entry-point plugins) a
+    config ``algorithm=<name>`` built from its signature, so it runs like a built-in."""
+    from hydra.core.config_store import ConfigStore
+
+    from metaknot.registry import available_optimizers
+
+    shipped = {p.stem for p in (CONFIG_DIR / "algorithm").glob("*.yaml")}
+    store = ConfigStore.instance()
+    for name in available_optimizers():
+        if name not in shipped:
+            try:
+                node = algorithm_defaults(name)
+            except ConfigError:
+                continue
+            store.store(group="algorithm", name=name, node=node, provider="metaknot")
+
+
+def _in_multirun() -> bool:
+    try:
+        from hydra.core.hydra_config import HydraConfig
+        from hydra.types import RunMode
+
+        return HydraConfig.initialized() and HydraConfig.get().mode == RunMode.MULTIRUN
+    except Exception:
+        return False
+
+
+def execute(spec: RunSpec, *, multirun: bool = False, raise_errors: bool = False,
+            config: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Run ``spec`` unless its record exists, store the record, and return a summary.
+
+    A run that raises is stored as ``failed`` (with the best so far, if any) and, unless
+    ``raise_errors``, does not stop a sweep. Returns ``{"run_id", "status", "path"}`` with
+    status ``ok``, ``failed`` or ``skipped`` (already stored).
+    """
+    import numba
+
+    from metaknot.environment import environment
+    from metaknot.runner import minimize
+
+    store = Store(spec.study_dir)
+    if store.has(spec.run_id):
+        return {"run_id": spec.run_id, "status": "skipped", "path": str(store.path(spec.run_id))}
+    threads = spec.threads
+    if threads == "auto":
+        threads = 1 if multirun else numba.config.NUMBA_NUM_THREADS
+    numba.set_num_threads(min(int(threads), numba.config.NUMBA_NUM_THREADS))
+    progress = spec.progress
+    if progress == "auto":
+        progress = not multirun and sys.stderr.isatty()
+    base = {
+        "run_id": spec.run_id,
+        "study": spec.study,
+        "label": spec.label,
+        "timestamp": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        **environment(),
+        "kernel_threads": numba.get_num_threads(),
+        "config": json.dumps(config or spec.config, sort_keys=True, default=str),
+    }
+    result, error = None, None
+    try:
+        incompatible = spec.compatible()
+        if incompatible:
+            raise ConfigError(incompatible)
+        problem = spec.build_problem()
+        optimizer = spec.build_optimizer()
+        result = minimize(problem, optimizer, budget=spec.budget, seed=spec.optimizer_seed(),
+                          progress=bool(progress),
+                          checkpoints_per_decade=spec.config["checkpoints_per_decade"])
+    except Exception as exc:
+        if raise_errors or isinstance(exc, ConfigError):
+            raise
+        result = getattr(exc, "partial_result", None)
+        error = f"{type(exc).__name__}: {exc}"
+    if result is not None:
+        record = {**base, **result.record()}
+        trace = result.trace.columns()
+        best_x = result.best_x
+    else:
+        record = {**base, **_failed_record(spec)}
+        trace, best_x = None, None
+    if error is not None:
+        record["status"], record["error"] = "failed", error
+    path = store.write(record, best_x=best_x, trace=trace)
+    return {"run_id": spec.run_id, "status": record["status"], "path": str(path)}
+
+
+def _failed_record(spec: RunSpec) -> dict[str, Any]:
+    """The settings of a run that failed before anything was evaluated."""
+    problem, encoding = spec.config["problem"], spec.config["encoding"]
+    objective = dict(spec.config["objective"])
+    params = {f"algorithm.{k}": v for k, v in spec.config["algorithm"].items() if k != "_name_"}
+    problem_name, kind = ENCODINGS[encoding["kind"]]
+    return {
+        "problem": problem_name, "encoding": kind,
+        "data": problem["name"], "noise": problem["noise"], "degree": problem["degree"],
+        "parameterization": problem["parameterization"],
+        "objective": objective.pop("name"),
+        **{f"objective.{k}": v for k, v in objective.items()},
+        "algorithm": spec.algorithm, **params, "seed": spec.seed, "budget": spec.budget,
+        "n_evaluations": 0, "status": "failed",
+    }
+
+
+def task(cfg: Any) -> dict[str, Any]:
+    """The Hydra task function: validate, run (unless stored), store."""
+    multirun = _in_multirun()
+    spec = run_spec(cfg)
+    outcome = execute(spec, multirun=multirun)
+    if not multirun:
+        where = outcome["path"]
+        if outcome["status"] == "skipped":
+            print(f"run {spec.run_id} is already stored: {where}")
+        else:
+            print(f"run {spec.run_id}: {outcome['status']}; record in {where}")
+    return outcome
+
+
+def _check_single_run(overrides: list[str]) -> str | None:
+    """The configuration error of a single run, in one line (``None`` if it can run). Errors
+    of Hydra itself (override syntax, unknown config) are left for Hydra to report."""
+    from hydra import compose, initialize_config_dir
+    from hydra.errors import HydraException
+
+    try:
+        with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+            cfg = compose("config", overrides=overrides)
+    except HydraException:
+        return None
+    try:
+        spec = run_spec(cfg)
+        reason = spec.compatible()
+        if reason:
+            raise ConfigError(reason)
+    except ConfigError as exc:
+        return str(exc)
+    return None
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep) to Hydra."""
+    import hydra
+
+    register_hydra_plugins()
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not any(a.startswith("-") for a in args):  # a single run: check it before Hydra starts
+        error = _check_single_run(args)
+        if error:
+            print(f"metaknot run: error: {error}", file=sys.stderr)
+            return 2
+    hydra_main = hydra.main(version_base="1.3", config_path="conf", config_name="config")(task)
+    old = sys.argv
+    sys.argv = [old[0] if old else "metaknot", *args]
+    try:
+        hydra_main()
+    finally:
+        sys.argv = old
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

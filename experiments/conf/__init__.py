@@ -1,0 +1,1 @@
+"""Hydra configuration of ``metaknot run`` (config groups as folders)."""

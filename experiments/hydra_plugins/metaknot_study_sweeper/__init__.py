@@ -1,0 +1,1 @@
+"""Hydra plugin: the study sweeper of metaknot (``hydra/sweeper=study``)."""

@@ -1,0 +1,536 @@
+"""From a study configuration to one validated, reproducible run.
+
+:func:`run_spec` checks a composed configuration (Hydra's, or a plain mapping of the same shape)
+and returns a :class:`RunSpec`: the normalised settings, the run id, and builders for the problem
+and the optimizer. Every check names the configuration key it is about, in one line
+(:class:`ConfigError`), so a bad sweep fails before any run starts.
+
+Seeds are paired: the replicate seed ``s`` gives the data noise ``SeedSequence(s,
+spawn_key=(0,))`` and the optimizer ``SeedSequence(s, spawn_key=(1,))``, so replicate ``s`` of
+every algorithm sees the same data and comparisons can be paired by replicate.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import re
+import types
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from hydra.errors import CompactHydraException
+
+__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "run_spec"]
+
+#: Encoding name in the configuration -> (problem's registry name, encoding kind).
+ENCODINGS = {"mask": ("knot_selection", "binary"), "indices": ("knot_indices", "integer"),
+             "free": ("free_knots", "continuous")}
+#: Top-level keys that define a run (the run id hashes them, normalised).
+RUN_KEYS = ("problem", "encoding", "objective", "algorithm", "budget", "seed",
+            "checkpoints_per_decade")
+PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
+STUDY_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.=,+-]*$")
+FITPACK_COUNT = re.compile(r"^fitpack:(.+)$")
+
+
+class ConfigError(ValueError, CompactHydraException):
+    """A configuration value that cannot work; the message names the key, in one line."""
+
+
+# --------------------------------------------------------------------------------------------
+# small checks
+
+
+def _int(key: str, value: Any, *, low: int | None = None, high: int | None = None,
+         optional: bool = False) -> int | None:
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ConfigError(f"{key}: expected an integer, got {value!r}")
+    if low is not None and value < low:
+        raise ConfigError(f"{key}: must be >= {low}, got {value!r}")
+    if high is not None and value > high:
+        raise ConfigError(f"{key}: must be <= {high}, got {value!r}")
+    return int(value)
+
+
+def _float(key: str, value: Any, *, low: float | None = None, high: float | None = None,
+           optional: bool = False) -> float | None:
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise ConfigError(f"{key}: expected a number, got {value!r}")
+    value = float(value)
+    if not np.isfinite(value):
+        raise ConfigError(f"{key}: must be finite, got {value!r}")
+    if low is not None and value < low:
+        raise ConfigError(f"{key}: must be >= {low}, got {value!r}")
+    if high is not None and value > high:
+        raise ConfigError(f"{key}: must be <= {high}, got {value!r}")
+    return value
+
+
+def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise ConfigError(f"{key}: must be one of {', '.join(choices)}; got {value!r}")
+    return str(value)
+
+
+def _section(cfg: Mapping[str, Any], key: str) -> dict[str, Any]:
+    value = cfg.get(key)
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{key}: missing or not a group of settings (got {value!r})")
+    return dict(value)
+
+
+def _unknown(key: str, given: Mapping[str, Any], known: set[str]) -> None:
+    extra = sorted(set(given) - known)
+    if extra:
+        raise ConfigError(f"{key}.{extra[0]}: unknown setting (known: {', '.join(sorted(known))})")
+
+
+# --------------------------------------------------------------------------------------------
+# algorithms: hyperparameters and their types from the optimizer's signature
+
+
+def _optimizer_class(name: str) -> type:
+    from metaknot.registry import _lookup
+
+    try:
+        return _lookup("optimizer", name)
+    except ValueError as exc:
+        raise ConfigError(f"algorithm._name_: {exc}") from None
+
+
+def algorithm_defaults(name: str) -> dict[str, Any]:
+    """Hyperparameters of a registered optimizer with their defaults (``"???"``: required),
+    read from its ``__init__`` signature; the configuration of an optimizer without a YAML."""
+    cls = _optimizer_class(name)
+    out: dict[str, Any] = {"_name_": name}
+    for p in inspect.signature(cls.__init__).parameters.values():
+        if p.name == "self" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        default = p.default
+        if default is inspect.Parameter.empty:
+            out[p.name] = "???"
+        elif default is None or isinstance(default, bool | int | float | str):
+            out[p.name] = default
+        else:
+            out[p.name] = repr(default)
+    return out
+
+
+def _allowed_types(hint: Any) -> tuple[set[type], set[Any]] | None:
+    """Python types (and Literal values) a hint admits; ``None`` when it cannot be told."""
+    origin = typing.get_origin(hint)
+    if hint is Any:
+        return None
+    if origin is typing.Literal:
+        return set(), set(typing.get_args(hint))
+    if origin in (typing.Union, types.UnionType):
+        types_, literals = set(), set()
+        for arg in typing.get_args(hint):
+            sub = _allowed_types(arg)
+            if sub is None:
+                return None
+            types_ |= sub[0]
+            literals |= sub[1]
+        return types_, literals
+    if hint is type(None) or hint is None:
+        return {type(None)}, set()
+    if isinstance(hint, type):
+        return {hint}, set()
+    return None
+
+
+def _check_hyperparameter(key: str, value: Any, hint: Any) -> Any:
+    allowed = _allowed_types(hint)
+    if allowed is None:
+        return value
+    kinds, literals = allowed
+    if value in literals and not isinstance(value, bool | float):
+        return value
+    if value is None:
+        if type(None) in kinds:
+            return None
+    elif isinstance(value, bool):
+        if bool in kinds:
+            return value
+    elif isinstance(value, int):
+        if int in kinds:
+            return value
+        if float in kinds:
+            return float(value)
+    elif isinstance(value, float):
+        if float in kinds:
+            return value
+        if int in kinds and value.is_integer():
+            return int(value)
+    elif isinstance(value, str) and str in kinds:
+        return value
+    names = sorted({"null" if k is type(None) else k.__name__ for k in kinds}
+                   | {repr(v) for v in literals})
+    raise ConfigError(f"{key}: expected {' or '.join(names)}, got {value!r}")
+
+
+def _algorithm(cfg: dict[str, Any]) -> tuple[str, dict[str, Any], type]:
+    name = cfg.pop("_name_", None)
+    if not isinstance(name, str):
+        raise ConfigError(f"algorithm._name_: the name of a registered optimizer, got {name!r}")
+    cls = _optimizer_class(name)
+    return name, _check_signature("algorithm", cls, cfg), cls
+
+
+def _check_signature(group: str, cls: type, cfg: dict[str, Any]) -> dict[str, Any]:
+    """``cfg`` checked against the keyword arguments of ``cls``: no unknown keys, values of the
+    annotated types, defaults filled in."""
+    signature = inspect.signature(cls.__init__)
+    try:
+        hints = typing.get_type_hints(cls.__init__)
+    except Exception:  # unresolvable annotations of a plugin: check values by instantiation only
+        hints = {}
+    known = {p for p in signature.parameters if p != "self"}
+    _unknown(group, cfg, known)
+    params = {}
+    for pname, value in cfg.items():
+        if value == "???":
+            raise ConfigError(f"{group}.{pname}: required, no value given")
+        params[pname] = _check_hyperparameter(f"{group}.{pname}", value, hints.get(pname, Any))
+    for pname, p in signature.parameters.items():
+        if pname == "self" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if pname not in params:
+            if p.default is inspect.Parameter.empty:
+                raise ConfigError(f"{group}.{pname}: required, no value given")
+            params[pname] = p.default
+    return params
+
+
+# --------------------------------------------------------------------------------------------
+# the run
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """A validated run: normalised settings, identity and builders.
+
+    Attributes
+    ----------
+    config
+        The normalised run-defining settings (problem, encoding, objective, algorithm, budget,
+        seed, checkpoints_per_decade), plain values only.
+    run_id
+        Stable hash of :attr:`config`: the same settings and seed give the same id, in any
+        process, on any machine.
+    study, results_dir
+        Where the run is stored (``results_dir/study``).
+    label
+        The method's name in reports (``label`` in the configuration, else the algorithm's
+        name); not part of the run's identity.
+    threads, progress
+        Execution settings (not part of the run's identity).
+    """
+
+    config: dict[str, Any]
+    run_id: str
+    study: str
+    results_dir: Path
+    threads: int | str = "auto"
+    progress: bool | str = "auto"
+    label: str = ""
+    _optimizer_class: type | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def study_dir(self) -> Path:
+        return self.results_dir / self.study
+
+    @property
+    def algorithm(self) -> str:
+        return self.config["algorithm"]["_name_"]
+
+    @property
+    def seed(self) -> int:
+        return self.config["seed"]
+
+    @property
+    def budget(self) -> int:
+        return self.config["budget"]
+
+    def optimizer_seed(self) -> np.random.SeedSequence:
+        """The optimizer's seed: child 1 of the replicate seed."""
+        return np.random.SeedSequence(self.seed, spawn_key=(1,))
+
+    def noise_seed(self) -> np.random.SeedSequence:
+        """The data noise's seed: child 0 of the replicate seed, or ``problem.noise_seed``."""
+        fixed = self.config["problem"]["noise_seed"]
+        if fixed is not None:
+            return np.random.SeedSequence(fixed)
+        return np.random.SeedSequence(self.seed, spawn_key=(0,))
+
+    def compatible(self) -> str | None:
+        """``None`` if the algorithm handles the encoding, else the reason it cannot."""
+        kind = ENCODINGS[self.config["encoding"]["kind"]][1]
+        encodings = getattr(self._optimizer_class, "encodings", ())
+        if kind not in encodings:
+            return (f"algorithm {self.algorithm!r} handles {', '.join(encodings)} encodings; "
+                    f"encoding {self.config['encoding']['kind']!r} is {kind}")
+        return None
+
+    def build_problem(self, *, noise: bool = True):
+        """The problem of this run (with the replicate's noise unless ``noise=False``)."""
+        return _build_problem(self.config, self.noise_seed() if noise else None)
+
+    def build_optimizer(self):
+        """The optimizer of this run, with its hyperparameters."""
+        from metaknot.registry import get_optimizer
+
+        params = {k: v for k, v in self.config["algorithm"].items() if k != "_name_"}
+        try:
+            return get_optimizer(self.algorithm, **params)
+        except (ValueError, TypeError) as exc:
+            raise ConfigError(f"algorithm ({self.algorithm}): {exc}") from None
+
+
+def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
+    """Validate a run configuration and return its :class:`RunSpec`.
+
+    Parameters
+    ----------
+    cfg
+        The composed configuration (``DictConfig`` or mapping): ``problem``, ``encoding``,
+        ``objective``, ``algorithm`` groups and the top-level ``budget``, ``seed``, ``study``,
+        ``results_dir``, ``checkpoints_per_decade``, ``threads``, ``progress``.
+    check_build
+        Also build the problem (without noise) and the optimizer, so their own checks run.
+
+    Raises
+    ------
+    ConfigError
+        Naming the first key whose value cannot work.
+    """
+    cfg = _plain(cfg)
+    study = cfg.get("study")
+    if not isinstance(study, str) or not STUDY_NAME.match(study):
+        raise ConfigError(f"study: a name of letters, digits and _.=,+- (no slashes), "
+                          f"got {study!r}")
+    results_dir = cfg.get("results_dir")
+    if not isinstance(results_dir, str) or not results_dir:
+        raise ConfigError(f"results_dir: a directory path, got {results_dir!r}")
+    threads = cfg.get("threads", "auto")
+    if threads != "auto":
+        threads = _int("threads", threads, low=1)
+    progress = cfg.get("progress", "auto")
+    if progress not in ("auto", True, False):
+        raise ConfigError(f"progress: auto, true or false; got {progress!r}")
+
+    problem = _section(cfg, "problem")
+    _unknown("problem", problem, {"name", "curve", "points", "params_column", "n_points",
+                                  "noise", "noise_seed", "degree", "parameterization"})
+    from metaknot.problems import CURVES
+
+    curve, points = problem.get("curve"), problem.get("points")
+    if points is not None:
+        if not isinstance(points, str) or points == "???":
+            raise ConfigError(f"problem.points: a .csv or .npy file, got {points!r}")
+        if not Path(points).is_file():
+            raise ConfigError(f"problem.points: file not found: {points}")
+        points = str(Path(points).resolve())
+        curve = None
+    elif curve is None:
+        raise ConfigError("problem.curve: give a seed curve or problem.points=FILE")
+    else:
+        curve = _choice("problem.curve", curve, tuple(sorted(CURVES)))
+    degree = _int("problem.degree", problem.get("degree", 3), low=1, high=5)
+    name = problem.get("name")
+    if name is None:
+        name = curve if curve is not None else Path(points).stem
+    elif not isinstance(name, str):
+        raise ConfigError(f"problem.name: a label, got {name!r}")
+    problem_out = {
+        "name": name,
+        "curve": curve,
+        "points": points,
+        "fingerprint": _file_digest(points) if points is not None else None,
+        "params_column": _int("problem.params_column", problem.get("params_column"),
+                              optional=True),
+        "n_points": _int("problem.n_points", problem.get("n_points"), low=degree + 2,
+                         optional=True),
+        "noise": _float("problem.noise", problem.get("noise", 0.0), low=0.0),
+        "noise_seed": _int("problem.noise_seed", problem.get("noise_seed"), low=0,
+                           optional=True),
+        "degree": degree,
+        "parameterization": _choice("problem.parameterization",
+                                    problem.get("parameterization", "centripetal"),
+                                    PARAMETERIZATIONS),
+    }
+
+    encoding = _section(cfg, "encoding")
+    kind = _choice("encoding.kind", encoding.get("kind"), tuple(ENCODINGS))
+    if kind == "mask":
+        _unknown("encoding", encoding, {"kind", "density"})
+        encoding_out = {"kind": kind, "density": _float("encoding.density",
+                                                        encoding.get("density", 0.5),
+                                                        low=0.0, high=1.0)}
+    else:
+        known = {"kind", "n_knots"} | ({"variable_count"} if kind == "free" else set())
+        _unknown("encoding", encoding, known)
+        n_knots = encoding.get("n_knots", 20)
+        if isinstance(n_knots, str):
+            match = FITPACK_COUNT.match(n_knots)
+            factor = None
+            if match:
+                try:
+                    factor = float(match.group(1))
+                except ValueError:
+                    factor = None
+            if factor is None or not np.isfinite(factor) or factor <= 0:
+                raise ConfigError(f"encoding.n_knots: an integer or 'fitpack:<factor>' with a "
+                                  f"factor > 0, got {n_knots!r}")
+            n_knots = f"fitpack:{factor!r}"
+        else:
+            n_knots = _int("encoding.n_knots", n_knots, low=1)
+        encoding_out = {"kind": kind, "n_knots": n_knots}
+        if kind == "free":
+            variable = encoding.get("variable_count", False)
+            if not isinstance(variable, bool):
+                raise ConfigError(f"encoding.variable_count: true or false, got {variable!r}")
+            encoding_out["variable_count"] = variable
+
+    objective = _section(cfg, "objective")
+    from metaknot.problems import OBJECTIVES
+
+    objective_name = _choice("objective.name", objective.pop("name", None),
+                             tuple(OBJECTIVES))
+    objective_out = {"name": objective_name,
+                     **_check_signature("objective", OBJECTIVES[objective_name], objective)}
+
+    algorithm_name, params, cls = _algorithm(_section(cfg, "algorithm"))
+    config = {
+        "problem": problem_out,
+        "encoding": encoding_out,
+        "objective": objective_out,
+        "algorithm": {"_name_": algorithm_name, **params},
+        "budget": _int("budget", cfg.get("budget"), low=1),
+        "seed": _int("seed", cfg.get("seed"), low=0),
+        "checkpoints_per_decade": _int("checkpoints_per_decade",
+                                       cfg.get("checkpoints_per_decade", 10), low=1),
+    }
+    label = cfg.get("label")
+    if label is not None and not isinstance(label, str):
+        raise ConfigError(f"label: a name for reports, got {label!r}")
+    spec = RunSpec(config=config, run_id=run_id(config), study=study,
+                   results_dir=Path(results_dir), threads=threads, progress=progress,
+                   label=label or algorithm_name, _optimizer_class=cls)
+    if check_build:
+        spec.build_optimizer()
+        spec.build_problem(noise=False)
+    return spec
+
+
+def run_id(config: Mapping[str, Any]) -> str:
+    """Stable 16-hex-digit hash of the run-defining settings (sorted-key JSON)."""
+    text = json.dumps({k: config[k] for k in RUN_KEYS}, sort_keys=True, default=str,
+                      separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _plain(cfg: Mapping[str, Any]) -> dict[str, Any]:
+    """A resolved plain-dict copy of a DictConfig (or mapping)."""
+    from omegaconf import DictConfig, OmegaConf
+
+    out: dict[str, Any]
+    if isinstance(cfg, DictConfig):
+        from omegaconf.errors import MissingMandatoryValue
+
+        out = {}
+        for key in cfg:
+            if key == "hydra":
+                continue
+            try:
+                value = cfg[key]  # resolved in the context of the whole configuration
+                out[key] = OmegaConf.to_container(value, resolve=True, throw_on_missing=True) \
+                    if OmegaConf.is_config(value) else value
+            except MissingMandatoryValue as exc:
+                raise ConfigError(f"{exc.full_key}: required, no value given") from None
+    else:
+        out = _deep_copy(cfg)
+    out.pop("hydra", None)
+    return out
+
+
+def _deep_copy(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _deep_copy(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_deep_copy(v) for v in value]
+    return value
+
+
+def _file_digest(path: str) -> str:
+    """Short SHA-256 of a data file: a changed file gives new run ids."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+
+
+def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | None):
+    from metaknot.problems import (
+        FreeKnots,
+        KnotIndices,
+        KnotSelection,
+        add_noise,
+        get_curve,
+        get_objective,
+        load_points,
+    )
+
+    problem, encoding = config["problem"], config["encoding"]
+    try:
+        if problem["points"] is not None:
+            data = load_points(problem["points"], params_column=problem["params_column"])
+        else:
+            kwargs = {} if problem["n_points"] is None else {"n_points": problem["n_points"]}
+            data = get_curve(problem["curve"], **kwargs)
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"problem: {exc}") from None
+    data = type(data)(data.points, name=problem["name"], params=data.params)
+    if problem["noise"] > 0 and noise_seed is not None:
+        data = add_noise(data, problem["noise"], noise_seed)
+        data = type(data)(data.points, name=problem["name"], params=data.params,
+                          noise=data.noise, noise_seed=data.noise_seed)
+    options = dict(config["objective"])
+    name = options.pop("name")
+    try:
+        objective = get_objective(name, **options)
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"objective ({name}): {exc}") from None
+    common = {"degree": problem["degree"], "parameterization": problem["parameterization"],
+              "objective": objective}
+    kind = encoding["kind"]
+    try:
+        if kind == "mask":
+            return KnotSelection(data, density=encoding["density"], **common)
+        n_knots = encoding["n_knots"]
+        if isinstance(n_knots, str):
+            n_knots = fitpack_count(data, float(n_knots.split(":", 1)[1]), common)
+        if kind == "indices":
+            return KnotIndices(data, n_knots=n_knots, **common)
+        return FreeKnots(data, n_knots=n_knots, variable_count=encoding["variable_count"],
+                         **common)
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"encoding ({kind}): {exc}") from None
+
+
+def fitpack_count(data, factor: float, common: Mapping[str, Any]) -> int:
+    """Interior knots FITPACK (``splprep``) places at smoothing ``s = N * factor`` (at least 1)."""
+    from metaknot.algorithms.baselines import fitpack_knots
+    from metaknot.bspline import parameterize
+
+    method = data.params if data.params is not None else common["parameterization"]
+    u = parameterize(data.points, method, degree=common["degree"])
+    knots = fitpack_knots(u, data.points, common["degree"], data.n_points * factor)
+    return max(1, int(knots.size))
