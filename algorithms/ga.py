@@ -55,8 +55,18 @@ def two_point_crossover(A: np.ndarray, B: np.ndarray, rate: float,
 
 
 def flip_mutation(X: np.ndarray, rate: float, rng: np.random.Generator) -> np.ndarray:
-    """Flip every bit of the 0/1 array ``X`` independently with probability ``rate``."""
-    return X ^ (rng.random(X.shape) < rate)
+    """Flip every bit of the 0/1 array ``X`` independently with probability ``rate``.
+
+    Drawn as a binomial number of flips at uniformly random distinct positions (the same
+    distribution as one Bernoulli draw per bit, at the cost of the flips only).
+    """
+    out = np.array(X, copy=True)
+    n_flips = int(rng.binomial(out.size, rate))
+    if n_flips:
+        flat = out.reshape(-1)
+        where = rng.choice(out.size, size=n_flips, replace=False)
+        flat[where] ^= 1
+    return out
 
 
 def index_mutation(X: np.ndarray, rate: float, lower: np.ndarray, upper: np.ndarray,
@@ -156,11 +166,10 @@ class GeneticAlgorithm(Optimizer):
         children = np.concatenate(cross(self.pop_x[parents[:pairs]], self.pop_x[parents[pairs:]],
                                         self.crossover_rate, self.rng))[:n]
         enc = self.problem.encoding
-        if enc.kind == "binary":
-            children = flip_mutation(children, self.rate, self.rng)
-        else:
-            children = index_mutation(children, self.rate, enc.lower, enc.upper, self.rng,
-                                      kind=self.index_mutation, max_step=self.max_step)
+        if enc.kind == "binary":  # crossover and bit flips keep a 0/1 mask valid
+            return flip_mutation(children, self.rate, self.rng)
+        children = index_mutation(children, self.rate, enc.lower, enc.upper, self.rng,
+                                  kind=self.index_mutation, max_step=self.max_step)
         return enc.repair(children)
 
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:

@@ -1,5 +1,7 @@
 """Fit quality at FITPACK's knot counts: every method against FITPACK, side by side.
 
+This is the study ``experiment=fitpack_front`` (``metaknot run -m experiment=fitpack_front``),
+run and then read from the results store: one code path for the study and the benchmark.
 For each seed curve (centripetal parameters, cubic) FITPACK (``splprep``) picks a knot count
 at smoothing ``s = N * 1e-4`` and ``s = N * 1e-6``: six cases. In each case every method gets
 that same number of interior knots K and the same budget, for several seeds, minimising the
@@ -11,88 +13,90 @@ RMSE divided by FITPACK's own RMSE (its smoothing spline at that s). The last tw
     best_rmse_ratio_vs_fitpack: <geometric mean over cases of the best method's median ratio>
     dolphin_rmse_ratio_vs_fitpack: <the same for DE on ordered indices>
 
-Run: ``python benchmarks/bench_quality.py [--budget 20000] [--seeds 5]``
+Run: ``python benchmarks/bench_quality.py [--budget 20000] [--seeds 5] [--workers 2]
+[--results DIR]`` (a temporary results directory unless ``--results`` is given; a study
+already there is resumed, not recomputed).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import splev, splprep
 
-import metaknot as mk
 from metaknot.bspline import parameterize
-from metaknot.problems import FreeKnots, KnotIndices, get_curve
+from metaknot.experiments import load_study
+from metaknot.problems import get_curve
 
 CURVES = ("epitrochoid", "archimedean", "vivaldi")
-SMOOTHING = (1e-4, 1e-6)
 DEGREE = 3
-
-# (label, optimizer name, optimizer options, problem class)
-METHODS = [
-    ("dolphin", "dolphin", {}, KnotIndices),
-    ("ga", "ga", {}, KnotIndices),
-    ("random", "random_search", {}, KnotIndices),
-    ("nlopt-bobyqa", "nlopt", {"algorithm": "LN_BOBYQA", "restarts": 20}, FreeKnots),
-    ("nlopt-crs2", "nlopt", {"algorithm": "GN_CRS2_LM"}, FreeKnots),
-    ("averaging", "averaging", {}, FreeKnots),
-    ("fitpack", "fitpack", {}, FreeKnots),
-]
+LABELS = ("dolphin", "ga", "random", "nlopt-bobyqa", "nlopt-crs2", "averaging", "fitpack")
 
 
-def fitpack_case(points: np.ndarray, u: np.ndarray, factor: float) -> tuple[int, float]:
-    """FITPACK's interior-knot count and RMSE at ``s = N * factor``."""
+def fitpack_rmse(curve: str, factor: float) -> float:
+    """RMSE of FITPACK's own smoothing spline at ``s = N * factor``."""
+    points = get_curve(curve).points
+    u = parameterize(points, "centripetal")
     tck, _ = splprep(points.T, u=u, k=DEGREE, s=points.shape[0] * factor)
     fitted = np.column_stack(splev(u, tck))
-    rmse = float(np.sqrt(np.mean(np.sum((points - fitted) ** 2, axis=1))))
-    return len(tck[0]) - 2 * (DEGREE + 1), rmse
+    return float(np.sqrt(np.mean(np.sum((points - fitted) ** 2, axis=1))))
+
+
+def run_study(results: Path, budget: int, seeds: int, workers: int) -> None:
+    command = [sys.executable, "-m", "metaknot.cli", "run", "-m", "experiment=fitpack_front",
+               f"budget={budget}", f"seed=range(0,{seeds})", f"results_dir={results}",
+               "launcher=joblib", f"hydra.launcher.n_jobs={workers}"]
+    done = subprocess.run(command, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    if done.returncode != 0:
+        raise SystemExit(f"the study failed (exit {done.returncode})")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--budget", type=int, default=20_000)
     parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--methods", nargs="*", default=[m[0] for m in METHODS])
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--results", type=Path, default=None)
     args = parser.parse_args()
-    methods = [m for m in METHODS if m[0] in args.methods]
 
-    rows = []
-    best_ratios, dolphin_ratios = [], []
     start = time.perf_counter()
+    with tempfile.TemporaryDirectory() as scratch:
+        results = args.results or Path(scratch)
+        run_study(results, args.budget, args.seeds, args.workers)
+        runs = load_study(results / "fitpack_front").runs
+    runs = runs[(runs.budget == args.budget) & (runs.seed < args.seeds)]
+    runs = runs.assign(factor=[float(json.loads(c)["encoding"]["n_knots"].split(":")[1])
+                               for c in runs.config])
+
+    rows, best_ratios, dolphin_ratios = [], [], []
     for curve in CURVES:
-        data = get_curve(curve)
-        u = parameterize(data.points, "centripetal")
-        for factor in SMOOTHING:
-            k, fitpack_rmse = fitpack_case(data.points, u, factor)
-            medians = {}
-            for label, name, options, problem_cls in methods:
-                problem = problem_cls(data, n_knots=k, degree=DEGREE, objective="paper",
-                                      objective_options={"error_floor": 0.0})
-                ratios = []
-                for seed in range(args.seeds):
-                    result = mk.minimize(problem, name, budget=args.budget, seed=seed,
-                                         optimizer_kwargs=options)
-                    ratios.append(result.solution.fit.rmse / fitpack_rmse)
-                medians[label] = float(np.median(ratios))
+        for factor in sorted(set(runs.factor), reverse=True):
+            case = runs[(runs.data == curve) & (runs.factor == factor)]
+            reference = fitpack_rmse(curve, factor)
+            medians = (case.groupby("label").rmse.median() / reference).to_dict()
             best = min(medians, key=medians.get)
             best_ratios.append(medians[best])
             if "dolphin" in medians:
                 dolphin_ratios.append(medians["dolphin"])
-            rows.append((curve, factor, k, fitpack_rmse, medians, best))
-            print(f"{curve:<12} s=N*{factor:g}  K={k:<3} fitpack rmse {fitpack_rmse:.3e}  "
-                  f"best {best} {medians[best]:.3f}", flush=True)
+            rows.append((curve, factor, int(case.n_knots.iloc[0]), medians, best))
 
-    labels = [m[0] for m in methods]
+    labels = [lab for lab in LABELS if any(lab in r[3] for r in rows)]
     print()
     print(f"{'case':<22} {'K':>3} " + " ".join(f"{lab:>12}" for lab in labels))
-    for curve, factor, k, _, medians, best in rows:
+    for curve, factor, k, medians, best in rows:
         cells = " ".join(
-            f"{medians[lab]:>11.3f}{'*' if lab == best else ' '}" for lab in labels
+            f"{medians.get(lab, np.nan):>11.3f}{'*' if lab == best else ' '}" for lab in labels
         )
         print(f"{curve + f' N*{factor:g}':<22} {k:>3} {cells}")
-    worse = [r[0] for r in rows if r[4][r[5]] > 1.0]
+    worse = [r[0] for r in rows if r[3][r[4]] > 1.0]
     print(f"\nmedian RMSE / FITPACK RMSE, {args.seeds} seeds, budget {args.budget}; "
           f"* = best; {time.perf_counter() - start:.0f} s")
     print(f"cases where the best method is worse than FITPACK: {len(worse)}")

@@ -233,7 +233,9 @@ class TraceRecorder(Callback):
         at = np.arange(F.size)
         # index in the batch of the incumbent after each evaluation (-1: an earlier batch)
         incumbent = np.maximum.accumulate(np.where(improved, at, -1))
-        on_grid = np.isin(first + 1 + at, self._grid)
+        on_grid = np.zeros(F.size, dtype=bool)
+        lo, hi = np.searchsorted(self._grid, [first + 1, progress.n_evaluations + 1])
+        on_grid[self._grid[lo:hi] - first - 1] = True
         rows = np.flatnonzero(improved | on_grid)
         names = set(self._metrics) | set(progress.batch_metrics)
         for name in names:

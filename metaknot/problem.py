@@ -55,6 +55,14 @@ class Encoding:
             distinct_sorted,
         )
 
+    def __post_init__(self) -> None:
+        # scalar bounds for the common case of equal bounds on every variable (fast checks)
+        object.__setattr__(self, "_low", self.lower.min() if self.n_var else 0)
+        object.__setattr__(self, "_high", self.upper.max() if self.n_var else 0)
+        object.__setattr__(self, "_uniform_bounds", bool(
+            self.n_var == 0 or ((self.lower == self._low).all()
+                                and (self.upper == self._high).all())))
+
     @property
     def dtype(self) -> type:
         return np.float64 if self.kind == "continuous" else np.int64
@@ -74,10 +82,13 @@ class Encoding:
         if not np.issubdtype(X.dtype, np.number):
             raise ValueError(f"candidates must be numeric; got dtype {X.dtype}")
         if self.kind != "continuous":
-            if not np.isfinite(X).all() or not np.array_equal(X, np.round(X)):
+            if X.dtype.kind not in "iu" and (
+                    not np.isfinite(X).all() or not np.array_equal(X, np.round(X))):
                 raise ValueError(f"{self.kind} candidates must hold whole numbers")
             X = X.astype(np.int64, copy=False)
-            if X.size and ((X < self.lower).any() or (X > self.upper).any()):
+            if X.size and (X.min() < self._low or X.max() > self._high
+                           or (not self._uniform_bounds
+                               and ((X < self.lower).any() or (X > self.upper).any()))):
                 raise ValueError(
                     f"{self.kind} candidates must lie in [{self.lower.min()}, "
                     f"{self.upper.max()}]"

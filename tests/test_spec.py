@@ -1,0 +1,799 @@
+"""The study configuration and the run spec: every bad value named by its key in one line, the
+algorithm configs matching the optimizers, stable run ids, paired seeds, FITPACK knot counts,
+algorithm/encoding compatibility, the presets, and the sweep's fast composition."""
+
+from __future__ import annotations
+
+import inspect
+import itertools
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hydra import compose, initialize_config_dir
+from hydra._internal.callbacks import Callbacks
+from hydra._internal.config_loader_impl import ConfigLoaderImpl
+from hydra._internal.utils import create_config_search_path
+from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.core.utils import setup_globals
+from hydra.errors import CompactHydraException
+from hydra.types import HydraContext, RunMode
+from omegaconf import OmegaConf
+from scipy.interpolate import splprep
+
+import metaknot as mk
+from metaknot import registry
+from metaknot.bspline import parameterize
+from metaknot.experiments.app import CONFIG_DIR, register_hydra_plugins
+from metaknot.experiments.spec import (
+    ENCODINGS,
+    ConfigError,
+    algorithm_defaults,
+    run_spec,
+)
+from metaknot.experiments.sweep import _Composer, plan
+from metaknot.problems import FreeKnots, KnotIndices, add_noise, get_curve
+
+register_hydra_plugins()
+
+RESULTS = "spec-test-results"  # never written: run_spec only records it
+CURVES = ("epitrochoid", "archimedean", "vivaldi")
+PAPER_ITERATIONS = (10, 25, 50, 100, 250, 500, 1000, 2000)
+HEX16 = re.compile(r"^[0-9a-f]{16}$")
+
+
+def compose_cfg(*overrides: str, hydra: bool = False, results_dir: str = RESULTS):
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        return compose("config", overrides=[f"results_dir={results_dir}", *overrides],
+                       return_hydra_config=hydra)
+
+
+def spec_of(*overrides: str, check_build: bool = True):
+    return run_spec(compose_cfg(*overrides), check_build=check_build)
+
+
+def plain_cfg(**changes):
+    """The smallest plain-dict configuration; ``changes`` set dotted keys (``None``: remove)."""
+    cfg = {"study": "s", "results_dir": RESULTS, "budget": 100, "seed": 0,
+           "problem": {"curve": "archimedean"}, "encoding": {"kind": "mask"},
+           "objective": {"name": "paper"}, "algorithm": {"_name_": "dolphin"}}
+    for dotted, value in changes.items():
+        *parents, last = dotted.split("__")
+        node = cfg
+        for part in parents:
+            node = node[part]
+        if value is None:
+            del node[last]
+        else:
+            node[last] = value
+    return cfg
+
+
+def assert_names_key(message: str, key: str) -> None:
+    """One line that starts with ``key:``, or, for a check made by a constructor (optimizer,
+    objective, problem), with ``group (name): leaf``."""
+    assert "\n" not in message, message
+    if message.startswith(f"{key}:"):
+        return
+    group, _, leaf = key.rpartition(".")
+    assert group, message
+    assert re.match(rf"{re.escape(group)} \(\w+\): {re.escape(leaf)}\b", message), \
+        f"{message!r} does not name {key!r}"
+
+
+def yaml_of(path: Path) -> dict:
+    return OmegaConf.to_container(OmegaConf.load(path))
+
+
+def signature_defaults(cls: type) -> dict:
+    return {name: p.default for name, p in inspect.signature(cls.__init__).parameters.items()
+            if name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
+
+
+def sweep_values(params) -> dict[str, list[str]]:
+    """Each swept key's values, expanded as Hydra's basic sweeper does."""
+    parser = OverridesParser.create()
+    out = {}
+    for override in parser.parse_overrides([f"{k}={v}" for k, v in params.items()]):
+        key = override.get_key_element()
+        out[key] = list(override.sweep_string_iterator()) if override.is_sweep_override() \
+            else [override.get_value_element_as_str()]
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# validation: the key, in one line
+
+
+BAD_OVERRIDES = [
+    (["algorithm.population=abc"], "algorithm.population"),
+    (["algorithm.population=1.5"], "algorithm.population"),
+    (["algorithm.population=[1,2]"], "algorithm.population"),
+    (["budget=0"], "budget"),
+    (["budget=-3"], "budget"),
+    (["budget=abc"], "budget"),
+    (["budget=true"], "budget"),
+    (["budget=2.5"], "budget"),
+    (["seed=-1"], "seed"),
+    (["seed=1.5"], "seed"),
+    (["seed=true"], "seed"),
+    (["study=a/b"], "study"),
+    (["study=''"], "study"),
+    (["results_dir=''"], "results_dir"),
+    (["problem.degree=7"], "problem.degree"),
+    (["problem.degree=0"], "problem.degree"),
+    (["problem.parameterization=foo"], "problem.parameterization"),
+    (["problem.noise=-1"], "problem.noise"),
+    (["problem.noise=nan"], "problem.noise"),
+    (["problem.noise=abc"], "problem.noise"),
+    (["problem.noise_seed=-1"], "problem.noise_seed"),
+    (["problem.curve=nope"], "problem.curve"),
+    (["problem.n_points=4"], "problem.n_points"),
+    (["problem.name=[1]"], "problem.name"),
+    (["problem=points"], "problem.points"),
+    (["problem=points", "problem.points=/no/such/file.csv"], "problem.points"),
+    (["encoding.density=2"], "encoding.density"),
+    (["encoding.density=-0.5"], "encoding.density"),
+    (["encoding=indices", "encoding.n_knots=0"], "encoding.n_knots"),
+    (["encoding=indices", "encoding.n_knots=1.5"], "encoding.n_knots"),
+    (["encoding=indices", "encoding.n_knots=fitpack:abc"], "encoding.n_knots"),
+    (["encoding=indices", "encoding.n_knots=fitpack:-1"], "encoding.n_knots"),
+    (["encoding=indices", "encoding.n_knots=fitpack:0"], "encoding.n_knots"),
+    (["encoding=indices", "encoding.n_knots=fitpack:inf"], "encoding.n_knots"),
+    (["encoding=indices", "encoding.n_knots=many"], "encoding.n_knots"),
+    (["encoding=indices", "problem.n_points=10"], "encoding.n_knots"),  # 20 knots > N - 4
+    (["encoding=free", "encoding.variable_count=3"], "encoding.variable_count"),
+    (["objective.error_floor=-1"], "objective.error_floor"),
+    (["objective.error_floor=abc"], "objective.error_floor"),
+    (["objective=error_bounded", "objective.metric=foo"], "objective.metric"),
+    (["objective=error_bounded", "objective.tolerance=-1"], "objective.tolerance"),
+    (["+algorithm.populaton=3"], "algorithm.populaton"),
+    (["+problem.colour=red"], "problem.colour"),
+    (["+encoding.n_knots=3"], "encoding.n_knots"),  # the mask has no knot count
+    (["encoding=free", "+encoding.density=0.3"], "encoding.density"),
+    (["+objective.tolerance=0.1"], "objective.tolerance"),  # paper has no tolerance
+    (["algorithm.fitness=foo"], "algorithm.fitness"),
+    (["algorithm.pp1=2"], "algorithm.pp1"),
+    (["algorithm.loops=0"], "algorithm.loops"),
+    (["algorithm=ga", "algorithm.crossover=foo"], "algorithm.crossover"),
+    (["algorithm=nlopt", "encoding=free", "algorithm.algorithm=FOO"], "algorithm.algorithm"),
+    (["threads=0"], "threads"),
+    (["threads=abc"], "threads"),
+    (["progress=maybe"], "progress"),
+    (["label=3"], "label"),
+    (["checkpoints_per_decade=0"], "checkpoints_per_decade"),
+    (["checkpoints_per_decade=abc"], "checkpoints_per_decade"),
+]
+
+
+@pytest.mark.parametrize(("overrides", "key"), BAD_OVERRIDES,
+                         ids=[" ".join(o) for o, _ in BAD_OVERRIDES])
+def test_a_bad_value_is_named_by_its_key_in_one_line(overrides, key):
+    cfg = compose_cfg(*overrides)
+    with pytest.raises(ConfigError) as info:
+        run_spec(cfg)
+    assert_names_key(str(info.value), key)
+
+
+def test_a_missing_points_file_is_named():
+    with pytest.raises(ConfigError, match=re.escape("/no/such/file.csv")):
+        spec_of("problem=points", "problem.points=/no/such/file.csv")
+
+
+def test_an_unknown_setting_lists_the_known_ones():
+    with pytest.raises(ConfigError) as info:
+        spec_of("+algorithm.populaton=3")
+    assert "population" in str(info.value).split(":", 1)[1]
+
+
+BAD_PLAIN = [
+    ({"study": None}, "study"),
+    ({"results_dir": None}, "results_dir"),
+    ({"budget": None}, "budget"),
+    ({"seed": None}, "seed"),
+    ({"problem": None}, "problem"),
+    ({"problem": "archimedean"}, "problem"),
+    ({"encoding": None}, "encoding"),
+    ({"objective": None}, "objective"),
+    ({"algorithm": None}, "algorithm"),
+    ({"algorithm": ["dolphin"]}, "algorithm"),
+    ({"problem__curve": None}, "problem.curve"),
+    ({"problem__name": 3}, "problem.name"),
+    ({"problem__points": "???"}, "problem.points"),
+    ({"encoding__kind": "bits"}, "encoding.kind"),
+    ({"encoding__kind": None}, "encoding.kind"),
+    ({"objective__name": "foo"}, "objective.name"),
+    ({"objective__name": None}, "objective.name"),
+    ({"algorithm___name_": None}, "algorithm._name_"),
+    ({"algorithm___name_": 3}, "algorithm._name_"),
+    ({"algorithm___name_": "dolfin"}, "algorithm._name_"),
+    ({"algorithm__population": "???"}, "algorithm.population"),
+    ({"algorithm__population": {"a": 1}}, "algorithm.population"),
+    ({"seed": np.float64(2.0)}, "seed"),
+    ({"progress": "yes"}, "progress"),
+]
+
+
+@pytest.mark.parametrize(("changes", "key"), BAD_PLAIN, ids=[str(c) for c, _ in BAD_PLAIN])
+def test_a_bad_plain_mapping_is_named_by_its_key(changes, key):
+    with pytest.raises(ConfigError) as info:
+        run_spec(plain_cfg(**changes))
+    assert_names_key(str(info.value), key)
+
+
+def test_config_error_is_a_value_error_hydra_reports_compactly():
+    assert issubclass(ConfigError, ValueError)
+    assert issubclass(ConfigError, CompactHydraException)
+    with pytest.raises(ValueError, match=r"^budget:"):
+        run_spec(plain_cfg(budget=0))
+
+
+def test_unknown_optimizer_suggests_the_closest_name():
+    with pytest.raises(ConfigError, match=r"^algorithm\._name_: .*dolphin") as info:
+        algorithm_defaults("dolfin")
+    assert "\n" not in str(info.value)
+
+
+def test_points_file_problem(tmp_path, monkeypatch):
+    points = get_curve("archimedean").points
+    path = tmp_path / "outline.csv"
+    np.savetxt(path, points, delimiter=",")
+    spec = spec_of("problem=points", f"problem.points={path}")
+    problem = spec.build_problem()
+    assert spec.config["problem"]["name"] == "outline"  # the file's stem
+    np.testing.assert_array_equal(problem.data.points, points)
+    # a relative path names the same file, and so the same run
+    monkeypatch.chdir(tmp_path)
+    assert spec_of("problem=points", "problem.points=outline.csv").run_id == spec.run_id
+    # a changed file is a new run
+    np.savetxt(path, points * 2.0, delimiter=",")
+    assert spec_of("problem=points", f"problem.points={path}").run_id != spec.run_id
+
+
+def test_a_bad_points_file_is_reported_as_a_problem_error(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text("x,y\n1,2\n3,abc\n")
+    with pytest.raises(ConfigError) as info:
+        spec_of("problem=points", f"problem.points={path}")
+    assert str(info.value).startswith("problem") and "\n" not in str(info.value)
+    good = tmp_path / "good.csv"
+    np.savetxt(good, get_curve("archimedean").points, delimiter=",")
+    with pytest.raises(ConfigError) as info:
+        spec_of("problem=points", f"problem.points={good}", "problem.params_column=5")
+    assert str(info.value).startswith("problem") and "params_column" in str(info.value)
+
+
+# --------------------------------------------------------------------------------------------
+# the algorithm configs are the optimizers' signatures
+
+
+ALGORITHM_YAMLS = sorted((CONFIG_DIR / "algorithm").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("path", ALGORITHM_YAMLS, ids=lambda p: p.stem)
+def test_algorithm_yaml_lists_the_constructor_parameters_and_defaults(path):
+    node = yaml_of(path)
+    assert node.pop("_name_") == path.stem
+    cls = type(mk.get_optimizer(path.stem))
+    defaults = signature_defaults(cls)
+    assert set(node) == set(defaults)
+    assert node == defaults
+    for name, value in node.items():  # 1 is not 1.0 in a run id
+        assert type(value) is type(defaults[name]), name
+    assert algorithm_defaults(path.stem) == {"_name_": path.stem, **defaults}
+    assert algorithm_defaults(path.stem) == yaml_of(path)
+
+
+def test_every_registered_optimizer_has_a_yaml():
+    shipped = {p.stem for p in ALGORITHM_YAMLS}
+    assert set(mk.available_optimizers()) <= shipped
+    assert shipped <= set(mk.available_optimizers())
+
+
+@pytest.mark.parametrize("name", [p.stem for p in ALGORITHM_YAMLS])
+def test_every_algorithm_config_composes_and_builds(name):
+    cls = type(mk.get_optimizer(name))
+    encoding = next(e for e, (_, kind) in ENCODINGS.items() if kind in cls.encodings)
+    spec = spec_of(f"algorithm={name}", f"encoding={encoding}", "problem=archimedean")
+    assert spec.algorithm == name and spec.label == name and spec.compatible() is None
+    assert type(spec.build_optimizer()) is cls
+
+
+@pytest.mark.parametrize("path", sorted((CONFIG_DIR / "objective").glob("*.yaml")),
+                         ids=lambda p: p.stem)
+def test_objective_yaml_lists_the_objective_parameters_and_defaults(path):
+    from metaknot.problems import OBJECTIVES
+
+    node = yaml_of(path)
+    name = node.pop("name")
+    assert name == path.stem
+    assert node == signature_defaults(OBJECTIVES[name])
+
+
+@pytest.mark.parametrize("group", ["problem", "encoding"])
+def test_yaml_settings_equal_the_code_defaults(group):
+    """A group's YAML, given in full, is the same run as the bare choice it makes."""
+    for path in sorted((CONFIG_DIR / group).glob("*.yaml")):
+        if path.stem == "points":
+            continue
+        node = yaml_of(path)
+        bare = {"curve": node["curve"]} if group == "problem" else {"kind": node["kind"]}
+        full = run_spec(plain_cfg(**{group: node}), check_build=False)
+        assert run_spec(plain_cfg(**{group: bare}), check_build=False).run_id == full.run_id
+        assert spec_of(f"{group}={path.stem}", "budget=100",
+                       check_build=False).config[group] == full.config[group]
+
+
+class _Probe(mk.Optimizer):
+    """A plugin optimizer: a required parameter and a default that is not a plain value."""
+
+    name = "spec_probe"
+
+    def __init__(self, steps: int, shape: tuple = (1, 2), scale: float = 1.0) -> None:
+        self.steps, self.shape, self.scale = steps, shape, scale
+
+    def ask(self):
+        return self.problem.sample(self.rng, 1)
+
+    def tell(self, X, F):
+        pass
+
+
+def test_plugin_optimizer_settings_from_its_signature(monkeypatch):
+    monkeypatch.setitem(registry._REGISTRY, "optimizer", dict(registry._REGISTRY["optimizer"]))
+    registry._REGISTRY["optimizer"]["spec_probe"] = _Probe
+    assert algorithm_defaults("spec_probe") == {"_name_": "spec_probe", "steps": "???",
+                                                "shape": "(1, 2)", "scale": 1.0}
+    with pytest.raises(ConfigError, match=r"^algorithm\.steps: required"):
+        run_spec(plain_cfg(algorithm={"_name_": "spec_probe"}))
+    with pytest.raises(ConfigError, match=r"^algorithm\.steps: required"):
+        run_spec(plain_cfg(algorithm=algorithm_defaults("spec_probe")))
+    with pytest.raises(ConfigError, match=r"^algorithm\.steps: expected int"):
+        run_spec(plain_cfg(algorithm={"_name_": "spec_probe", "steps": "x"}))
+    spec = run_spec(plain_cfg(algorithm={"_name_": "spec_probe", "steps": 3, "scale": 2}))
+    assert spec.config["algorithm"] == {"_name_": "spec_probe", "steps": 3, "shape": (1, 2),
+                                        "scale": 2.0}
+    assert isinstance(spec.config["algorithm"]["scale"], float)
+    assert spec.build_optimizer().steps == 3
+
+
+# --------------------------------------------------------------------------------------------
+# run ids
+
+
+RUN_DEFINING = ["seed=1", "budget=3001", "algorithm.population=51", "algorithm.fitness=rank",
+                "algorithm=ga", "problem=vivaldi", "problem.noise=0.01", "problem.noise_seed=3",
+                "problem.degree=4", "problem.parameterization=chord", "problem.n_points=200",
+                "problem.name=spiral", "encoding=indices", "encoding.density=0.4",
+                "objective=bic", "objective.error_floor=1e-6", "checkpoints_per_decade=5"]
+NOT_RUN_DEFINING = {"study=other": ("study", "other"),
+                    "results_dir=/elsewhere": ("results_dir", Path("/elsewhere")),
+                    "threads=2": ("threads", 2), "progress=false": ("progress", False),
+                    "label=mine": ("label", "mine")}
+
+
+def test_run_id_is_stable_and_short_hex():
+    first, second = spec_of(check_build=False), spec_of(check_build=False)
+    assert HEX16.match(first.run_id)
+    assert first.run_id == second.run_id and first.config == second.config
+
+
+def test_run_id_is_the_same_for_the_plain_mapping():
+    cfg = compose_cfg("algorithm=ga", "encoding=indices", "problem.noise=0.01")
+    plain = OmegaConf.to_container(cfg, resolve=True)
+    assert run_spec(plain, check_build=False).run_id == run_spec(cfg, check_build=False).run_id
+
+
+@pytest.mark.slow
+def test_run_id_is_the_same_in_a_fresh_process():
+    overrides = ["algorithm=ga", "encoding=indices", "encoding.n_knots=fitpack:1e-4",
+                 "problem=vivaldi", "problem.noise=0.01", "seed=7", "budget=1234"]
+    code = "\n".join([
+        "from hydra import compose, initialize_config_dir",
+        "from metaknot.experiments.app import CONFIG_DIR, register_hydra_plugins",
+        "from metaknot.experiments.spec import run_spec",
+        "register_hydra_plugins()",
+        "with initialize_config_dir(version_base='1.3', config_dir=str(CONFIG_DIR)):",
+        f"    cfg = compose('config', overrides={[f'results_dir={RESULTS}', *overrides]!r})",
+        "print(run_spec(cfg, check_build=False).run_id)",
+    ])
+    env = {**os.environ, "PYTHONHASHSEED": "12345"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == spec_of(*overrides, check_build=False).run_id
+
+
+def test_run_id_changes_with_every_run_defining_value():
+    base = spec_of(check_build=False).run_id
+    ids = {o: spec_of(*o.split(), check_build=False).run_id for o in RUN_DEFINING}
+    assert base not in ids.values()
+    assert len(set(ids.values())) == len(RUN_DEFINING), ids
+
+
+@pytest.mark.parametrize("override", list(NOT_RUN_DEFINING))
+def test_run_id_ignores_where_and_how_a_run_executes(override):
+    spec = spec_of(override, check_build=False)
+    attribute, value = NOT_RUN_DEFINING[override]
+    assert getattr(spec, attribute) == value  # the override did apply
+    assert spec.run_id == spec_of(check_build=False).run_id
+
+
+@pytest.mark.parametrize("override", ["algorithm.population=50", "algorithm.power=1",
+                                      "algorithm.pp1=0.1", "algorithm.loops=null",
+                                      "encoding.density=0.5", "problem.degree=3",
+                                      "objective.error_floor=0.00001",
+                                      "checkpoints_per_decade=10", "problem.name=epitrochoid"])
+def test_a_value_equal_to_its_default_is_the_same_run(override):
+    assert spec_of(override, check_build=False).run_id == spec_of(check_build=False).run_id
+
+
+@pytest.mark.parametrize("name", sorted(mk.available_optimizers()))
+def test_hyperparameters_left_out_or_given_at_their_defaults_are_the_same_run(name):
+    bare = run_spec(plain_cfg(algorithm={"_name_": name}), check_build=False)
+    full = run_spec(plain_cfg(algorithm=algorithm_defaults(name)), check_build=False)
+    assert bare.run_id == full.run_id and bare.config == full.config
+    for pname, default in signature_defaults(type(mk.get_optimizer(name))).items():
+        one = run_spec(plain_cfg(algorithm={"_name_": name, pname: default}), check_build=False)
+        assert one.run_id == bare.run_id, pname
+    composed = spec_of(f"algorithm={name}", "problem=archimedean", "budget=100", "study=s",
+                       check_build=False)
+    assert composed.run_id == bare.run_id
+
+
+def test_fitpack_factor_spellings_are_the_same_run():
+    ids = {spec_of("encoding=indices", f"encoding.n_knots=fitpack:{f}",
+                   check_build=False).run_id for f in ("1e-4", "0.0001", "1.0e-04")}
+    assert len(ids) == 1
+    other = spec_of("encoding=indices", "encoding.n_knots=fitpack:1e-6", check_build=False)
+    assert other.run_id not in ids
+
+
+# --------------------------------------------------------------------------------------------
+# paired seeds
+
+
+def noisy_spec(algorithm: str, seed: int, *extra: str):
+    return spec_of(f"algorithm={algorithm}", f"seed={seed}", "problem=archimedean",
+                   "problem.noise=0.01", *extra)
+
+
+def test_every_algorithm_of_a_replicate_sees_the_same_data():
+    data = {(alg, seed): noisy_spec(alg, seed).build_problem().data
+            for alg in ("dolphin", "ga") for seed in (0, 1)}
+    for seed in (0, 1):
+        assert data["dolphin", seed].fingerprint == data["ga", seed].fingerprint
+        expected = add_noise(get_curve("archimedean"), 0.01,
+                             np.random.SeedSequence(seed, spawn_key=(0,)))
+        np.testing.assert_array_equal(data["dolphin", seed].points, expected.points)
+    assert data["dolphin", 0].fingerprint != data["dolphin", 1].fingerprint
+    clean = noisy_spec("dolphin", 0).build_problem(noise=False).data
+    np.testing.assert_array_equal(clean.points, get_curve("archimedean").points)
+    assert noisy_spec("dolphin", 0).run_id != noisy_spec("ga", 0).run_id
+
+
+def test_noise_and_optimizer_seeds_are_different_children_of_the_replicate():
+    spec = noisy_spec("dolphin", 5)
+    opt, noise = spec.optimizer_seed(), spec.noise_seed()
+    assert (opt.entropy, opt.spawn_key) == (5, (1,))
+    assert (noise.entropy, noise.spawn_key) == (5, (0,))
+    assert not np.array_equal(opt.generate_state(4), noise.generate_state(4))
+    other = noisy_spec("ga", 6)
+    assert not np.array_equal(other.optimizer_seed().generate_state(4), opt.generate_state(4))
+
+
+def test_a_fixed_noise_seed_fixes_the_data_across_replicates():
+    specs = [noisy_spec("dolphin", seed, "problem.noise_seed=7") for seed in range(3)]
+    prints = {spec.build_problem().data.fingerprint for spec in specs}
+    assert len(prints) == 1
+    assert len({spec.run_id for spec in specs}) == 3
+    expected = add_noise(get_curve("archimedean"), 0.01, np.random.SeedSequence(7))
+    np.testing.assert_array_equal(specs[0].build_problem().data.points, expected.points)
+    assert specs[1].noise_seed().entropy == 7 and specs[1].noise_seed().spawn_key == ()
+    # the optimizer still follows the replicate
+    assert specs[1].optimizer_seed().entropy == 1
+    assert specs[1].optimizer_seed().spawn_key == (1,)
+
+
+# --------------------------------------------------------------------------------------------
+# knot counts from FITPACK
+
+
+def splprep_count(points: np.ndarray, u: np.ndarray, degree: int, s: float) -> int:
+    tck, _ = splprep(points.T, u=u, k=degree, s=s, full_output=True, quiet=True)[0]
+    return len(tck[0]) - 2 * (degree + 1)
+
+
+@pytest.mark.parametrize(("curve", "factor", "degree", "encoding"), [
+    ("epitrochoid", "1e-4", 3, "indices"),
+    ("archimedean", "1e-4", 3, "indices"),
+    ("vivaldi", "1e-4", 3, "indices"),
+    ("vivaldi", "1e-6", 3, "indices"),
+    ("archimedean", "1e-6", 5, "indices"),
+    ("epitrochoid", "1e-6", 3, "free"),
+])
+def test_fitpack_knot_count_is_splprep_s(curve, factor, degree, encoding):
+    spec = spec_of(f"problem={curve}", f"problem.degree={degree}", f"encoding={encoding}",
+                   f"encoding.n_knots=fitpack:{factor}")
+    problem = spec.build_problem()
+    assert isinstance(problem, KnotIndices if encoding == "indices" else FreeKnots)
+    points = get_curve(curve).points
+    u = parameterize(points, "centripetal", degree=degree)
+    expected = splprep_count(points, u, degree, len(points) * float(factor))
+    assert expected > 1
+    assert problem.n_knots == expected
+
+
+def test_fitpack_knot_count_uses_explicit_parameters(tmp_path):
+    x = np.linspace(0.0, 2.0, 80) ** 1.5
+    y = np.sin(3.0 * x)
+    path = tmp_path / "function.csv"
+    np.savetxt(path, np.column_stack((x, y)), delimiter=",")
+    spec = spec_of("problem=points", f"problem.points={path}", "problem.params_column=0",
+                   "encoding=indices", "encoding.n_knots=fitpack:1e-6")
+    expected = splprep_count(y[:, None], x, 3, len(y) * 1e-6)
+    assert expected > 1
+    assert spec.build_problem().n_knots == expected
+
+
+# --------------------------------------------------------------------------------------------
+# algorithm/encoding compatibility
+
+
+@pytest.mark.parametrize(("name", "encoding"),
+                         list(itertools.product(sorted(mk.available_optimizers()), ENCODINGS)))
+def test_compatible_follows_the_optimizer_encodings(name, encoding):
+    spec = run_spec(plain_cfg(algorithm={"_name_": name}, encoding={"kind": encoding}),
+                    check_build=False)
+    kind = ENCODINGS[encoding][1]
+    handles = kind in type(mk.get_optimizer(name)).encodings
+    reason = spec.compatible()
+    if handles:
+        assert reason is None
+    else:
+        assert isinstance(reason, str) and "\n" not in reason
+        assert repr(name) in reason and repr(encoding) in reason and kind in reason
+
+
+def test_incompatible_examples():
+    assert spec_of("algorithm=nlopt", check_build=False).compatible() is not None  # mask
+    assert spec_of("encoding=free", check_build=False).compatible() is not None  # dolphin
+    assert spec_of("algorithm=nlopt", "encoding=free", check_build=False).compatible() is None
+    assert spec_of(check_build=False).compatible() is None
+
+
+# --------------------------------------------------------------------------------------------
+# presets
+
+
+def test_seed_paper_preset():
+    cfg = compose_cfg("experiment=seed_paper", hydra=True)
+    assert sweep_values(cfg.hydra.sweeper.params) == {
+        "problem": list(CURVES),
+        "algorithm": ["dolphin", "ga"],
+        "budget": [str(50 * i) for i in PAPER_ITERATIONS],
+        "seed": [str(s) for s in range(30)],
+    }
+    for algorithm in ("dolphin", "ga"):
+        spec = run_spec(compose_cfg("experiment=seed_paper", f"algorithm={algorithm}"))
+        assert spec.study == "seed_paper" and spec.compatible() is None
+        assert spec.config["encoding"]["kind"] == "mask"
+        assert spec.config["objective"] == {"name": "paper", "error_floor": 1e-5}
+        assert spec.config["algorithm"]["population"] == 50
+        assert spec.config["problem"]["degree"] == 3
+        assert spec.config["problem"]["parameterization"] == "centripetal"
+
+
+def test_fitpack_front_preset():
+    cfg = compose_cfg("experiment=fitpack_front", hydra=True)
+    values = sweep_values(cfg.hydra.sweeper.params)
+    assert values["problem"] == list(CURVES)
+    assert values["encoding.n_knots"] == ["fitpack:1e-4", "fitpack:1e-6"]
+    assert set(values["method"]) == {p.stem for p in (CONFIG_DIR / "method").glob("*.yaml")}
+    assert values["seed"] == [str(s) for s in range(5)]
+    spec = run_spec(compose_cfg("experiment=fitpack_front", "method=dolphin_indices",
+                                "encoding.n_knots=fitpack:1e-4"))
+    assert spec.study == "fitpack_front" and spec.budget == 20000 and spec.label == "dolphin"
+    assert spec.config["objective"] == {"name": "paper", "error_floor": 0.0}
+    assert spec.config["encoding"] == {"kind": "indices", "n_knots": "fitpack:0.0001"}
+
+
+def test_smoke_preset():
+    cfg = compose_cfg("experiment=smoke", hydra=True)
+    assert sweep_values(cfg.hydra.sweeper.params) == {
+        "problem": list(CURVES), "algorithm": ["dolphin", "ga", "random_search"],
+        "budget": ["500", "1500"], "seed": ["0", "1", "2"]}
+    spec = run_spec(cfg)
+    assert spec.study == "smoke" and spec.config["encoding"]["kind"] == "mask"
+    assert spec.config["objective"]["name"] == "paper"
+
+
+@pytest.mark.parametrize("path", sorted((CONFIG_DIR / "method").glob("*.yaml")),
+                         ids=lambda p: p.stem)
+def test_method_preset_composes_to_what_it_names(path):
+    node = yaml_of(path)
+    chosen = {k.split("/")[-1]: v for entry in node["defaults"] for k, v in entry.items()}
+    spec = spec_of(f"method={path.stem}", "problem=archimedean", "encoding.n_knots=5")
+    assert spec.algorithm == chosen["algorithm"]
+    assert spec.config["encoding"]["kind"] == chosen["encoding"]
+    assert spec.label == node["label"]
+    for key, value in node.get("algorithm", {}).items():
+        assert spec.config["algorithm"][key] == value
+    assert spec.compatible() is None
+    prefix, _, encoding = path.stem.rpartition("_")
+    assert encoding == chosen["encoding"]
+    named = {spec.algorithm, spec.label, *spec.label.split("-"),
+             str(spec.config["algorithm"].get("algorithm", "")).lower()}
+    assert any(prefix in n for n in named), (prefix, named)
+
+
+@pytest.mark.parametrize("path", sorted((CONFIG_DIR / "launcher").glob("*.yaml")),
+                         ids=lambda p: p.stem)
+def test_launcher_preset_composes(path):
+    cfg = compose_cfg(f"launcher={path.stem}", hydra=True)
+    for key, value in (yaml_of(path).get("hydra") or {}).get("launcher", {}).items():
+        assert cfg.hydra.launcher[key] == value
+    assert run_spec(cfg, check_build=False).run_id == spec_of(check_build=False).run_id
+
+
+# --------------------------------------------------------------------------------------------
+# the sweep: fast composition and the plan
+
+
+def config_loader() -> ConfigLoaderImpl:
+    setup_globals()  # the ${now:} resolver of hydra.sweep.dir
+    return ConfigLoaderImpl(
+        config_search_path=create_config_search_path("pkg://metaknot.experiments.conf"))
+
+
+class CountingLoader:
+    """The config loader, counting full compositions."""
+
+    def __init__(self, loader: ConfigLoaderImpl) -> None:
+        self.loader, self.calls = loader, 0
+
+    def __getattr__(self, name):
+        return getattr(self.loader, name)
+
+    def load_sweep_config(self, master, job):
+        self.calls += 1
+        return self.loader.load_sweep_config(master, job)
+
+
+def study_sweeper(arguments: list[str]):
+    """The study sweeper, set up as Hydra's multirun does, and the job arguments."""
+    from hydra_plugins.metaknot_study_sweeper.study_sweeper import StudySweeper
+
+    loader = config_loader()
+    cfg = loader.load_configuration("config", overrides=arguments, run_mode=RunMode.MULTIRUN)
+    sweeper = StudySweeper(max_batch_size=cfg.hydra.sweeper.max_batch_size,
+                           params=OmegaConf.to_container(cfg.hydra.sweeper.params))
+    sweeper.setup(hydra_context=HydraContext(config_loader=loader, callbacks=Callbacks()),
+                  task_function=lambda _: None, config=cfg)
+    return sweeper
+
+
+def sweep_jobs(sweeper, arguments: list[str]) -> list[list[str]]:
+    """Every job of a sweep, as the study sweeper expands it."""
+    parser = OverridesParser.create(config_loader=sweeper.hydra_context.config_loader)
+    overrides = parser.parse_overrides([*sweeper._parse_config(), *arguments])
+    return [job for batch in sweeper.split_arguments(overrides, None) for job in batch]
+
+
+def compare_with_full_composition(arguments: list[str]) -> tuple[int, CountingLoader]:
+    """Compose every job of the sweep fast and in full; the specs must agree."""
+    sweeper = study_sweeper(arguments)
+    loader = sweeper.hydra_context.config_loader
+    counting = CountingLoader(loader)
+    fake = SimpleNamespace(hydra_context=SimpleNamespace(config_loader=counting),
+                           config=sweeper.config)
+    composer = _Composer(fake, OverridesParser.create(config_loader=loader))
+    jobs = sweep_jobs(sweeper, arguments)
+    for job in jobs:
+        fast = run_spec(composer(job), check_build=False)
+        full = run_spec(loader.load_sweep_config(sweeper.config, list(job)), check_build=False)
+        assert (fast.run_id, fast.config, fast.label, fast.study, fast.results_dir) == \
+            (full.run_id, full.config, full.label, full.study, full.results_dir), job
+    return len(jobs), counting
+
+
+@pytest.mark.slow
+def test_fast_composition_equals_full_composition_on_the_smoke_study():
+    n_jobs, counting = compare_with_full_composition(
+        ["experiment=smoke", f"results_dir={RESULTS}", "seed=0,1"])
+    assert n_jobs == 3 * 3 * 2 * 2
+    assert counting.calls == 3 * 3  # once per problem x algorithm: the fast path was taken
+
+
+def test_fast_composition_equals_full_composition_with_methods():
+    n_jobs, counting = compare_with_full_composition(
+        ["experiment=fitpack_front", f"results_dir={RESULTS}", "problem=archimedean",
+         "seed=0,3"])
+    assert n_jobs == 7 * 2 * 2
+    assert counting.calls == 7
+
+
+def test_fast_composition_falls_back_for_interpolations():
+    n_jobs, counting = compare_with_full_composition(
+        [f"results_dir={RESULTS}", "label=run-${seed}", "seed=0,1,2"])
+    assert n_jobs == 3 and counting.calls == 3
+
+
+def test_fast_composition_resolves_swept_interpolations():
+    """A swept value that is an interpolation resolves as in full composition."""
+    compare_with_full_composition(
+        [f"results_dir={RESULTS}", "problem.name=plain,${problem.curve}-copy", "seed=0"])
+
+
+def test_fast_composition_does_not_carry_values_between_jobs():
+    loader = config_loader()
+    cfg = loader.load_configuration("config", overrides=[f"results_dir={RESULTS}"],
+                                    run_mode=RunMode.MULTIRUN)
+    sweeper = SimpleNamespace(hydra_context=SimpleNamespace(config_loader=loader), config=cfg)
+    composer = _Composer(sweeper, OverridesParser.create(config_loader=loader))
+    for job in (["budget=500"], [], ["seed=3"]):
+        fast = run_spec(composer(job), check_build=False)
+        full = run_spec(loader.load_sweep_config(cfg, job), check_build=False)
+        assert (fast.budget, fast.seed) == (full.budget, full.seed), job
+
+
+def test_plan_validates_every_job_and_finds_the_stored_runs(tmp_path):
+    arguments = ["experiment=smoke", f"results_dir={tmp_path}"]
+    sweeper = study_sweeper(arguments)
+    the_plan, study_dir = plan(sweeper, arguments)
+    assert study_dir == tmp_path / "smoke"
+    assert the_plan.n_jobs == len(the_plan.to_run) == 3 * 3 * 2 * 3
+    assert not the_plan.stored and not the_plan.duplicates and not the_plan.incompatible
+    for job, spec in the_plan.to_run:
+        settings = dict(o.split("=", 1) for o in job)
+        assert spec.config["problem"]["curve"] == settings["problem"]
+        assert spec.algorithm == settings["algorithm"]
+        assert (spec.budget, spec.seed) == (int(settings["budget"]), int(settings["seed"]))
+    assert len({spec.run_id for _, spec in the_plan.to_run}) == the_plan.n_jobs
+    stored = [spec.run_id for _, spec in the_plan.to_run[:4]]
+    (study_dir / "runs").mkdir(parents=True)
+    for run_id in stored:
+        (study_dir / "runs" / f"{run_id}.parquet").touch()
+    again, _ = plan(sweeper, arguments)
+    assert sorted(spec.run_id for spec in again.stored) == sorted(stored)
+    assert len(again.to_run) == the_plan.n_jobs - 4
+    assert "4 already stored" in again.describe(study_dir)
+
+
+def test_plan_skips_incompatible_pairs_and_duplicates(tmp_path):
+    arguments = [f"results_dir={tmp_path}", "algorithm=nlopt,dolphin", "encoding=mask,free",
+                 "seed=0,0", "budget=100"]
+    the_plan, study_dir = plan(study_sweeper(arguments), arguments)
+    assert the_plan.n_jobs == 8
+    assert sorted((job[1], job[2]) for job, _ in the_plan.to_run) == \
+        [("algorithm=dolphin", "encoding=mask"), ("algorithm=nlopt", "encoding=free")]
+    assert the_plan.duplicates == 2
+    assert sorted(the_plan.incompatible.values()) == [2, 2]
+    assert any("'nlopt'" in r and "'mask'" in r for r in the_plan.incompatible)
+    assert any("'dolphin'" in r and "'free'" in r for r in the_plan.incompatible)
+    assert "2 duplicates" in the_plan.describe(study_dir)
+
+
+def test_plan_stops_at_the_first_bad_job_naming_key_and_job(tmp_path):
+    arguments = [f"results_dir={tmp_path}", "budget=100,0"]
+    with pytest.raises(ConfigError) as info:
+        plan(study_sweeper(arguments), arguments)
+    message = str(info.value)
+    assert message.startswith("budget:") and "budget=0" in message and "\n" not in message
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("experiment", ["seed_paper", "fitpack_front"])
+def test_preset_studies_plan_without_errors_skips_or_duplicates(tmp_path, experiment):
+    arguments = [f"experiment={experiment}", f"results_dir={tmp_path}", "seed=0,1"]
+    sweeper = study_sweeper(arguments)
+    sizes = {k: len(v) for k, v in sweep_values(sweeper.params).items() if k != "seed"}
+    the_plan, study_dir = plan(sweeper, arguments)
+    assert study_dir == tmp_path / experiment
+    assert the_plan.n_jobs == len(the_plan.to_run) == 2 * int(np.prod(list(sizes.values())))
+    assert not the_plan.incompatible and not the_plan.duplicates

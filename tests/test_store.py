@@ -1,0 +1,666 @@
+"""The results store: a run executed from its spec is stored once, atomically, never replaced,
+and reads back (runs, trace, failures) exactly as a direct run of the same settings produced
+it; files the store cannot read are named, files it does not own are ignored."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import os
+import platform
+import re
+import subprocess
+import sys
+import textwrap
+
+import numba
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+import scipy
+
+import metaknot as mk
+import metaknot.algorithms  # built-in optimizers registered before the registry is copied
+import metaknot.experiments.store as store_module
+from metaknot import registry
+from metaknot.experiments.app import execute
+from metaknot.experiments.spec import ConfigError, run_spec
+from metaknot.experiments.store import Store, StoreError, Study, load_study
+
+#: Record fields that are wall-clock times (differ between two runs of the same settings).
+TIMINGS = ("elapsed_seconds", "setup_seconds", "optimize_seconds", "decode_seconds")
+
+
+def _config(results_dir, *, algorithm="ga", seed=0, budget=200, study="s", label=None,
+            **params):
+    return {"study": study, "results_dir": str(results_dir), "budget": budget, "seed": seed,
+            "checkpoints_per_decade": 10, "threads": 1, "progress": False, "label": label,
+            "problem": {"name": "archimedean", "curve": "archimedean", "points": None,
+                        "params_column": None, "n_points": 60, "noise": 0.0,
+                        "noise_seed": None, "degree": 3, "parameterization": "centripetal"},
+            "encoding": {"kind": "mask", "density": 0.5},
+            "objective": {"name": "paper", "error_floor": 1e-5},
+            "algorithm": {"_name_": algorithm, **params}}
+
+
+def _spec(results_dir, **kwargs):
+    return run_spec(_config(results_dir, **kwargs))
+
+
+def _direct(spec):
+    """The run of ``spec`` made directly with ``metaknot.minimize`` (nothing stored)."""
+    return mk.minimize(spec.build_problem(), spec.build_optimizer(), budget=spec.budget,
+                       seed=spec.optimizer_seed(),
+                       checkpoints_per_decade=spec.config["checkpoints_per_decade"])
+
+
+def _same(stored, expected) -> bool:
+    if expected is None:
+        return stored is None
+    if isinstance(expected, float) and np.isnan(expected):
+        return isinstance(stored, float) and np.isnan(stored)
+    return stored == expected
+
+
+def _assert_trace(frame: pd.DataFrame, columns: dict[str, np.ndarray], *, dtypes=True):
+    assert list(frame.columns) == ["run_id", *columns]
+    assert len(frame) == len(columns["evaluations"])
+    for name, values in columns.items():
+        np.testing.assert_array_equal(frame[name].to_numpy(), values, err_msg=name)
+        if dtypes:
+            assert frame[name].dtype == values.dtype, name
+
+
+def _files(directory):
+    return sorted(p.name for p in directory.iterdir()) if directory.is_dir() else []
+
+
+def _record(run_id, *, status="ok", timestamp="2024-01-01T00:00:00+00:00", **fields):
+    """A minimal hand-made record for :meth:`Store.write`."""
+    return {"run_id": run_id, "study": "s", "status": status, "timestamp": timestamp,
+            "error": None if status == "ok" else "RuntimeError: boom", **fields}
+
+
+RUN_A, RUN_B = "0123456789abcdef", "fedcba9876543210"
+
+
+# --------------------------------------------------------------------------------------------
+# a crashing optimizer, registered only for the test that uses it
+
+
+class _Crash(mk.Optimizer):
+    """Asks for ``batch`` random candidates and raises on ask number ``crash_at``."""
+
+    def __init__(self, crash_at: int = 3, batch: int = 10) -> None:
+        self.crash_at = crash_at
+        self.batch = batch
+
+    def setup(self, problem, rng):
+        super().setup(problem, rng)
+        self.asked = 0
+
+    def ask(self):
+        self.asked += 1
+        if self.asked >= self.crash_at:
+            raise RuntimeError("optimizer exploded")
+        return self.problem.sample(self.rng, self.batch)
+
+    def tell(self, X, F):
+        pass
+
+
+@pytest.fixture
+def crash_optimizer(monkeypatch):
+    """Register ``test_crash`` in a copy of the optimizer registry (restored afterwards)."""
+    registry._load_builtin("optimizer")
+    monkeypatch.setitem(registry._REGISTRY, "optimizer", dict(registry._REGISTRY["optimizer"]))
+    mk.register("test_crash")(_Crash)
+    return "test_crash"
+
+
+def _crash_directly(spec):
+    with pytest.raises(RuntimeError, match="optimizer exploded") as info:
+        _direct(spec)
+    return getattr(info.value, "partial_result", None)
+
+
+# --------------------------------------------------------------------------------------------
+# 1. round trip: execute -> load_study equals a direct run
+
+
+def test_executed_run_reads_back_as_the_direct_run(tmp_path):
+    spec = _spec(tmp_path)
+    before = dt.datetime.now(dt.UTC).replace(microsecond=0)
+    outcome = execute(spec)
+    after = dt.datetime.now(dt.UTC)
+    store = Store(tmp_path / "s")
+    assert outcome == {"run_id": spec.run_id, "status": "ok",
+                       "path": str(store.path(spec.run_id))}
+    assert _files(store.runs_dir) == [f"{spec.run_id}.parquet"]
+    assert _files(store.tmp_dir) == [] and not store.failed_dir.exists()
+
+    study = load_study(tmp_path / "s")
+    assert isinstance(study, Study) and study.name == "s" and study.path == tmp_path / "s"
+    assert len(study.runs) == 1 and len(study.failures) == 0
+    assert list(study.runs.columns[:2]) == ["run_id", "study"]
+    row = study.runs.iloc[0]
+
+    direct = _direct(spec)
+    record = direct.record()
+    for key, value in record.items():
+        if key in TIMINGS:
+            assert row[key] >= 0, key
+        else:
+            assert _same(row[key], value), (key, row[key], value)
+    # the fields the brief names, spelled out
+    assert row["best_f"] == direct.best_f and row["rmse"] == direct.solution.fit.rmse
+    assert row["n_control_points"] == direct.solution.fit.n_control_points
+    assert row["n_evaluations"] == direct.n_evaluations == spec.budget
+    assert isinstance(row["best_x"], list) and row["best_x"] == direct.best_x.tolist()
+    assert row["seed"] == spec.seed and row["seed_spawn_key"] == "1"
+    for name, value in spec.config["algorithm"].items():
+        if name != "_name_":
+            assert _same(row[f"algorithm.{name}"], value), name
+    assert row["algorithm"] == "ga"
+    assert row["objective"] == "paper" and row["objective.error_floor"] == 1e-5
+    assert row["data_fingerprint"] == record["data_fingerprint"]
+    # study layer: identity, versions, time, config
+    assert row["run_id"] == spec.run_id and row["study"] == "s"
+    assert row["label"] == "ga" and row["status"] == "ok" and row["error"] is None
+    assert row["metaknot_version"] == mk.__version__
+    assert row["numpy_version"] == np.__version__
+    assert row["scipy_version"] == scipy.__version__
+    assert row["numba_version"] == numba.__version__
+    assert row["python_version"] == platform.python_version()
+    assert before <= dt.datetime.fromisoformat(row["timestamp"]) <= after
+    assert json.loads(row["config"]) == spec.config
+
+    trace = study.trace[study.trace.run_id == spec.run_id]
+    assert len(trace) == len(study.trace) == len(direct.trace)
+    _assert_trace(study.trace, direct.trace.columns())
+    assert (study.trace.run_id == spec.run_id).all()
+    assert repr(study) == f"Study('s': 1 runs, 1 ok, 0 failed attempts, {len(trace)} trace points)"
+
+
+def test_label_is_stored_but_not_part_of_the_identity(tmp_path):
+    spec = _spec(tmp_path, label="my-ga")
+    assert execute(spec)["status"] == "ok"
+    assert load_study(tmp_path / "s").runs.loc[0, "label"] == "my-ga"
+    relabelled = _spec(tmp_path, label="other")
+    assert relabelled.run_id == spec.run_id
+    assert execute(relabelled)["status"] == "skipped"
+    assert load_study(tmp_path / "s").runs.loc[0, "label"] == "my-ga"
+
+
+# --------------------------------------------------------------------------------------------
+# 2. a stored run is skipped: no recompute, no rewrite
+
+
+def test_re_executing_a_stored_run_skips_it_and_leaves_the_file_alone(tmp_path, monkeypatch):
+    spec = _spec(tmp_path, budget=100)
+    path = Store(spec.study_dir).path(spec.run_id)
+    assert execute(spec)["path"] == str(path)
+    content, stat = path.read_bytes(), path.stat()
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("a stored run must not be computed again")
+
+    monkeypatch.setattr(mk.runner, "minimize", no_run)
+    again = execute(_spec(tmp_path, budget=100))
+    assert again == {"run_id": spec.run_id, "status": "skipped", "path": str(path)}
+    after = path.stat()
+    assert path.read_bytes() == content
+    assert (after.st_mtime_ns, after.st_ino, after.st_size) == (
+        stat.st_mtime_ns, stat.st_ino, stat.st_size)
+    assert _files(path.parent) == [path.name]
+    assert _files(Store(spec.study_dir).tmp_dir) == []
+
+
+# --------------------------------------------------------------------------------------------
+# 3. atomic publish: never replace, failures each get a file
+
+
+def test_write_never_replaces_an_ok_record(tmp_path):
+    store = Store(tmp_path / "s")
+    first = store.write(_record(RUN_A, seed=1), best_x=np.array([1, 0, 1]),
+                        trace={"evaluations": np.array([1, 2]), "best_f": np.array([3.0, 2.0])})
+    content, inode = first.read_bytes(), first.stat().st_ino
+    second = store.write(_record(RUN_A, seed=2, label="intruder"), best_x=np.array([0, 0, 0]))
+    assert second == first == store.path(RUN_A)
+    assert first.read_bytes() == content and first.stat().st_ino == inode
+    assert _files(store.runs_dir) == [f"{RUN_A}.parquet"]
+    assert _files(store.tmp_dir) == []
+    runs = load_study(store.study_dir).runs
+    assert runs.loc[0, "seed"] == 1 and runs.loc[0, "best_x"] == [1, 0, 1]
+    assert "label" not in runs.columns
+
+
+def test_failed_records_get_a_new_file_each_and_never_touch_runs(tmp_path):
+    store = Store(tmp_path / "s")
+    paths = [store.write(_record(RUN_A, status="failed", error=f"RuntimeError: {i}"))
+             for i in range(3)]
+    assert len(set(paths)) == 3
+    assert all(p.parent == store.failed_dir and p.is_file() for p in paths)
+    assert all(store_module.FAILED_FILE.match(p.name) for p in paths)
+    assert not store.runs_dir.exists() and not store.has(RUN_A)
+    assert store.completed() == set()
+    failures = load_study(store.study_dir).failures
+    assert sorted(failures["error"]) == [f"RuntimeError: {i}" for i in range(3)]
+
+
+def test_failed_records_are_kept_even_when_the_clock_does_not_move(tmp_path, monkeypatch):
+    # two failures of one run in the same clock tick (a coarse clock, two threads) are two
+    # attempts: neither may be dropped
+    monkeypatch.setattr(store_module, "_now", lambda: "2024-01-01T00:00:00.000000Z")
+    store = Store(tmp_path / "s")
+    first = store.write(_record(RUN_A, status="failed", error="RuntimeError: first"))
+    second = store.write(_record(RUN_A, status="failed", error="RuntimeError: second"))
+    assert first != second
+    assert len(_files(store.failed_dir)) == 2
+    assert sorted(load_study(store.study_dir).failures["error"]) == [
+        "RuntimeError: first", "RuntimeError: second"]
+
+
+def test_write_without_hard_links_still_never_replaces(tmp_path, monkeypatch):
+    def no_link(src, dst):
+        raise PermissionError(1, "Operation not permitted", str(dst))
+
+    monkeypatch.setattr(os, "link", no_link)
+    store = Store(tmp_path / "s")
+    path = store.write(_record(RUN_A, seed=1))
+    content = path.read_bytes()
+    assert store.write(_record(RUN_A, seed=2)) == path
+    assert path.read_bytes() == content
+    assert _files(store.tmp_dir) == []
+    assert load_study(store.study_dir).runs.loc[0, "seed"] == 1
+
+
+def test_write_rejects_a_bad_run_id_before_touching_the_disk(tmp_path):
+    store = Store(tmp_path / "s")
+    for bad in ("0123456789ABCDEF", "0123", "../../etc/passwd", "0123456789abcdef0", None):
+        with pytest.raises(ValueError, match="16 hex digits"):
+            store.write(_record(bad))
+    assert not store.study_dir.exists()
+
+
+def test_an_interrupted_write_publishes_nothing(tmp_path, monkeypatch):
+    def half_written(table, where, **kwargs):
+        with open(where, "wb") as f:
+            f.write(b"PAR1 half a file")
+        raise OSError("No space left on device")
+
+    monkeypatch.setattr(store_module.pq, "write_table", half_written)
+    store = Store(tmp_path / "s")
+    with pytest.raises(OSError, match="No space left"):
+        store.write(_record(RUN_A))
+    assert not store.has(RUN_A) and _files(store.runs_dir) == []
+    monkeypatch.undo()
+    study = load_study(store.study_dir)
+    assert len(study.runs) == 0 and len(study.trace) == 0
+
+
+def test_write_stores_plain_values(tmp_path):
+    store = Store(tmp_path / "s")
+    store.write(_record(RUN_A, n=np.int64(7), x=np.float64(0.25), flag=np.bool_(True),
+                        options={"b": 1, "a": [1, 2]}, pair=(1, 2)),
+                best_x=np.array([0.5, 1.5]),
+                trace={"evaluations": np.array([1, 5]), "best_f": np.array([2.0, 1.0]),
+                       "improvement": np.array([True, True])})
+    store.write(_record(RUN_B), best_x=np.array([True, False]),
+                trace={"evaluations": np.array([3]), "best_f": np.array([4.0]),
+                       "improvement": np.array([False])})
+    study = load_study(store.study_dir)
+    a = study.runs.set_index("run_id").loc[RUN_A]
+    assert a["n"] == 7 and a["x"] == 0.25 and bool(a["flag"]) is True
+    assert json.loads(a["options"]) == {"a": [1, 2], "b": 1}
+    assert json.loads(a["pair"]) == [1, 2]
+    assert a["best_x"] == [0.5, 1.5]
+    b = study.runs.set_index("run_id").loc[RUN_B]
+    assert b["best_x"] == [1, 0] and all(isinstance(v, int) for v in b["best_x"])
+    _assert_trace(study.trace.sort_values(["run_id", "evaluations"], ignore_index=True),
+                  {"evaluations": np.array([1, 5, 3]), "best_f": np.array([2.0, 1.0, 4.0]),
+                   "improvement": np.array([True, True, False])})
+
+
+# --------------------------------------------------------------------------------------------
+# 4. failures
+
+
+def test_a_run_that_crashes_after_evaluating_is_stored_with_its_partial_best(
+        tmp_path, crash_optimizer):
+    spec = _spec(tmp_path, algorithm=crash_optimizer, crash_at=3, batch=10)
+    outcome = execute(spec)
+    store = Store(spec.study_dir)
+    assert outcome["status"] == "failed" and outcome["run_id"] == spec.run_id
+    assert os.path.dirname(outcome["path"]) == str(store.failed_dir)
+    assert _files(store.runs_dir) == [] and not store.has(spec.run_id)
+
+    partial = _crash_directly(spec)
+    assert partial is not None and partial.n_evaluations == 20
+    study = load_study(spec.study_dir)
+    assert len(study.runs) == 1 and len(study.failures) == 1
+    row = study.runs.iloc[0]
+    assert row["run_id"] == spec.run_id and row["status"] == "failed"
+    assert row["error"] == "RuntimeError: optimizer exploded"
+    assert row["n_evaluations"] == 20
+    assert row["best_f"] == partial.best_f and row["best_x"] == partial.best_x.tolist()
+    assert row["rmse"] == partial.record()["rmse"]
+    assert row["algorithm"] == "test_crash" and row["algorithm.crash_at"] == 3
+    assert json.loads(row["config"]) == spec.config
+    failure = study.failures.iloc[0]
+    assert failure["run_id"] == spec.run_id and failure["error"] == row["error"]
+    assert not any(c.startswith("trace.") for c in study.failures.columns)
+    _assert_trace(study.trace, partial.trace.columns())
+    assert repr(study).startswith("Study('s': 1 runs, 0 ok, 1 failed attempts")
+
+
+def test_a_run_that_crashes_before_evaluating_is_stored_with_its_settings(
+        tmp_path, crash_optimizer):
+    spec = _spec(tmp_path, algorithm=crash_optimizer, crash_at=1)
+    assert _crash_directly(spec) is None
+    assert execute(spec)["status"] == "failed"
+    study = load_study(spec.study_dir)
+    row = study.runs.iloc[0]
+    assert row["status"] == "failed" and row["error"] == "RuntimeError: optimizer exploded"
+    assert row["n_evaluations"] == 0 and row["best_x"] is None
+    assert (row["problem"], row["encoding"], row["data"]) == (
+        "knot_selection", "binary", "archimedean")
+    assert (row["algorithm"], row["algorithm.crash_at"], row["algorithm.batch"]) == (
+        "test_crash", 1, 10)
+    assert row["objective"] == "paper" and row["objective.error_floor"] == 1e-5
+    assert (row["seed"], row["budget"], row["label"]) == (0, spec.budget, "test_crash")
+    assert len(study.trace) == 0 and len(study.failures) == 1
+
+
+def test_every_attempt_of_a_failing_run_is_kept(tmp_path, crash_optimizer):
+    spec = _spec(tmp_path, algorithm=crash_optimizer)
+    first, second = execute(spec), execute(spec)  # a failed run is not "stored": it reruns
+    assert first["status"] == second["status"] == "failed"
+    assert first["path"] != second["path"]
+    store = Store(spec.study_dir)
+    assert len(_files(store.failed_dir)) == 2 and _files(store.runs_dir) == []
+    study = load_study(spec.study_dir)
+    assert len(study.runs) == 1 and len(study.failures) == 2
+    assert set(study.failures.run_id) == {spec.run_id}
+
+
+def test_a_run_without_a_trace_leaves_the_trace_types_alone(tmp_path, crash_optimizer):
+    # a run that failed before evaluating has no trace; the other runs' traces keep their
+    # integer evaluation counts and boolean flags
+    ok = _spec(tmp_path, budget=100)
+    crashed = _spec(tmp_path, algorithm=crash_optimizer, crash_at=1)
+    assert execute(ok)["status"] == "ok" and execute(crashed)["status"] == "failed"
+    study = load_study(tmp_path / "s")
+    assert len(study.runs) == 2 and set(study.trace.run_id) == {ok.run_id}
+    _assert_trace(study.trace, _direct(ok).trace.columns())
+
+
+def test_raise_errors_re_raises_and_stores_no_record(tmp_path, crash_optimizer):
+    spec = _spec(tmp_path, algorithm=crash_optimizer)
+    with pytest.raises(RuntimeError, match="optimizer exploded"):
+        execute(spec, raise_errors=True)
+    assert not Store(spec.study_dir).has(spec.run_id)
+
+
+def test_an_incompatible_run_is_a_config_error_and_stores_nothing(tmp_path):
+    spec = _spec(tmp_path, algorithm="nlopt")  # nlopt handles continuous encodings only
+    with pytest.raises(ConfigError, match="nlopt"):
+        execute(spec)
+    assert not (tmp_path / "s").exists()
+
+
+def test_the_latest_failure_shows_until_an_ok_record_supersedes_it(tmp_path):
+    store = Store(tmp_path / "s")
+    # written out of time order: the latest is chosen by time stamp, not by file
+    store.write(_record(RUN_B, status="failed", timestamp="2024-01-02T00:00:00+00:00",
+                        error="RuntimeError: later"))
+    store.write(_record(RUN_B, status="failed", timestamp="2024-01-01T00:00:00+00:00",
+                        error="RuntimeError: earlier"))
+    store.write(_record(RUN_A, status="failed", error="RuntimeError: flaky"))
+    study = load_study(store.study_dir)
+    runs = study.runs.set_index("run_id")
+    assert sorted(runs.index) == [RUN_A, RUN_B]
+    assert runs.loc[RUN_B, "error"] == "RuntimeError: later"
+    assert (runs["status"] == "failed").all() and len(study.failures) == 3
+
+    store.write(_record(RUN_A, timestamp="2024-01-03T00:00:00+00:00"))
+    study = load_study(store.study_dir)
+    runs = study.runs.set_index("run_id")
+    assert len(runs) == 2
+    assert runs.loc[RUN_A, "status"] == "ok" and pd.isna(runs.loc[RUN_A, "error"])
+    assert runs.loc[RUN_B, "status"] == "failed"
+    assert len(study.failures) == 3  # the superseded attempt stays in the failures
+    assert sorted(study.failures.error) == ["RuntimeError: earlier", "RuntimeError: flaky",
+                                            "RuntimeError: later"]
+
+
+# --------------------------------------------------------------------------------------------
+# 5. files the store cannot read are named; files it does not own are ignored
+
+
+@pytest.fixture
+def one_run(tmp_path):
+    """A study directory with one complete record (hand-made, no optimisation)."""
+    store = Store(tmp_path / "s")
+    store.write(_record(RUN_A), best_x=np.array([1, 0]),
+                trace={"evaluations": np.array([1]), "best_f": np.array([1.0])})
+    return store
+
+
+def _error_names(path):
+    return pytest.raises(StoreError, match=re.escape(str(path)))
+
+
+def test_a_foreign_file_in_runs_is_named(one_run):
+    notes = one_run.runs_dir / "notes.txt"
+    notes.write_text("remember the milk\n")
+    with _error_names(notes):
+        load_study(one_run.study_dir)
+    with _error_names(notes):
+        one_run.completed()
+
+
+def test_a_corrupt_record_is_named(one_run):
+    corrupt = one_run.runs_dir / f"{RUN_B}.parquet"
+    corrupt.write_bytes(np.random.default_rng(0).bytes(2048))
+    with _error_names(corrupt):
+        load_study(one_run.study_dir)
+
+
+def test_an_empty_record_file_is_named(one_run):
+    empty = one_run.runs_dir / f"{RUN_B}.parquet"
+    empty.touch()
+    with _error_names(empty):
+        load_study(one_run.study_dir)
+
+
+def test_a_parquet_file_that_is_not_a_record_is_named(one_run):
+    foreign = one_run.runs_dir / f"{RUN_B}.parquet"
+    pq.write_table(pa.table({"run_id": [RUN_B], "status": ["ok"]}), foreign)
+    with _error_names(foreign):
+        load_study(one_run.study_dir)
+
+
+def test_a_record_file_with_several_rows_is_named(one_run):
+    double = one_run.runs_dir / f"{RUN_B}.parquet"
+    table = pa.table({"run_id": [RUN_B, RUN_B], "status": ["ok", "ok"]})
+    pq.write_table(table.replace_schema_metadata(
+        {b"metaknot": store_module.STORE_FORMAT.encode()}), double)
+    with _error_names(double):
+        load_study(one_run.study_dir)
+
+
+def test_a_record_under_another_run_id_is_named(one_run):
+    moved = one_run.runs_dir / f"{RUN_B}.parquet"
+    os.rename(one_run.path(RUN_A), moved)
+    with _error_names(moved):
+        load_study(one_run.study_dir)
+
+
+def test_a_foreign_file_in_failed_is_named(one_run):
+    one_run.failed_dir.mkdir()
+    stray = one_run.failed_dir / "crash.log"
+    stray.write_text("Traceback ...\n")
+    with _error_names(stray):
+        load_study(one_run.study_dir)
+
+
+def test_a_missing_study_directory_is_named(tmp_path):
+    missing = tmp_path / "no-such-study"
+    with _error_names(missing):
+        load_study(missing)
+    (tmp_path / "a-file").write_text("")
+    with _error_names(tmp_path / "a-file"):
+        load_study(tmp_path / "a-file")
+
+
+def test_files_the_store_does_not_own_are_ignored(one_run):
+    garbage = np.random.default_rng(1).bytes(512)
+    root = one_run.study_dir
+    (root / "README.md").write_text("my study\n")
+    (root / f"{RUN_B}.parquet").write_bytes(garbage)
+    (root / "hydra" / "0").mkdir(parents=True)
+    (root / "hydra" / "multirun.yaml").write_text("hydra: {}\n")
+    (root / "hydra" / "0" / f"{RUN_B}.parquet").write_bytes(garbage)
+    one_run.tmp_dir.mkdir(exist_ok=True)
+    (one_run.tmp_dir / f"{RUN_B}.123.deadbeef.parquet").write_bytes(garbage)
+    (one_run.tmp_dir / "junk.txt").write_text("junk")
+    (one_run.runs_dir / ".DS_Store").write_bytes(garbage)
+    (one_run.runs_dir / f".{RUN_B}.parquet").write_bytes(garbage)
+    one_run.failed_dir.mkdir()
+    (one_run.failed_dir / ".nfs0001").write_bytes(garbage)
+    study = load_study(root)
+    assert list(study.runs.run_id) == [RUN_A] and len(study.failures) == 0
+    assert one_run.completed() == {RUN_A}
+
+
+def test_an_empty_study_loads_empty(tmp_path):
+    (tmp_path / "s").mkdir()
+    study = load_study(tmp_path / "s")
+    assert len(study.runs) == len(study.trace) == len(study.failures) == 0
+    assert {"run_id", "status"} <= set(study.runs.columns)
+    assert {"run_id", "evaluations", "best_f"} <= set(study.trace.columns)
+    assert repr(study) == "Study('s': 0 runs, 0 ok, 0 failed attempts, 0 trace points)"
+
+
+# --------------------------------------------------------------------------------------------
+# 6. partial studies
+
+
+def test_a_partial_study_loads_its_complete_runs(tmp_path):
+    specs = [_spec(tmp_path, seed=seed, budget=100) for seed in (0, 1)]
+    for spec in specs:
+        assert execute(spec)["status"] == "ok"
+    store = Store(tmp_path / "s")
+    # a run killed while writing: its temp file (a truncated copy of a real record) stays
+    killed = _spec(tmp_path, seed=2, budget=100)
+    content = store.path(specs[0].run_id).read_bytes()
+    (store.tmp_dir / f"{killed.run_id}.4242.0badc0de.parquet").write_bytes(
+        content[: len(content) // 2])
+    study = load_study(store.study_dir)
+    assert sorted(study.runs.run_id) == sorted(s.run_id for s in specs)
+    assert set(study.trace.run_id) == {s.run_id for s in specs}
+    assert not store.has(killed.run_id)
+    # the sweep resumes: the killed run is computed, the others skipped
+    assert [execute(s)["status"] for s in [*specs, killed]] == ["skipped", "skipped", "ok"]
+    assert len(load_study(store.study_dir).runs) == 3
+
+
+# --------------------------------------------------------------------------------------------
+# 7. several runs
+
+
+def test_several_runs_load_one_row_each_sorted_with_their_traces(tmp_path):
+    specs = [_spec(tmp_path, algorithm=algorithm, seed=seed, budget=budget)
+             for algorithm, budget in (("random_search", 100), ("ga", 150))
+             for seed in (1, 0)]
+    assert len({s.run_id for s in specs}) == 4
+    for spec in specs:
+        assert execute(spec)["status"] == "ok"
+    study = load_study(tmp_path / "s")
+    runs = study.runs
+    assert len(runs) == 4 and runs.run_id.is_unique
+    assert set(runs.run_id) == {s.run_id for s in specs}
+    assert list(zip(runs.algorithm, runs.budget, runs.seed, strict=True)) == sorted(
+        (s.algorithm, s.budget, s.seed) for s in specs)
+    assert list(runs.index) == list(range(4))
+    joined = study.trace.merge(runs[["run_id", "algorithm", "seed"]], on="run_id",
+                               how="left", validate="many_to_one")
+    assert len(joined) == len(study.trace) and joined.algorithm.notna().all()
+    for spec in specs:
+        direct = _direct(spec)
+        row = runs[runs.run_id == spec.run_id].iloc[0]
+        assert (row.algorithm, row.seed, row.budget) == (spec.algorithm, spec.seed, spec.budget)
+        assert row.best_f == direct.best_f and row.best_x == direct.best_x.tolist()
+        trace = study.trace[study.trace.run_id == spec.run_id].reset_index(drop=True)
+        assert len(trace) == len(direct.trace)
+        _assert_trace(trace, direct.trace.columns(), dtypes=False)
+        assert trace.evaluations.iloc[-1] == row.n_evaluations
+        assert trace.best_f.iloc[-1] == row.best_f
+
+
+# --------------------------------------------------------------------------------------------
+# 8. concurrency
+
+
+def test_losing_the_race_keeps_the_first_record(tmp_path, monkeypatch):
+    # both workers found no record and computed the run; the second to publish keeps the first
+    spec = _spec(tmp_path, budget=100)
+    monkeypatch.setattr(Store, "has", lambda self, run_id: False)
+    first = execute(spec)
+    path = Store(spec.study_dir).path(spec.run_id)
+    content, inode = path.read_bytes(), path.stat().st_ino
+    second = execute(spec)
+    assert first == second == {"run_id": spec.run_id, "status": "ok", "path": str(path)}
+    assert path.read_bytes() == content and path.stat().st_ino == inode
+    assert _files(path.parent) == [path.name]
+    assert _files(Store(spec.study_dir).tmp_dir) == []
+
+
+WORKER = textwrap.dedent("""
+    import json, sys, time
+    from pathlib import Path
+
+    import metaknot as mk
+    from metaknot.experiments.app import execute
+    from metaknot.experiments.spec import run_spec
+
+    cfg, ready, me = json.loads(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
+    spec = run_spec(cfg)
+    # warm up (compile) so that both workers reach the store at about the same time
+    mk.minimize(spec.build_problem(), spec.build_optimizer(), budget=10, seed=0)
+    (ready / me).touch()
+    deadline = time.monotonic() + 60
+    while len(list(ready.iterdir())) < 2 and time.monotonic() < deadline:
+        time.sleep(0.001)
+    print(json.dumps(execute(spec)))
+""")
+
+
+def test_two_processes_executing_the_same_run_store_it_once(tmp_path):
+    cfg = _config(tmp_path / "results", budget=100)
+    spec = run_spec(cfg)
+    ready = tmp_path / "ready"
+    ready.mkdir()
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
+    workers = [subprocess.Popen([sys.executable, "-c", WORKER, json.dumps(cfg), str(ready),
+                                 str(i)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True, cwd=tmp_path, env=env) for i in range(2)]
+    outcomes = []
+    for worker in workers:
+        out, err = worker.communicate(timeout=120)
+        assert worker.returncode == 0, err
+        outcomes.append(json.loads(out.strip().splitlines()[-1]))
+    store = Store(spec.study_dir)
+    path = str(store.path(spec.run_id))
+    for outcome in outcomes:
+        assert outcome["run_id"] == spec.run_id and outcome["path"] == path
+        assert outcome["status"] in ("ok", "skipped")
+    assert "ok" in {o["status"] for o in outcomes}
+    assert _files(store.runs_dir) == [f"{spec.run_id}.parquet"]
+    assert _files(store.tmp_dir) == [] and not store.failed_dir.exists()
+    study = load_study(store.study_dir)
+    assert len(study.runs) == 1
+    assert study.runs.loc[0, "best_f"] == _direct(spec).best_f

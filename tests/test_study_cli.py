@@ -1,0 +1,200 @@
+"""``metaknot run`` end to end, as a user runs it: single runs, sweeps, resume after a kill,
+the launchers, and errors before anything runs."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from metaknot.experiments.store import load_study
+
+ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
+#: Fields every stored run has (the studies issue's list), beyond problem-specific settings.
+RECORD_FIELDS = {
+    "run_id", "study", "label", "problem", "data", "data_fingerprint", "n_points", "dim",
+    "noise", "noise_seed", "density", "degree", "parameterization", "encoding", "objective",
+    "objective.error_floor", "algorithm", "seed", "seed_spawn_key", "budget",
+    "n_evaluations", "best_f", "rmse", "euclidean_distance", "max_deviation",
+    "n_control_points", "setup_seconds", "optimize_seconds", "decode_seconds",
+    "elapsed_seconds", "external_fits", "status", "error", "metaknot_version",
+    "python_version", "numpy_version", "scipy_version", "numba_version", "git_commit",
+    "timestamp", "config", "best_x", "kernel_threads",
+}
+
+
+def metaknot(*args: str, cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "metaknot.cli", "run", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout, env=ENV)
+
+
+def plan_line(stderr: str) -> dict[str, int]:
+    """Counts of the sweeper's plan line ('study ...: N jobs, X to run, Y already stored')."""
+    line = next(ln for ln in stderr.splitlines() if " jobs, " in ln)
+    counts = {"jobs": int(re.search(r"(\d+) jobs", line).group(1))}
+    for key, pattern in (("to_run", r"(\d+) to run"), ("stored", r"(\d+) already stored"),
+                         ("skipped", r"(\d+) skipped")):
+        found = re.search(pattern, line)
+        counts[key] = int(found.group(1)) if found else 0
+    return counts
+
+
+def snapshot(runs_dir: Path) -> dict[str, tuple[int, int, bytes]]:
+    return {p.name: (p.stat().st_ino, p.stat().st_mtime_ns, p.read_bytes())
+            for p in runs_dir.glob("*.parquet")}
+
+
+def test_single_run_from_the_command_line(tmp_path):
+    done = metaknot("algorithm=ga", "problem=vivaldi", "seed=3", "budget=400",
+                    f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    study = load_study(tmp_path / "default")
+    (row,) = study.runs.to_dict("records")
+    assert row["algorithm"] == "ga" and row["data"] == "vivaldi" and row["seed"] == 3
+    assert row["n_evaluations"] == 400 and row["status"] == "ok"
+    assert row["run_id"] in done.stdout
+    again = metaknot("algorithm=ga", "problem=vivaldi", "seed=3", "budget=400",
+                     f"results_dir={tmp_path}", cwd=tmp_path)
+    assert again.returncode == 0 and "already stored" in again.stdout
+
+
+@pytest.mark.parametrize(("override", "key"), [
+    ("algorithm.population=abc", "algorithm.population"),
+    ("budget=0", "budget"),
+    ("problem.degree=9", "problem.degree"),
+    ("encoding.density=1.5", "encoding.density"),
+])
+def test_a_bad_value_fails_before_anything_runs(tmp_path, override, key):
+    done = metaknot(override, f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 2
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("metaknot run: error: ") and key in line
+    assert not (tmp_path / "default").exists()
+
+
+def test_a_bad_value_in_a_sweep_fails_before_any_run(tmp_path):
+    done = metaknot("-m", "algorithm=ga", "algorithm.population=30,abc", "seed=0,1",
+                    "budget=100", f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode != 0
+    assert "algorithm.population: expected int, got 'abc'" in done.stderr
+    assert not (tmp_path / "default" / "runs").exists()
+
+
+def test_an_algorithm_that_cannot_work_on_an_encoding(tmp_path):
+    single = metaknot("algorithm=nlopt", "encoding=mask", f"results_dir={tmp_path}",
+                      cwd=tmp_path)
+    assert single.returncode == 2 and "nlopt" in single.stderr and "mask" in single.stderr
+    sweep = metaknot("-m", "algorithm=nlopt,random_search", "encoding=mask,free",
+                     "problem=archimedean", "budget=60", f"results_dir={tmp_path}",
+                     cwd=tmp_path)
+    assert sweep.returncode == 0, sweep.stderr
+    counts = plan_line(sweep.stderr)
+    assert counts == {"jobs": 4, "to_run": 3, "stored": 0, "skipped": 1}
+    assert "skipped 1 job(s): algorithm 'nlopt'" in sweep.stderr
+    study = load_study(tmp_path / "default")
+    assert sorted(zip(study.runs.algorithm, study.runs.encoding, strict=True)) == [
+        ("nlopt", "continuous"), ("random_search", "binary"), ("random_search", "continuous")]
+
+
+def test_smoke_study_has_every_field_and_paired_replicates(tmp_path):
+    done = metaknot("-m", "experiment=smoke", f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    study = load_study(tmp_path / "smoke")
+    runs = study.runs
+    assert len(runs) == 3 * 3 * 2 * 3 and (runs.status == "ok").all()
+    assert RECORD_FIELDS <= set(runs.columns), RECORD_FIELDS - set(runs.columns)
+    assert runs.run_id.is_unique
+    assert set(runs.algorithm) == {"dolphin", "ga", "random_search"}
+    assert set(runs.budget) == {500, 1500} and set(runs.seed) == {0, 1, 2}
+    assert (runs.n_evaluations == runs.budget).all()
+    # replicate r of every algorithm saw the same data: same fingerprint per (curve, seed)
+    assert (runs.groupby(["data", "seed"]).data_fingerprint.nunique() == 1).all()
+    # the trace: checkpoints shared across runs, the last one at the run's end
+    trace = study.trace
+    assert set(trace.run_id) == set(runs.run_id)
+    for run_id, points in trace.groupby("run_id"):
+        budget = int(runs.loc[runs.run_id == run_id, "budget"].iloc[0])
+        assert points.evaluations.is_monotonic_increasing
+        assert points.evaluations.iloc[-1] == budget and points.checkpoint.iloc[-1]
+        assert {1, 10, 100} <= set(points.evaluations[points.checkpoint])
+        assert (np.diff(points.best_f.to_numpy()) <= 0).all()
+        best = float(runs.loc[runs.run_id == run_id, "best_f"].iloc[0])
+        assert points.best_f.iloc[-1] == best
+    config = json.loads(runs.config.iloc[0])
+    assert config["budget"] == int(runs.budget.iloc[0])
+
+
+def test_sweep_resumes_after_a_kill(tmp_path):
+    """SIGKILL a sweep part-way; the same command again runs exactly the rest."""
+    args = ("-m", "experiment=smoke", "seed=0,1", "budget=3000", f"results_dir={tmp_path}")
+    runs_dir = tmp_path / "smoke" / "runs"
+    proc = subprocess.Popen([sys.executable, "-m", "metaknot.cli", "run", *args], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=ENV,
+                            start_new_session=True)
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and len(list(runs_dir.glob("*.parquet"))) < 4:
+        assert proc.poll() is None, "the sweep ended before it could be killed"
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=60)
+    before = snapshot(runs_dir)
+    assert 4 <= len(before) < 18, len(before)
+    done = metaknot(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    counts = plan_line(done.stderr)
+    assert counts["jobs"] == 18 and counts["stored"] == len(before)
+    assert counts["to_run"] == 18 - len(before)
+    assert f"{18 - len(before)} ok" in done.stderr  # only the rest was computed
+    after = snapshot(runs_dir)
+    assert len(after) == 18
+    for name, state in before.items():
+        assert after[name] == state, f"{name} was rewritten"
+    study = load_study(tmp_path / "smoke")
+    assert len(study.runs) == 18 and study.runs.run_id.is_unique
+    assert (study.runs.status == "ok").all() and len(study.failures) == 0
+    # a third time: nothing left to do
+    again = metaknot(*args, cwd=tmp_path)
+    assert plan_line(again.stderr) == {"jobs": 18, "to_run": 0, "stored": 18, "skipped": 0}
+    assert snapshot(runs_dir) == after
+
+
+def test_joblib_workers_run_the_kernel_on_one_thread(tmp_path):
+    done = metaknot("-m", "launcher=joblib", "hydra.launcher.n_jobs=2",
+                    "algorithm=ga,random_search", "problem=archimedean,vivaldi", "seed=0,1",
+                    "budget=300", f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    runs = load_study(tmp_path / "default").runs
+    assert len(runs) == 8 and (runs.status == "ok").all()
+    assert (runs.kernel_threads == 1).all()
+
+
+@pytest.mark.slow
+def test_submitit_local_launcher(tmp_path):
+    """The same code path as SLURM, on this machine."""
+    done = metaknot("-m", "launcher=submitit_local", "algorithm=ga,random_search",
+                    "problem=archimedean", "budget=200", f"results_dir={tmp_path}",
+                    cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    runs = load_study(tmp_path / "default").runs
+    assert sorted(runs.algorithm) == ["ga", "random_search"]
+    assert (runs.status == "ok").all() and (runs.kernel_threads == 1).all()
+
+
+def test_user_points_file(tmp_path):
+    t = np.linspace(0, 2 * np.pi, 80)
+    points = tmp_path / "outline.csv"
+    np.savetxt(points, np.column_stack((np.cos(t), np.sin(2 * t))), delimiter=",",
+               header="x,y", comments="")
+    done = metaknot("problem=points", f"problem.points={points}", "algorithm=ga",
+                    "budget=200", f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    (row,) = load_study(tmp_path / "default").runs.to_dict("records")
+    assert row["data"] == "outline" and row["n_points"] == 80
