@@ -154,7 +154,8 @@ def _check_hyperparameter(key: str, value: Any, hint: Any) -> Any:
     if allowed is None:
         return value
     kinds, literals = allowed
-    if value in literals and not isinstance(value, bool | float):
+    if not isinstance(value, bool | float | list | dict) and any(
+            value == v for v in literals):
         return value
     if value is None:
         if type(None) in kinds:

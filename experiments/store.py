@@ -102,14 +102,15 @@ class Store:
             raise ValueError(f"run_id must be 16 hex digits; got {run_id!r}")
         table = _to_table(record, best_x, trace)
         self.tmp_dir.mkdir(parents=True, exist_ok=True)
-        tmp = self.tmp_dir / f"{run_id}.{os.getpid()}.{uuid.uuid4().hex[:8]}.parquet"
-        pq.write_table(table, tmp)
+        unique = uuid.uuid4().hex[:8]
+        tmp = self.tmp_dir / f"{run_id}.{os.getpid()}.{unique}.parquet"
         try:
+            pq.write_table(table, tmp)
             if record.get("status") == "ok":
                 target = self.path(run_id)
             else:
                 stamp = re.sub(r"[^0-9TZ]", "", _now())
-                target = self.failed_dir / f"{run_id}.{stamp}.{os.getpid()}.parquet"
+                target = self.failed_dir / f"{run_id}.{stamp}.{os.getpid()}.{unique}.parquet"
             target.parent.mkdir(parents=True, exist_ok=True)
             _publish(tmp, target)
             return target
@@ -240,6 +241,7 @@ def load_study(path: str | os.PathLike) -> Study:
     for row in failures:
         _pop_trace(row)
     runs = _frame(all_rows)
+    traces = [t for t in traces if len(t)]  # a run that failed before evaluating has none
     trace = pd.concat(traces, ignore_index=True) if traces else pd.DataFrame(
         columns=["run_id", "evaluations", "best_f", "improvement", "checkpoint"])
     return Study(path=store.study_dir, name=store.study_dir.name, runs=runs, trace=trace,

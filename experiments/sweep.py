@@ -109,7 +109,9 @@ class _Composer:
     values (seed, budget). Jobs are grouped by their group overrides (and any ``+``/``~``
     override); the group's configuration is composed once, and each job's plain ``key=value``
     overrides are set on a copy of its settings. A configuration with interpolations outside
-    ``hydra`` is composed in full for every job, as a value could feed into them.
+    ``hydra`` is composed in full for every job, as a value could feed into them; so is a job
+    with a value holding an interpolation or a key the configuration does not have (Hydra then
+    reports it).
     """
 
     def __init__(self, sweeper: Any, parser: OverridesParser) -> None:
@@ -122,7 +124,7 @@ class _Composer:
         structural, values = [], []
         for override in self.parser.parse_overrides(job):
             simple = not (override.is_add() or override.is_delete() or override.is_force_add()
-                          or override.package is not None)
+                          or override.package is not None or "$" in override.input_line)
             key = override.key_or_group
             if simple and not self.repository.group_exists(key.replace(".", "/")) \
                     and not key.startswith("hydra"):
@@ -131,15 +133,12 @@ class _Composer:
                 structural.append(override.input_line)
         base_key = tuple(structural)
         if base_key not in self._bases:
-            cfg = self._load(job)
-            self._bases[base_key] = None if _has_interpolations(cfg) else {
-                "cfg": cfg, "job": job, "plain": _plain_copy(cfg)}
+            cfg = self._load(structural)
+            self._bases[base_key] = None if _has_interpolations(cfg) else _plain_copy(cfg)
         base = self._bases[base_key]
-        if base is None:
-            return self._load(job)
-        if base["job"] == job:
-            return base["cfg"]
-        plain = copy.deepcopy(base["plain"])
+        if base is None or not all(_has_key(base, o.key_or_group) for o in values):
+            return self._load(job)  # Hydra composes it, and reports what is wrong with it
+        plain = copy.deepcopy(base)
         for override in values:
             _set(plain, override.key_or_group, override.value())
         return plain
@@ -160,6 +159,15 @@ def _plain_copy(cfg: Any) -> dict[str, Any]:
     container = dict(container)
     container.pop("hydra", None)
     return copy.deepcopy(container)
+
+
+def _has_key(config: dict[str, Any], dotted: str) -> bool:
+    node: Any = config
+    for part in dotted.split("."):
+        if not isinstance(node, dict) or part not in node:
+            return False
+        node = node[part]
+    return True
 
 
 def _set(config: dict[str, Any], dotted: str, value: Any) -> None:

@@ -4,6 +4,7 @@ algorithm/encoding compatibility, the presets, and the sweep's fast composition.
 
 from __future__ import annotations
 
+import functools
 import inspect
 import itertools
 import os
@@ -47,6 +48,7 @@ PAPER_ITERATIONS = (10, 25, 50, 100, 250, 500, 1000, 2000)
 HEX16 = re.compile(r"^[0-9a-f]{16}$")
 
 
+@functools.cache  # composing takes tens of milliseconds; run_spec does not modify the result
 def compose_cfg(*overrides: str, hydra: bool = False, results_dir: str = RESULTS):
     with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
         return compose("config", overrides=[f"results_dir={results_dir}", *overrides],
@@ -57,8 +59,12 @@ def spec_of(*overrides: str, check_build: bool = True):
     return run_spec(compose_cfg(*overrides), check_build=check_build)
 
 
+DROP = object()  # a key to leave out
+
+
 def plain_cfg(**changes):
-    """The smallest plain-dict configuration; ``changes`` set dotted keys (``None``: remove)."""
+    """The smallest plain-dict configuration; ``changes`` set nested keys spelt with ``__``
+    (``problem__noise=0.1``), or remove them (``DROP``)."""
     cfg = {"study": "s", "results_dir": RESULTS, "budget": 100, "seed": 0,
            "problem": {"curve": "archimedean"}, "encoding": {"kind": "mask"},
            "objective": {"name": "paper"}, "algorithm": {"_name_": "dolphin"}}
@@ -67,7 +73,7 @@ def plain_cfg(**changes):
         node = cfg
         for part in parents:
             node = node[part]
-        if value is None:
+        if value is DROP:
             del node[last]
         else:
             node[last] = value
@@ -101,7 +107,7 @@ def sweep_values(params) -> dict[str, list[str]]:
     out = {}
     for override in parser.parse_overrides([f"{k}={v}" for k, v in params.items()]):
         key = override.get_key_element()
-        out[key] = list(override.sweep_string_iterator()) if override.is_sweep_override() \
+        out[key] = [str(v) for v in override.sweep_iterator()] if override.is_sweep_override() \
             else [override.get_value_element_as_str()]
     return out
 
@@ -110,64 +116,36 @@ def sweep_values(params) -> dict[str, list[str]]:
 # validation: the key, in one line
 
 
-BAD_OVERRIDES = [
+BAD_OVERRIDES = [  # composed by Hydra, as on the command line
     (["algorithm.population=abc"], "algorithm.population"),
-    (["algorithm.population=1.5"], "algorithm.population"),
     (["algorithm.population=[1,2]"], "algorithm.population"),
     (["budget=0"], "budget"),
     (["budget=-3"], "budget"),
     (["budget=abc"], "budget"),
-    (["budget=true"], "budget"),
-    (["budget=2.5"], "budget"),
     (["seed=-1"], "seed"),
     (["seed=1.5"], "seed"),
-    (["seed=true"], "seed"),
     (["study=a/b"], "study"),
-    (["study=''"], "study"),
-    (["results_dir=''"], "results_dir"),
     (["problem.degree=7"], "problem.degree"),
-    (["problem.degree=0"], "problem.degree"),
     (["problem.parameterization=foo"], "problem.parameterization"),
     (["problem.noise=-1"], "problem.noise"),
-    (["problem.noise=nan"], "problem.noise"),
-    (["problem.noise=abc"], "problem.noise"),
-    (["problem.noise_seed=-1"], "problem.noise_seed"),
     (["problem.curve=nope"], "problem.curve"),
-    (["problem.n_points=4"], "problem.n_points"),
-    (["problem.name=[1]"], "problem.name"),
     (["problem=points"], "problem.points"),
     (["problem=points", "problem.points=/no/such/file.csv"], "problem.points"),
     (["encoding.density=2"], "encoding.density"),
-    (["encoding.density=-0.5"], "encoding.density"),
     (["encoding=indices", "encoding.n_knots=0"], "encoding.n_knots"),
-    (["encoding=indices", "encoding.n_knots=1.5"], "encoding.n_knots"),
     (["encoding=indices", "encoding.n_knots=fitpack:abc"], "encoding.n_knots"),
     (["encoding=indices", "encoding.n_knots=fitpack:-1"], "encoding.n_knots"),
-    (["encoding=indices", "encoding.n_knots=fitpack:0"], "encoding.n_knots"),
-    (["encoding=indices", "encoding.n_knots=fitpack:inf"], "encoding.n_knots"),
-    (["encoding=indices", "encoding.n_knots=many"], "encoding.n_knots"),
     (["encoding=indices", "problem.n_points=10"], "encoding.n_knots"),  # 20 knots > N - 4
-    (["encoding=free", "encoding.variable_count=3"], "encoding.variable_count"),
     (["objective.error_floor=-1"], "objective.error_floor"),
-    (["objective.error_floor=abc"], "objective.error_floor"),
     (["objective=error_bounded", "objective.metric=foo"], "objective.metric"),
-    (["objective=error_bounded", "objective.tolerance=-1"], "objective.tolerance"),
     (["+algorithm.populaton=3"], "algorithm.populaton"),
     (["+problem.colour=red"], "problem.colour"),
     (["+encoding.n_knots=3"], "encoding.n_knots"),  # the mask has no knot count
-    (["encoding=free", "+encoding.density=0.3"], "encoding.density"),
-    (["+objective.tolerance=0.1"], "objective.tolerance"),  # paper has no tolerance
     (["algorithm.fitness=foo"], "algorithm.fitness"),
-    (["algorithm.pp1=2"], "algorithm.pp1"),
-    (["algorithm.loops=0"], "algorithm.loops"),
     (["algorithm=ga", "algorithm.crossover=foo"], "algorithm.crossover"),
     (["algorithm=nlopt", "encoding=free", "algorithm.algorithm=FOO"], "algorithm.algorithm"),
     (["threads=0"], "threads"),
-    (["threads=abc"], "threads"),
-    (["progress=maybe"], "progress"),
-    (["label=3"], "label"),
     (["checkpoints_per_decade=0"], "checkpoints_per_decade"),
-    (["checkpoints_per_decade=abc"], "checkpoints_per_decade"),
 ]
 
 
@@ -191,35 +169,63 @@ def test_an_unknown_setting_lists_the_known_ones():
     assert "population" in str(info.value).split(":", 1)[1]
 
 
-BAD_PLAIN = [
-    ({"study": None}, "study"),
-    ({"results_dir": None}, "results_dir"),
-    ({"budget": None}, "budget"),
-    ({"seed": None}, "seed"),
-    ({"problem": None}, "problem"),
+INDICES = {"kind": "indices", "n_knots": 20}
+BAD_PLAIN = [  # a plain mapping of the same shape
+    ({"study": DROP}, "study"),
+    ({"study": ""}, "study"),
+    ({"results_dir": DROP}, "results_dir"),
+    ({"results_dir": ""}, "results_dir"),
+    ({"budget": DROP}, "budget"),
+    ({"budget": True}, "budget"),
+    ({"budget": 2.5}, "budget"),
+    ({"seed": DROP}, "seed"),
+    ({"seed": True}, "seed"),
+    ({"seed": np.float64(2.0)}, "seed"),
+    ({"threads": "abc"}, "threads"),
+    ({"progress": "maybe"}, "progress"),
+    ({"label": 3}, "label"),
+    ({"checkpoints_per_decade": "abc"}, "checkpoints_per_decade"),
+    ({"problem": DROP}, "problem"),
     ({"problem": "archimedean"}, "problem"),
-    ({"encoding": None}, "encoding"),
-    ({"objective": None}, "objective"),
-    ({"algorithm": None}, "algorithm"),
-    ({"algorithm": ["dolphin"]}, "algorithm"),
-    ({"problem__curve": None}, "problem.curve"),
-    ({"problem__name": 3}, "problem.name"),
+    ({"problem__curve": DROP}, "problem.curve"),
+    ({"problem__name": [1]}, "problem.name"),
     ({"problem__points": "???"}, "problem.points"),
+    ({"problem__degree": 0}, "problem.degree"),
+    ({"problem__noise": float("nan")}, "problem.noise"),
+    ({"problem__noise": "abc"}, "problem.noise"),
+    ({"problem__noise_seed": -1}, "problem.noise_seed"),
+    ({"problem__n_points": 4}, "problem.n_points"),
+    ({"encoding": DROP}, "encoding"),
     ({"encoding__kind": "bits"}, "encoding.kind"),
-    ({"encoding__kind": None}, "encoding.kind"),
+    ({"encoding__kind": DROP}, "encoding.kind"),
+    ({"encoding__density": -0.5}, "encoding.density"),
+    ({"encoding": {**INDICES, "n_knots": 1.5}}, "encoding.n_knots"),
+    ({"encoding": {**INDICES, "n_knots": "many"}}, "encoding.n_knots"),
+    ({"encoding": {**INDICES, "n_knots": "fitpack:0"}}, "encoding.n_knots"),
+    ({"encoding": {**INDICES, "n_knots": "fitpack:inf"}}, "encoding.n_knots"),
+    ({"encoding": {"kind": "free", "variable_count": 3}}, "encoding.variable_count"),
+    ({"encoding": {"kind": "free", "density": 0.3}}, "encoding.density"),
+    ({"objective": DROP}, "objective"),
     ({"objective__name": "foo"}, "objective.name"),
-    ({"objective__name": None}, "objective.name"),
-    ({"algorithm___name_": None}, "algorithm._name_"),
+    ({"objective__name": DROP}, "objective.name"),
+    ({"objective__error_floor": "abc"}, "objective.error_floor"),
+    ({"objective__tolerance": 0.1}, "objective.tolerance"),  # paper has no tolerance
+    ({"objective": {"name": "error_bounded", "tolerance": -1.0}}, "objective.tolerance"),
+    ({"algorithm": DROP}, "algorithm"),
+    ({"algorithm": ["dolphin"]}, "algorithm"),
+    ({"algorithm___name_": DROP}, "algorithm._name_"),
     ({"algorithm___name_": 3}, "algorithm._name_"),
     ({"algorithm___name_": "dolfin"}, "algorithm._name_"),
     ({"algorithm__population": "???"}, "algorithm.population"),
+    ({"algorithm__population": 1.5}, "algorithm.population"),
     ({"algorithm__population": {"a": 1}}, "algorithm.population"),
-    ({"seed": np.float64(2.0)}, "seed"),
-    ({"progress": "yes"}, "progress"),
+    ({"algorithm__pp1": 2}, "algorithm.pp1"),
+    ({"algorithm__loops": 0}, "algorithm.loops"),
 ]
 
 
-@pytest.mark.parametrize(("changes", "key"), BAD_PLAIN, ids=[str(c) for c, _ in BAD_PLAIN])
+@pytest.mark.parametrize(("changes", "key"), BAD_PLAIN,
+                         ids=[str(c).replace(str(DROP), "DROP") for c, _ in BAD_PLAIN])
 def test_a_bad_plain_mapping_is_named_by_its_key(changes, key):
     with pytest.raises(ConfigError) as info:
         run_spec(plain_cfg(**changes))
@@ -275,6 +281,16 @@ def test_a_bad_points_file_is_reported_as_a_problem_error(tmp_path):
 ALGORITHM_YAMLS = sorted((CONFIG_DIR / "algorithm").glob("*.yaml"))
 
 
+def first_encoding(name: str) -> str:
+    """The first encoding (of ENCODINGS) the optimizer handles."""
+    kinds = type(mk.get_optimizer(name)).encodings
+    return next(e for e, (_, kind) in ENCODINGS.items() if kind in kinds)
+
+
+def algorithm_choice(name: str) -> tuple[str, ...]:
+    return f"algorithm={name}", f"encoding={first_encoding(name)}", "problem=archimedean"
+
+
 @pytest.mark.parametrize("path", ALGORITHM_YAMLS, ids=lambda p: p.stem)
 def test_algorithm_yaml_lists_the_constructor_parameters_and_defaults(path):
     node = yaml_of(path)
@@ -298,8 +314,7 @@ def test_every_registered_optimizer_has_a_yaml():
 @pytest.mark.parametrize("name", [p.stem for p in ALGORITHM_YAMLS])
 def test_every_algorithm_config_composes_and_builds(name):
     cls = type(mk.get_optimizer(name))
-    encoding = next(e for e, (_, kind) in ENCODINGS.items() if kind in cls.encodings)
-    spec = spec_of(f"algorithm={name}", f"encoding={encoding}", "problem=archimedean")
+    spec = spec_of(*algorithm_choice(name))
     assert spec.algorithm == name and spec.label == name and spec.compatible() is None
     assert type(spec.build_optimizer()) is cls
 
@@ -366,19 +381,20 @@ def test_plugin_optimizer_settings_from_its_signature(monkeypatch):
 # run ids
 
 
-RUN_DEFINING = ["seed=1", "budget=3001", "algorithm.population=51", "algorithm.fitness=rank",
-                "algorithm=ga", "problem=vivaldi", "problem.noise=0.01", "problem.noise_seed=3",
-                "problem.degree=4", "problem.parameterization=chord", "problem.n_points=200",
-                "problem.name=spiral", "encoding=indices", "encoding.density=0.4",
-                "objective=bic", "objective.error_floor=1e-6", "checkpoints_per_decade=5"]
-NOT_RUN_DEFINING = {"study=other": ("study", "other"),
-                    "results_dir=/elsewhere": ("results_dir", Path("/elsewhere")),
-                    "threads=2": ("threads", 2), "progress=false": ("progress", False),
-                    "label=mine": ("label", "mine")}
+RUN_DEFINING = {"seed": 1, "budget": 101, "algorithm__population": 51,
+                "algorithm__fitness": "rank", "problem__noise": 0.01, "problem__noise_seed": 3,
+                "problem__degree": 4, "problem__parameterization": "chord",
+                "problem__n_points": 60, "problem__name": "spiral", "encoding__density": 0.4,
+                "objective__error_floor": 1e-6, "checkpoints_per_decade": 5}
+GROUP_CHOICES = ["algorithm=ga", "problem=vivaldi", "encoding=indices", "objective=bic"]
+NOT_RUN_DEFINING = {"study": "other", "results_dir": "/elsewhere", "threads": 2,
+                    "progress": False, "label": "mine"}
 
 
 def test_run_id_is_stable_and_short_hex():
-    first, second = spec_of(check_build=False), spec_of(check_build=False)
+    overrides = ("algorithm=ga", "encoding=indices", "problem.noise=0.01", "seed=3")
+    first, second = (run_spec(compose_cfg.__wrapped__(*overrides), check_build=False)
+                     for _ in range(2))  # composed twice, not from the cache
     assert HEX16.match(first.run_id)
     assert first.run_id == second.run_id and first.config == second.config
 
@@ -410,27 +426,49 @@ def test_run_id_is_the_same_in_a_fresh_process():
 
 
 def test_run_id_changes_with_every_run_defining_value():
-    base = spec_of(check_build=False).run_id
-    ids = {o: spec_of(*o.split(), check_build=False).run_id for o in RUN_DEFINING}
+    base = run_spec(plain_cfg(), check_build=False).run_id
+    ids = {key: run_spec(plain_cfg(**{key: value}), check_build=False).run_id
+           for key, value in RUN_DEFINING.items()}
     assert base not in ids.values()
-    assert len(set(ids.values())) == len(RUN_DEFINING), ids
+    assert len(set(ids.values())) == len(ids), ids
 
 
-@pytest.mark.parametrize("override", list(NOT_RUN_DEFINING))
-def test_run_id_ignores_where_and_how_a_run_executes(override):
-    spec = spec_of(override, check_build=False)
-    attribute, value = NOT_RUN_DEFINING[override]
-    assert getattr(spec, attribute) == value  # the override did apply
+def test_run_id_changes_with_every_config_group_choice():
+    base = spec_of(check_build=False).run_id
+    ids = {choice: spec_of(choice, check_build=False).run_id for choice in GROUP_CHOICES}
+    assert base not in ids.values()
+    assert len(set(ids.values())) == len(ids), ids
+
+
+@pytest.mark.parametrize("key", list(NOT_RUN_DEFINING))
+def test_run_id_ignores_where_and_how_a_run_executes(key):
+    spec = run_spec(plain_cfg(**{key: NOT_RUN_DEFINING[key]}), check_build=False)
+    value = getattr(spec, key)
+    assert (str(value) if key == "results_dir" else value) == NOT_RUN_DEFINING[key]
+    assert spec.run_id == run_spec(plain_cfg(), check_build=False).run_id
+
+
+def test_run_id_ignores_where_and_how_a_run_executes_on_the_command_line():
+    spec = spec_of("study=other", "results_dir=/elsewhere", "threads=2", "progress=false",
+                   "label=mine", check_build=False)
+    assert (spec.study, spec.results_dir, spec.threads, spec.progress, spec.label) == \
+        ("other", Path("/elsewhere"), 2, False, "mine")
     assert spec.run_id == spec_of(check_build=False).run_id
 
 
-@pytest.mark.parametrize("override", ["algorithm.population=50", "algorithm.power=1",
-                                      "algorithm.pp1=0.1", "algorithm.loops=null",
-                                      "encoding.density=0.5", "problem.degree=3",
-                                      "objective.error_floor=0.00001",
-                                      "checkpoints_per_decade=10", "problem.name=epitrochoid"])
-def test_a_value_equal_to_its_default_is_the_same_run(override):
-    assert spec_of(override, check_build=False).run_id == spec_of(check_build=False).run_id
+@pytest.mark.parametrize(("key", "value"), [
+    ("algorithm__population", 50), ("algorithm__power", 1), ("algorithm__pp1", 0.1),
+    ("algorithm__loops", None), ("encoding__density", 0.5), ("problem__degree", 3),
+    ("problem__name", "archimedean"), ("problem__noise", 0), ("objective__error_floor", 1e-5),
+    ("checkpoints_per_decade", 10)])
+def test_a_value_equal_to_its_default_is_the_same_run(key, value):
+    given = run_spec(plain_cfg(**{key: value}), check_build=False)
+    assert given.run_id == run_spec(plain_cfg(), check_build=False).run_id
+
+
+def test_a_value_given_at_its_default_on_the_command_line_is_the_same_run():
+    assert spec_of("algorithm.population=50", "algorithm.power=1", "objective.error_floor=1e-5",
+                   check_build=False).run_id == spec_of(check_build=False).run_id
 
 
 @pytest.mark.parametrize("name", sorted(mk.available_optimizers()))
@@ -441,9 +479,11 @@ def test_hyperparameters_left_out_or_given_at_their_defaults_are_the_same_run(na
     for pname, default in signature_defaults(type(mk.get_optimizer(name))).items():
         one = run_spec(plain_cfg(algorithm={"_name_": name, pname: default}), check_build=False)
         assert one.run_id == bare.run_id, pname
-    composed = spec_of(f"algorithm={name}", "problem=archimedean", "budget=100", "study=s",
-                       check_build=False)
-    assert composed.run_id == bare.run_id
+    # the YAML gives every hyperparameter
+    composed = spec_of(*algorithm_choice(name), check_build=False)
+    assert composed.run_id == run_spec(plain_cfg(algorithm={"_name_": name}, budget=3000,
+                                                 encoding={"kind": first_encoding(name)}),
+                                       check_build=False).run_id
 
 
 def test_fitpack_factor_spellings_are_the_same_run():
@@ -685,8 +725,9 @@ def sweep_jobs(sweeper, arguments: list[str]) -> list[list[str]]:
     return [job for batch in sweeper.split_arguments(overrides, None) for job in batch]
 
 
-def compare_with_full_composition(arguments: list[str]) -> tuple[int, CountingLoader]:
-    """Compose every job of the sweep fast and in full; the specs must agree."""
+def compare_with_full_composition(arguments: list[str], select=None):
+    """Compose every job of the sweep fast, and the ``select``-ed ones (default: all) in full
+    too; their specs must agree. Returns the jobs, the fast specs and the counting loader."""
     sweeper = study_sweeper(arguments)
     loader = sweeper.hydra_context.config_loader
     counting = CountingLoader(loader)
@@ -694,34 +735,51 @@ def compare_with_full_composition(arguments: list[str]) -> tuple[int, CountingLo
                            config=sweeper.config)
     composer = _Composer(fake, OverridesParser.create(config_loader=loader))
     jobs = sweep_jobs(sweeper, arguments)
-    for job in jobs:
-        fast = run_spec(composer(job), check_build=False)
+    specs = [run_spec(composer(job), check_build=False) for job in jobs]
+    for index, (job, fast) in enumerate(zip(jobs, specs, strict=True)):
+        if select is not None and not select(index, job):
+            continue
         full = run_spec(loader.load_sweep_config(sweeper.config, list(job)), check_build=False)
         assert (fast.run_id, fast.config, fast.label, fast.study, fast.results_dir) == \
             (full.run_id, full.config, full.label, full.study, full.results_dir), job
-    return len(jobs), counting
+    return jobs, specs, counting
 
 
 @pytest.mark.slow
 def test_fast_composition_equals_full_composition_on_the_smoke_study():
-    n_jobs, counting = compare_with_full_composition(
-        ["experiment=smoke", f"results_dir={RESULTS}", "seed=0,1"])
-    assert n_jobs == 3 * 3 * 2 * 2
+    # jobs: problem x algorithm (composed once each) x budget x seed (set on a copy); compare
+    # in full one fast-path job for each of the 5 value changes, each in another group
+    jobs, specs, counting = compare_with_full_composition(
+        ["experiment=smoke", f"results_dir={RESULTS}"],
+        select=lambda i, _: i < 30 and i % 6 == 1 + i // 6)
+    assert len(jobs) == 3 * 3 * 2 * 3
     assert counting.calls == 3 * 3  # once per problem x algorithm: the fast path was taken
+    for job, spec in zip(jobs, specs, strict=True):
+        settings = dict(o.split("=", 1) for o in job)
+        assert spec.config["problem"]["curve"] == settings["problem"]
+        assert spec.algorithm == settings["algorithm"] and spec.study == "smoke"
+        assert (spec.budget, spec.seed) == (int(settings["budget"]), int(settings["seed"]))
+    assert len({spec.run_id for spec in specs}) == len(jobs)
 
 
 def test_fast_composition_equals_full_composition_with_methods():
-    n_jobs, counting = compare_with_full_composition(
+    # one method (config group) per base composition; the knot count and seed set on a copy,
+    # so compare in full the jobs that change both
+    jobs, specs, counting = compare_with_full_composition(
         ["experiment=fitpack_front", f"results_dir={RESULTS}", "problem=archimedean",
-         "seed=0,3"])
-    assert n_jobs == 7 * 2 * 2
-    assert counting.calls == 7
+         "method=dolphin_indices,bobyqa_free,fitpack_free", "seed=0,3"],
+        select=lambda _, job: "encoding.n_knots=fitpack:1e-6" in job and "seed=3" in job)
+    assert len(jobs) == 3 * 2 * 2
+    assert counting.calls == 3
+    assert {spec.config["encoding"]["n_knots"] for spec in specs} == {"fitpack:0.0001",
+                                                                     "fitpack:1e-06"}
 
 
 def test_fast_composition_falls_back_for_interpolations():
-    n_jobs, counting = compare_with_full_composition(
-        [f"results_dir={RESULTS}", "label=run-${seed}", "seed=0,1,2"])
-    assert n_jobs == 3 and counting.calls == 3
+    jobs, specs, counting = compare_with_full_composition(
+        [f"results_dir={RESULTS}", "label=run-${seed}", "seed=0,1"])
+    assert [spec.label for spec in specs] == ["run-0", "run-1"]
+    assert counting.calls >= len(jobs)
 
 
 def test_fast_composition_resolves_swept_interpolations():
@@ -742,26 +800,22 @@ def test_fast_composition_does_not_carry_values_between_jobs():
         assert (fast.budget, fast.seed) == (full.budget, full.seed), job
 
 
-def test_plan_validates_every_job_and_finds_the_stored_runs(tmp_path):
-    arguments = ["experiment=smoke", f"results_dir={tmp_path}"]
+def test_plan_finds_the_stored_runs(tmp_path):
+    arguments = [f"results_dir={tmp_path}", "problem=archimedean", "algorithm=dolphin,ga",
+                 "budget=100", "seed=0,1,2", "study=resume"]
     sweeper = study_sweeper(arguments)
     the_plan, study_dir = plan(sweeper, arguments)
-    assert study_dir == tmp_path / "smoke"
-    assert the_plan.n_jobs == len(the_plan.to_run) == 3 * 3 * 2 * 3
+    assert study_dir == tmp_path / "resume"
+    assert the_plan.n_jobs == len(the_plan.to_run) == 6
     assert not the_plan.stored and not the_plan.duplicates and not the_plan.incompatible
-    for job, spec in the_plan.to_run:
-        settings = dict(o.split("=", 1) for o in job)
-        assert spec.config["problem"]["curve"] == settings["problem"]
-        assert spec.algorithm == settings["algorithm"]
-        assert (spec.budget, spec.seed) == (int(settings["budget"]), int(settings["seed"]))
-    assert len({spec.run_id for _, spec in the_plan.to_run}) == the_plan.n_jobs
-    stored = [spec.run_id for _, spec in the_plan.to_run[:4]]
+    stored = [spec.run_id for _, spec in the_plan.to_run[1:5]]
     (study_dir / "runs").mkdir(parents=True)
     for run_id in stored:
         (study_dir / "runs" / f"{run_id}.parquet").touch()
     again, _ = plan(sweeper, arguments)
     assert sorted(spec.run_id for spec in again.stored) == sorted(stored)
-    assert len(again.to_run) == the_plan.n_jobs - 4
+    assert [spec.run_id for _, spec in again.to_run] == \
+        [the_plan.to_run[0][1].run_id, the_plan.to_run[5][1].run_id]
     assert "4 already stored" in again.describe(study_dir)
 
 
@@ -787,13 +841,12 @@ def test_plan_stops_at_the_first_bad_job_naming_key_and_job(tmp_path):
     assert message.startswith("budget:") and "budget=0" in message and "\n" not in message
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("experiment", ["seed_paper", "fitpack_front"])
-def test_preset_studies_plan_without_errors_skips_or_duplicates(tmp_path, experiment):
-    arguments = [f"experiment={experiment}", f"results_dir={tmp_path}", "seed=0,1"]
+def test_seed_paper_study_plans_without_errors_skips_or_duplicates(tmp_path):
+    arguments = ["experiment=seed_paper", f"results_dir={tmp_path}", "seed=0,1"]
     sweeper = study_sweeper(arguments)
     sizes = {k: len(v) for k, v in sweep_values(sweeper.params).items() if k != "seed"}
+    assert sizes == {"problem": 3, "algorithm": 2, "budget": 8}
     the_plan, study_dir = plan(sweeper, arguments)
-    assert study_dir == tmp_path / experiment
-    assert the_plan.n_jobs == len(the_plan.to_run) == 2 * int(np.prod(list(sizes.values())))
+    assert study_dir == tmp_path / "seed_paper"
+    assert the_plan.n_jobs == len(the_plan.to_run) == 2 * 3 * 2 * 8
     assert not the_plan.incompatible and not the_plan.duplicates
