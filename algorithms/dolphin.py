@@ -32,7 +32,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import rankdata
 
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
@@ -138,6 +137,8 @@ def fitness_values(objective: np.ndarray, transform: str = "auto") -> np.ndarray
     if transform == "inverse" or (transform == "auto" and positive):
         fit[ok] = objective[ok].min() / objective[ok]
     else:
+        from scipy.stats import rankdata  # loaded on first use: scipy.stats is slow to import
+
         fit[ok] = rankdata(-objective[ok]) / ok.sum()
     return fit
 

@@ -19,6 +19,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from omegaconf import OmegaConf
+
 from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, run_spec
 from .store import Store
 
@@ -96,7 +98,7 @@ def execute(spec: RunSpec, *, multirun: bool = False, raise_errors: bool = False
         "run_id": spec.run_id,
         "study": spec.study,
         "label": spec.label,
-        "timestamp": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        "timestamp": _dt.datetime.now(_dt.UTC).isoformat(timespec="milliseconds"),
         **environment(),
         "kernel_threads": numba.get_num_threads(),
         "config": json.dumps(config or spec.config, sort_keys=True, default=str),
@@ -146,9 +148,20 @@ def _failed_record(spec: RunSpec) -> dict[str, Any]:
     }
 
 
-def task(cfg: Any) -> dict[str, Any]:
-    """The Hydra task function: validate, run (unless stored), store."""
+def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
+    """The Hydra task function: validate, run (unless stored), store.
+
+    A list of seeds (``seed=[3,4,5]``, as the study sweeper batches runs) runs each seed as its
+    own run and returns their outcomes.
+    """
     multirun = _in_multirun()
+    seeds = cfg.get("seed")
+    if OmegaConf.is_list(seeds) or isinstance(seeds, list):
+        plain = OmegaConf.to_container(cfg, resolve=True) if OmegaConf.is_config(cfg) \
+            else dict(cfg)
+        plain.pop("hydra", None)
+        return [execute(run_spec({**plain, "seed": seed}), multirun=multirun)
+                for seed in seeds]
     spec = run_spec(cfg)
     outcome = execute(spec, multirun=multirun)
     if not multirun:

@@ -24,12 +24,14 @@ import uuid
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
+
+if TYPE_CHECKING:  # pandas loads only when a study is read (run workers do not need it)
+    import pandas as pd
 
 __all__ = ["STORE_FORMAT", "Store", "StoreError", "Study", "load_study"]
 
@@ -213,6 +215,8 @@ def load_study(path: str | os.PathLike) -> Study:
     StoreError
         If the directory does not exist or holds a file the store cannot read (named).
     """
+    import pandas as pd
+
     store = Store(path)
     if not store.study_dir.is_dir():
         raise StoreError(f"{store.study_dir}: no such study directory")
@@ -249,6 +253,8 @@ def load_study(path: str | os.PathLike) -> Study:
 
 
 def _pop_trace(row: dict[str, Any]) -> pd.DataFrame:
+    import pandas as pd
+
     columns = {k[len(TRACE_PREFIX):]: row.pop(k) for k in list(row) if
                k.startswith(TRACE_PREFIX)}
     columns = {k: v for k, v in columns.items() if v is not None}
@@ -258,6 +264,8 @@ def _pop_trace(row: dict[str, Any]) -> pd.DataFrame:
 
 
 def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    import pandas as pd
+
     if not rows:
         return pd.DataFrame(columns=["run_id", "status"])
     frame = pd.DataFrame.from_records(rows)

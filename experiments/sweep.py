@@ -192,7 +192,9 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
         return []
     sweep_dir.mkdir(parents=True, exist_ok=True)
     OmegaConf.save(sweeper.config, sweep_dir / "multirun.yaml")
-    jobs = [job for job, _ in the_plan.to_run]
+    per_job = runs_per_job(getattr(sweeper, "runs_per_job", 1), len(the_plan.to_run),
+                           launcher_workers(sweeper.config))
+    jobs = batch_jobs(the_plan.to_run, per_job)
     size = sweeper.max_batch_size or len(jobs)
     watcher = _Watcher([spec for _, spec in the_plan.to_run])
     returns = []
@@ -208,7 +210,9 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
     for results in returns:
         for r in results:
             try:
-                statuses[r.return_value["status"]] += 1
+                outcome = r.return_value
+                for one in outcome if isinstance(outcome, list) else [outcome]:
+                    statuses[one["status"]] += 1
             except Exception as exc:  # a job that crashed outside the run (a launcher error)
                 errors.append(exc)
     summary = ", ".join(f"{n} {status}" for status, n in sorted(statuses.items()))
@@ -217,6 +221,59 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
     if errors:
         raise errors[0]
     return returns
+
+
+def launcher_workers(config: Any) -> int:
+    """How many jobs the configured launcher runs at once (1 for Hydra's basic launcher)."""
+    import os
+
+    launcher = OmegaConf.select(config, "hydra.launcher") or {}
+    target = str(launcher.get("_target_", ""))
+    cores = os.cpu_count() or 1
+    if "Joblib" in target:
+        n_jobs = int(launcher.get("n_jobs", -1) or -1)
+        return max(1, n_jobs if n_jobs > 0 else cores + 1 + n_jobs)
+    if "Slurm" in target:
+        return max(1, int(launcher.get("array_parallelism", 256) or 256))
+    if "Local" in target:  # submitit_local: one process per job, all at once
+        return max(1, cores)
+    return 1
+
+
+def runs_per_job(setting: Any, n_runs: int, workers: int = 1) -> int:
+    """Runs per launched job: ``setting`` if an int >= 1; ``"auto"``: about four jobs per
+    worker, from 1 to 10 runs per job (1440 runs on two workers go out as 144 jobs of ten
+    seeds; 40 runs on 64 cores as 40 jobs)."""
+    if setting == "auto":
+        return max(1, min(10, n_runs // (4 * max(1, workers))))
+    if isinstance(setting, bool) or not isinstance(setting, int) or setting < 1:
+        raise ConfigError(f"hydra.sweeper.runs_per_job: an integer >= 1 or auto, got "
+                          f"{setting!r}")
+    return setting
+
+
+def batch_jobs(to_run: list[tuple[list[str], RunSpec]], per_job: int) -> list[list[str]]:
+    """The launched jobs: runs that differ only in their seed go together, ``per_job`` seeds
+    at a time (``seed=[3,4,5]``: the task runs and stores each seed as its own run). Jobs are
+    ordered by their evaluations, the largest first, so no long job starts last."""
+    groups: dict[tuple[str, ...], list[tuple[list[str], RunSpec]]] = {}
+    for job, spec in to_run:
+        seeds = [o for o in job if o.startswith("seed=")]
+        key = tuple(o for o in job if not o.startswith("seed="))
+        groups.setdefault(key if per_job > 1 and len(seeds) == 1 else tuple(job), []).append(
+            (job, spec))
+    launched: list[tuple[int, list[str]]] = []
+    for key, members in groups.items():
+        for first in range(0, len(members), per_job):
+            chunk = members[first : first + per_job]
+            if len(chunk) == 1:
+                job = chunk[0][0]
+            else:
+                seeds = ",".join(str(spec.seed) for _, spec in chunk)
+                job = [*key, f"seed=[{seeds}]"]
+            launched.append((sum(spec.budget for _, spec in chunk), job))
+    launched.sort(key=lambda item: -item[0])
+    return [job for _, job in launched]
 
 
 class _Watcher:
@@ -228,6 +285,7 @@ class _Watcher:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, daemon=True)
         self._bar = tqdm(total=len(specs), desc="runs", unit="run", disable=None)
+        self.done = 0  # runs of this sweep with a record (ok or failed)
 
     def start(self) -> None:
         self._thread.start()
@@ -252,4 +310,5 @@ class _Watcher:
             names = {p.name.split(".", 1)[0] for d in (store.runs_dir, store.failed_dir)
                      if d.is_dir() for p in d.iterdir()}
             done += sum(run_id in names for run_id in ids)
-        self._bar.update(done - self._bar.n)
+        self._bar.update(done - self.done)
+        self.done = done

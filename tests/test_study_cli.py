@@ -198,3 +198,23 @@ def test_user_points_file(tmp_path):
     assert done.returncode == 0, done.stderr
     (row,) = load_study(tmp_path / "default").runs.to_dict("records")
     assert row["data"] == "outline" and row["n_points"] == 80
+
+
+def test_batching_seeds_into_jobs_changes_no_result(tmp_path):
+    """Seeds batched three to a job are stored as separate runs, identical to one per job."""
+    common = ("-m", "algorithm=ga,random_search", "problem=archimedean", "seed=range(0,5)",
+              "budget=150")
+    one = metaknot(*common, "hydra.sweeper.runs_per_job=1", f"results_dir={tmp_path / 'a'}",
+                   cwd=tmp_path)
+    three = metaknot(*common, "hydra.sweeper.runs_per_job=3", f"results_dir={tmp_path / 'b'}",
+                     cwd=tmp_path)
+    assert one.returncode == 0 and three.returncode == 0, one.stderr + three.stderr
+    assert "10 ok" in one.stderr and "10 ok" in three.stderr
+    a = load_study(tmp_path / "a" / "default").runs.set_index("run_id")
+    b = load_study(tmp_path / "b" / "default").runs.set_index("run_id")
+    assert sorted(a.index) == sorted(b.index) and len(a) == 10
+    for column in ("seed", "algorithm", "best_f", "rmse", "n_control_points"):
+        assert (a[column] == b.loc[a.index, column]).all(), column
+    bad = metaknot(*common, "hydra.sweeper.runs_per_job=0", f"results_dir={tmp_path / 'c'}",
+                   cwd=tmp_path)
+    assert bad.returncode != 0 and "hydra.sweeper.runs_per_job" in bad.stderr

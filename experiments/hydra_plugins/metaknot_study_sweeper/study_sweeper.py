@@ -21,6 +21,9 @@ class StudySweeperConf:
     _target_: str = "hydra_plugins.metaknot_study_sweeper.study_sweeper.StudySweeper"
     max_batch_size: Any = None
     params: Any = field(default_factory=dict)
+    #: Runs of one setting (seeds) per launched job: an int, or "auto" (see metaknot's
+    #: experiments/sweep.py); fewer, longer jobs pay Hydra's per-job set-up less often.
+    runs_per_job: Any = "auto"
 
 
 ConfigStore.instance().store(group="hydra/sweeper", name="study", node=StudySweeperConf,
@@ -29,6 +32,11 @@ ConfigStore.instance().store(group="hydra/sweeper", name="study", node=StudySwee
 
 class StudySweeper(BasicSweeper):
     """Basic sweeper with validation, resume, skipping and a progress bar over jobs."""
+
+    def __init__(self, max_batch_size: Any = None, params: Any = None,
+                 runs_per_job: Any = "auto") -> None:
+        super().__init__(max_batch_size=max_batch_size, params=params)
+        self.runs_per_job = runs_per_job
 
     def sweep(self, arguments: list) -> Any:
         from metaknot.experiments.sweep import sweep
