@@ -198,7 +198,10 @@ def main(argv: list[str] | None = None) -> int:
     """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep) to Hydra."""
     import hydra
 
+    from metaknot.environment import git_commit
+
     register_hydra_plugins()
+    git_commit()  # once here; run workers inherit it through the environment
     args = list(sys.argv[1:] if argv is None else argv)
     if not any(a.startswith("-") for a in args):  # a single run: check it before Hydra starts
         error = _check_single_run(args)

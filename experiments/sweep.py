@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import copy
+import os
 import sys
 import threading
 from collections import Counter
@@ -186,7 +187,10 @@ def _build_key(spec: RunSpec) -> str:
 def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
     """The study sweeper's ``sweep``: plan, print what will happen, launch, watch."""
     sweep_dir = Path(sweeper.config.hydra.sweep.dir)
+    warming = _warm_joblib_workers(sweeper.config)
     the_plan, study_dir = plan(sweeper, arguments)
+    if warming is not None:
+        warming.join()
     print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
     if not the_plan.to_run:
         return []
@@ -223,10 +227,49 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
     return returns
 
 
+def _warm_worker() -> int:
+    """Import what a run needs and load the compiled kernel (in a joblib worker)."""
+    import numpy as np
+
+    import metaknot.algorithms
+    import metaknot.experiments.app  # noqa: F401
+    from metaknot.problems import KnotSelection, get_curve
+
+    problem = KnotSelection(get_curve("archimedean", n_points=12))
+    problem.evaluate(np.ones((1, problem.encoding.n_var), dtype=np.int64))
+    return os.getpid()
+
+
+def _warm_joblib_workers(config: Any) -> threading.Thread | None:
+    """Start the joblib launcher's worker processes while the sweep is validated: joblib
+    reuses them for the jobs, which then start at once instead of after a second of imports.
+    Uses the launcher's own joblib settings, or joblib would start a new set."""
+    launcher = OmegaConf.select(config, "hydra.launcher")
+    if launcher is None or "Joblib" not in str(launcher.get("_target_", "")) \
+            or launcher_workers(config) < 2:
+        return None
+    from hydra_plugins.hydra_joblib_launcher._core import process_joblib_cfg
+    from joblib import Parallel, delayed
+
+    settings = {k: v for k, v in OmegaConf.to_container(launcher, resolve=True).items()
+                if k != "_target_"}
+    settings["backend"] = "loky"
+    process_joblib_cfg(settings)
+    workers = launcher_workers(config)
+
+    def warm() -> None:
+        try:
+            Parallel(**settings)(delayed(_warm_worker)() for _ in range(workers))
+        except Exception:  # only an optimisation: the launcher starts its own workers
+            pass
+
+    thread = threading.Thread(target=warm, daemon=True)
+    thread.start()
+    return thread
+
+
 def launcher_workers(config: Any) -> int:
     """How many jobs the configured launcher runs at once (1 for Hydra's basic launcher)."""
-    import os
-
     launcher = OmegaConf.select(config, "hydra.launcher") or {}
     target = str(launcher.get("_target_", ""))
     cores = os.cpu_count() or 1

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import platform
 import subprocess
 from importlib.metadata import PackageNotFoundError, version
@@ -18,10 +19,26 @@ def _version(package: str) -> str | None:
         return None
 
 
+#: Set by a process that has looked the commit up, so its worker processes need not.
+GIT_COMMIT_VARIABLE = "METAKNOT_GIT_COMMIT"
+
+
 @functools.cache
 def git_commit() -> str | None:
     """Commit of the metaknot source checkout (``+dirty`` if it has local changes), or ``None``
-    for an installed copy outside a git work tree."""
+    for an installed copy outside a git work tree.
+
+    The answer is also put in the environment variable ``METAKNOT_GIT_COMMIT`` (an empty value
+    for ``None``), which child processes (sweep workers) read instead of running git again.
+    """
+    if GIT_COMMIT_VARIABLE in os.environ:
+        return os.environ[GIT_COMMIT_VARIABLE] or None
+    commit = _ask_git()
+    os.environ[GIT_COMMIT_VARIABLE] = commit or ""
+    return commit
+
+
+def _ask_git() -> str | None:
     here = Path(__file__).resolve().parent
     try:
         head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=here, capture_output=True,

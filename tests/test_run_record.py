@@ -3,6 +3,8 @@ fits, seeds, timings and the flat record."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -255,3 +257,21 @@ def test_record_of_a_run_without_feasible_candidates():
     assert result.best_x is None and result.solution is None
     record = result.record()
     assert np.isnan(record["rmse"]) and record["best_f"] == np.inf
+
+
+def test_git_commit_is_looked_up_once_and_inherited(tmp_path):
+    import subprocess
+    import sys
+
+    code = "from metaknot.environment import environment; print(environment()['git_commit'])"
+    env = {k: v for k, v in __import__("os").environ.items() if k != "METAKNOT_GIT_COMMIT"}
+    looked_up = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               env=env, cwd=tmp_path, check=True).stdout.strip()
+    head = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                          cwd=Path(mk.__file__).parent, check=False).stdout.strip()
+    if head:  # a git checkout: the record names its commit
+        assert looked_up.startswith(head)
+    inherited = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                               env={**env, "METAKNOT_GIT_COMMIT": "abc123"}, cwd=tmp_path,
+                               check=True).stdout.strip()
+    assert inherited == "abc123"
