@@ -129,28 +129,12 @@ class Encoding:
         lo, hi = int(self.lower.min()), int(self.upper.max())
         if self.n_var > hi - lo + 1:
             raise ValueError(f"cannot pick {self.n_var} distinct values from {lo}..{hi}")
-        for row in np.flatnonzero((np.diff(X, axis=1) == 0).any(axis=1)):
-            X[row] = _distinct_nearest(X[row], lo, hi)
+        rows = np.flatnonzero((np.diff(X, axis=1) == 0).any(axis=1))
+        if rows.size:
+            from ._repair import distinct_nearest_rows  # compiled: loaded on first use
+
+            distinct_nearest_rows(X, rows, lo, hi)
         return X
-
-
-def _distinct_nearest(values: np.ndarray, lo: int, hi: int) -> np.ndarray:
-    """Sorted distinct values: each repeat moved to the nearest free value (ties: lower)."""
-    used = set()
-    out = []
-    for v in values.tolist():
-        step = 0
-        while True:
-            for c in (v - step, v + step):
-                if lo <= c <= hi and c not in used:
-                    break
-            else:
-                step += 1
-                continue
-            break
-        used.add(c)
-        out.append(c)
-    return np.sort(np.asarray(out, dtype=np.int64))
 
 
 class Problem(ABC):

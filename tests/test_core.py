@@ -866,3 +866,40 @@ def test_a_crashing_optimizer_keeps_what_was_computed():
     assert partial.best_f <= problem.evaluate(first_batch).min()
     assert partial.solution.objective_value == pytest.approx(partial.best_f)
     assert any("partial_result" in note for note in info.value.__notes__)
+
+
+def _reference_repair(values, lo, hi):
+    """Encoding.repair's rule in plain Python: sorted values, in order, each to the nearest
+    value not taken by an earlier one (ties: the lower)."""
+    used, out = set(), []
+    for v in sorted(values):
+        c = next(c for step in range(hi - lo + 2) for c in (v - step, v + step)
+                 if lo <= c <= hi and c not in used)
+        used.add(c)
+        out.append(c)
+    return sorted(out)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_repair_of_index_sets_against_the_rule(seed):
+    rng = np.random.default_rng(seed)
+    lo, hi, k = 1, 30, 12
+    enc = mk.Encoding.integer(k, lo, hi, distinct_sorted=True)
+    X = rng.integers(lo - 3, hi + 4, size=(400, k))  # repeats and values past the bounds
+    Y = enc.repair(X)
+    clipped = np.clip(X, lo, hi)
+    for x, y in zip(clipped, Y, strict=True):
+        assert y.tolist() == _reference_repair(x.tolist(), lo, hi)
+    assert (np.diff(Y, axis=1) > 0).all() and Y.min() >= lo and Y.max() <= hi
+    # rows that were already valid sets come back unchanged
+    valid = np.sort(rng.permuted(np.tile(np.arange(lo, hi + 1), (50, 1)), axis=1)[:, :k], axis=1)
+    np.testing.assert_array_equal(enc.repair(valid), valid)
+
+
+def test_repair_examples():
+    enc = mk.Encoding.integer(4, 1, 9, distinct_sorted=True)
+    np.testing.assert_array_equal(
+        enc.repair(np.array([[5, 5, 5, 5], [1, 1, 1, 1], [9, 9, 2, 9], [3, 4, 4, 5]])),
+        [[3, 4, 5, 6], [1, 2, 3, 4], [2, 7, 8, 9], [3, 4, 5, 6]])
+    with pytest.raises(ValueError, match="cannot pick 4 distinct values"):
+        mk.Encoding.integer(4, 1, 3, distinct_sorted=True).repair(np.ones((1, 4)))

@@ -64,6 +64,15 @@ def test_single_run_from_the_command_line(tmp_path):
     again = metaknot("algorithm=ga", "problem=vivaldi", "seed=3", "budget=400",
                      f"results_dir={tmp_path}", cwd=tmp_path)
     assert again.returncode == 0 and "already stored" in again.stdout
+    # a single run uses every kernel thread (threads=auto); threads=1 pins one
+    import numba
+
+    assert row["kernel_threads"] == numba.config.NUMBA_NUM_THREADS
+    one = metaknot("algorithm=ga", "problem=vivaldi", "seed=4", "budget=100", "threads=1",
+                   f"results_dir={tmp_path}", cwd=tmp_path)
+    assert one.returncode == 0, one.stderr
+    runs = load_study(tmp_path / "default").runs
+    assert int(runs.loc[runs.seed == 4, "kernel_threads"].iloc[0]) == 1
 
 
 @pytest.mark.parametrize(("override", "key"), [
