@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test chromium lint bench seed-paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -12,17 +12,27 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
-demo: $(STAMP)  ## quick fit of the seed paper's three curves, printing a table
-	$(BIN)/metaknot demo
+demo: $(STAMP)  ## a small study (DE, GA, random search on the seed curves), then its report
+	$(BIN)/metaknot run -m experiment=smoke launcher=joblib
+	$(BIN)/metaknot report results/smoke
 
-test: $(STAMP)  ## the whole test suite (slow studies at CI size)
+test: $(STAMP) chromium  ## the whole test suite (slow studies at CI size)
 	$(BIN)/python -m pytest -n 2 -q
+
+chromium:  ## the headless browser the report test opens report.html in (Debian's chromium)
+	@command -v chromium >/dev/null || { apt-get update -q && \
+	  apt-get install -y -q --no-install-recommends chromium; } || \
+	  { echo "install Debian's chromium (apt-get install chromium) for the report test"; exit 1; }
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
 
-bench: $(STAMP)
+bench: $(STAMP)  ## kernel speed against scipy; see benchmarks/ for runs, sweeps and quality
 	$(BIN)/python benchmarks/bench_evaluate.py
+
+seed-paper: $(STAMP)  ## the seed paper's study over 30 seeds (about 6 minutes on 2 cores), and its report
+	$(BIN)/metaknot run -m experiment=seed_paper launcher=joblib
+	$(BIN)/metaknot report results/seed_paper
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

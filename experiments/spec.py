@@ -332,7 +332,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
 
     problem = _section(cfg, "problem")
     _unknown("problem", problem, {"name", "curve", "points", "params_column", "n_points",
-                                  "noise", "noise_seed", "degree", "parameterization"})
+                                  "noise", "noise_seed", "degree", "parameterization",
+                                  "fingerprint"})
     from metaknot.problems import CURVES
 
     curve, points = problem.get("curve"), problem.get("points")
@@ -357,7 +358,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         "name": name,
         "curve": curve,
         "points": points,
-        "fingerprint": _file_digest(points) if points is not None else None,
+        "fingerprint": _check_fingerprint(points, problem.get("fingerprint")),
         "params_column": _int("problem.params_column", problem.get("params_column"),
                               optional=True),
         "n_points": _int("problem.n_points", problem.get("n_points"), low=degree + 2,
@@ -471,6 +472,18 @@ def _deep_copy(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return [_deep_copy(v) for v in value]
     return value
+
+
+def _check_fingerprint(points: str | None, stored: Any) -> str | None:
+    """The data file's digest; a stored one (a configuration read back from a record) must
+    match it, or the file changed since the run."""
+    if points is None:
+        return None
+    digest = _file_digest(points)
+    if stored is not None and stored != digest:
+        raise ConfigError(f"problem.points: {points} changed since the run was configured "
+                          f"(fingerprint {digest}, recorded {stored})")
+    return digest
 
 
 def _file_digest(path: str) -> str:

@@ -1,5 +1,6 @@
 """Command line: ``metaknot run`` (Hydra runs and sweeps into the results store), ``metaknot
-demo`` (optimizers on the seed curves), ``metaknot list``."""
+report`` (statistical comparison of a stored study), ``metaknot demo`` (optimizers on the seed
+curves), ``metaknot list``."""
 
 from __future__ import annotations
 
@@ -63,10 +64,32 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=_demo)
     lst = sub.add_parser("list", help="registered problems and optimizers")
     lst.set_defaults(func=_list)
+    report = sub.add_parser("report", help="statistical comparison report of a stored study",
+                            description="Tables, tests and figures of a study in the results "
+                                        "store, as report.html (self-contained), report.md, "
+                                        "CSV, LaTeX, PNG and SVG. Works on partial studies; "
+                                        "never modifies the study.")
+    report.add_argument("study", help="the study folder, RESULTS_DIR/STUDY")
+    report.add_argument("--out", default=None,
+                        help="output folder (default: RESULTS_DIR/STUDY-report)")
+    report.add_argument("--alpha", type=float, default=0.05, help="significance level")
+    report.add_argument("--metric", nargs="+", default=["best_f", "rmse"],
+                        help="outcomes to test: best_f (the objective), rmse, "
+                             "euclidean_distance, max_deviation, n_control_points")
+    report.add_argument("--no-figures", action="store_true", help="tables only (faster)")
+    report.set_defaults(func=_report)
     sub.add_parser("run", add_help=False,
                    help="runs and sweeps from Hydra overrides into the results store "
                         "(metaknot run --help lists the config groups)")
     return parser
+
+
+def _report(args: argparse.Namespace) -> int:
+    from metaknot.experiments.report import build
+
+    build(args.study, args.out, alpha=args.alpha, metrics=args.metric,
+          figures=not args.no_figures)
+    return 0
 
 
 def _run(rest: list[str]) -> int:

@@ -647,7 +647,7 @@ def test_smoke_preset():
     cfg = compose_cfg("experiment=smoke", hydra=True)
     assert sweep_values(cfg.hydra.sweeper.params) == {
         "problem": list(CURVES), "algorithm": ["dolphin", "ga", "random_search"],
-        "budget": ["500", "1500"], "seed": ["0", "1", "2"]}
+        "budget": ["500", "1500"], "seed": [str(s) for s in range(8)]}
     spec = run_spec(cfg)
     assert spec.study == "smoke" and spec.config["encoding"]["kind"] == "mask"
     assert spec.config["objective"]["name"] == "paper"
@@ -751,8 +751,8 @@ def test_fast_composition_equals_full_composition_on_the_smoke_study():
     # in full one fast-path job for each of the 5 value changes, each in another group
     jobs, specs, counting = compare_with_full_composition(
         ["experiment=smoke", f"results_dir={RESULTS}"],
-        select=lambda i, _: i < 30 and i % 6 == 1 + i // 6)
-    assert len(jobs) == 3 * 3 * 2 * 3
+        select=lambda i, _: i < 80 and i % 16 == 1 + i // 16)
+    assert len(jobs) == 3 * 3 * 2 * 8
     assert counting.calls == 3 * 3  # once per problem x algorithm: the fast path was taken
     for job, spec in zip(jobs, specs, strict=True):
         settings = dict(o.split("=", 1) for o in job)

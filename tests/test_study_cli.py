@@ -118,11 +118,11 @@ def test_smoke_study_has_every_field_and_paired_replicates(tmp_path):
     assert done.returncode == 0, done.stderr
     study = load_study(tmp_path / "smoke")
     runs = study.runs
-    assert len(runs) == 3 * 3 * 2 * 3 and (runs.status == "ok").all()
+    assert len(runs) == 3 * 3 * 2 * 8 and (runs.status == "ok").all()
     assert RECORD_FIELDS <= set(runs.columns), RECORD_FIELDS - set(runs.columns)
     assert runs.run_id.is_unique
     assert set(runs.algorithm) == {"dolphin", "ga", "random_search"}
-    assert set(runs.budget) == {500, 1500} and set(runs.seed) == {0, 1, 2}
+    assert set(runs.budget) == {500, 1500} and set(runs.seed) == set(range(8))
     assert (runs.n_evaluations == runs.budget).all()
     # replicate r of every algorithm saw the same data: same fingerprint per (curve, seed)
     assert (runs.groupby(["data", "seed"]).data_fingerprint.nunique() == 1).all()

@@ -1,0 +1,479 @@
+"""Assemble a report: tables, tests, figures, written as HTML, Markdown, CSV, LaTeX, PNG, SVG."""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import os
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from .data import METRICS, Comparison, ReportError, prepare
+from .tables import (
+    FriedmanResult,
+    friedman_test,
+    pairwise_tests,
+    plain_summary,
+    summary_table,
+)
+
+__all__ = ["Report", "build"]
+
+
+@dataclass
+class Report:
+    """What :func:`build` wrote, and the tables it computed."""
+
+    out: Path
+    html: Path
+    markdown: Path
+    summary: list[str]
+    tables: dict[str, pd.DataFrame]
+    figures: list[Path] = field(default_factory=list)
+
+
+@dataclass
+class _Figure:
+    name: str
+    title: str
+    caption: str
+    png: Path
+    svg: Path
+
+
+def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.05,
+          metrics: Sequence[str] = ("best_f", "rmse"), figures: bool = True,
+          log: Callable[[str], None] | None = print) -> Report:
+    """Build the report of a study.
+
+    Parameters
+    ----------
+    study
+        A study directory (``<results_dir>/<study>``) or a loaded
+        :class:`~metaknot.experiments.store.Study`.
+    out
+        Output folder (default: ``<results_dir>/<study>-report``); created if missing, files in
+        it are replaced. It may not be inside the study.
+    alpha
+        Significance level of the tests.
+    metrics
+        Outcomes tested pairwise and across instances (first: the summary's); any of
+        ``best_f`` (the objective), ``rmse``, ``euclidean_distance``, ``max_deviation``,
+        ``n_control_points``.
+    figures
+        Draw the figures (off: tables only, faster).
+    log
+        Called with one line per stage (``None``: silent).
+
+    Raises
+    ------
+    ReportError
+        The study is missing, empty, all failed, or holds a file the store cannot read; or a
+        setting is wrong. The message says which.
+    """
+    say = log or (lambda _: None)
+    if not 0 < alpha < 1:
+        raise ReportError(f"alpha must lie in (0, 1); got {alpha}")
+    unknown = [m for m in metrics if m not in METRICS]
+    if unknown or not metrics:
+        raise ReportError(f"unknown metric {unknown[0] if unknown else None!r}; choose from "
+                          f"{', '.join(METRICS)}")
+    comparison = prepare(study)
+    study_dir = comparison.study.path.resolve()
+    out = Path(out) if out is not None else study_dir.parent / f"{study_dir.name}-report"
+    if out.resolve() == study_dir or study_dir in out.resolve().parents:
+        raise ReportError(f"the report folder {out} is inside the study; choose another")
+    if out.exists() and not out.is_dir():
+        raise ReportError(f"{out} exists and is not a folder")
+    (out / "tables").mkdir(parents=True, exist_ok=True)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    say(f"report of {comparison.name}: {len(comparison.runs)} runs, "
+        f"{len(comparison.instances)} instance(s), {len(comparison.methods)} method(s), "
+        f"{len(comparison.budgets)} budget(s)")
+
+    tables: dict[str, pd.DataFrame] = {"summary": summary_table(comparison),
+                                       "cells": comparison.cell_counts()}
+    friedman: dict[str, FriedmanResult] = {}
+    for metric in metrics:
+        tables[f"pairwise_{metric}"] = pairwise_tests(comparison, metric, alpha)
+        friedman[metric] = friedman_test(comparison, metric, alpha)
+        tables[f"ranks_{metric}"] = _ranks_table(friedman[metric])
+    summary = plain_summary(comparison, tables[f"pairwise_{metrics[0]}"], alpha,
+                            friedman[metrics[0]])
+    for name, table in tables.items():
+        table.to_csv(out / "tables" / f"{name}.csv", index=False)
+    _write_latex(comparison, tables, metrics, out / "tables")
+    say(f"tables: {out / 'tables'}")
+
+    drawn: list[_Figure] = []
+    if figures:
+        drawn = _draw(comparison, friedman, metrics, alpha, out / "figures", say)
+    report = Report(out=out, html=out / "report.html", markdown=out / "report.md",
+                    summary=summary, tables=tables,
+                    figures=[f.png for f in drawn] + [f.svg for f in drawn])
+    sections = _sections(comparison, tables, friedman, metrics, alpha, drawn, summary)
+    report.html.write_text(_html(comparison, sections, out), encoding="utf-8")
+    report.markdown.write_text(_markdown(comparison, sections, out), encoding="utf-8")
+    say(f"report: {report.html}")
+    return report
+
+
+# --------------------------------------------------------------------------------------------
+# figures
+
+
+def _draw(comparison: Comparison, friedman: dict[str, FriedmanResult], metrics: Sequence[str],
+          alpha: float, folder: Path, say: Callable[[str], None]) -> list[_Figure]:
+    import matplotlib.pyplot as plt
+
+    from . import figures as f
+
+    plans: list[tuple[str, str, str, Callable[[], Any]]] = []
+    for instance in comparison.instances:
+        slug = _slug(instance)
+        plans.append((f"convergence-{slug}", f"{instance}: convergence",
+                      "Best-so-far objective and the incumbent's RMSE at the log-spaced "
+                      "checkpoints; median and interquartile band over each method's runs at "
+                      "its largest budget.",
+                      lambda i=instance: f.convergence_figure(comparison, i)))
+        if len(comparison.budgets) > 1:
+            plans.append((f"budget-{slug}", f"{instance}: outcome against budget",
+                          "Objective, control points and RMSE of the best solution against "
+                          "the evaluation budget (median, interquartile band): where the "
+                          "objective drives the search.",
+                          lambda i=instance: f.budget_figure(comparison, i)))
+        plans.append((f"ecdf-{slug}", f"{instance}: fixed-target view",
+                      f"Fraction of (run, target) pairs reached within a number of "
+                      f"evaluations, for {f.TARGETS} targets on the objective and on the "
+                      "incumbent's RMSE, log-spaced from the worst method's median final value "
+                      "to the best run's (runs at each method's largest budget).",
+                      lambda i=instance: f.ecdf_figure(comparison, [i],
+                                                       f"{i}: targets reached")))
+        plans.append((f"front-{slug}", f"{instance}: control points against RMSE",
+                      "One dot per run; the line is FITPACK's own smoothing fits over a range "
+                      "of smoothing factors. A dot below the line beats FITPACK at that size.",
+                      lambda i=instance: f.front_figure(comparison, i)))
+        plans.append((f"curves-{slug}", f"{instance}: fitted curves",
+                      "The median run (by objective) of each method at its largest budget, "
+                      "rebuilt from its stored best candidate: data, fitted curve, knots.",
+                      lambda i=instance: f.fitted_curves_figure(comparison, i)))
+    if len(comparison.instances) > 1:
+        plans.append(("ecdf-all", "All instances: fixed-target view",
+                      "The fixed-target view pooled over every instance (each with its own "
+                      "targets).",
+                      lambda: f.ecdf_figure(comparison, comparison.instances,
+                                            "all instances: targets reached")))
+    for metric in metrics:
+        plans.append((f"cd-{metric}", f"Critical difference ({METRICS[metric]})",
+                       "Average ranks over the instance–budget cells; methods joined by a bar "
+                       "are not significantly different (Nemenyi).",
+                       lambda m=metric: f.cd_diagram(comparison, friedman[m], alpha)))
+    drawn = []
+    for name, title, caption, draw in plans:
+        try:
+            figure = draw()
+        except Exception as exc:  # one figure that cannot be drawn must not sink the report
+            say(f"figure {name} skipped: {type(exc).__name__}: {exc}")
+            continue
+        if figure is None:
+            continue
+        png, svg = folder / f"{name}.png", folder / f"{name}.svg"
+        figure.savefig(png, dpi=110)
+        figure.savefig(svg)
+        plt.close(figure)
+        drawn.append(_Figure(name, title, caption, png, svg))
+    say(f"figures: {len(drawn)} in {folder}")
+    return drawn
+
+
+# --------------------------------------------------------------------------------------------
+# tables as text
+
+
+def _num(value: Any, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return "–" if value is None or np.isnan(value) else ("∞" if value > 0 else "-∞")
+    if isinstance(value, int | np.integer):
+        return f"{int(value):,}"
+    value = float(value)
+    if value == 0:
+        return "0"
+    if value.is_integer() and abs(value) < 1e6:
+        return f"{int(value):,}"
+    return f"{value:.{digits}g}"
+
+
+def _p(value: Any) -> str:
+    if value is None or not np.isfinite(value):
+        return "–"
+    return "<1e-6" if value < 1e-6 else f"{value:.2g}"
+
+
+def _summary_display(summary: pd.DataFrame, instance: str) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """One instance's summary as text: ``median (IQR)`` per outcome, and a mask of the best."""
+    part = summary[summary.instance == instance]
+    text = pd.DataFrame({"budget": part.budget.map(_num), "method": part.method,
+                         "runs": part.runs.map(_num)})
+    best = pd.DataFrame(False, index=text.index, columns=text.columns)
+    for metric, label in METRICS.items():
+        if f"{metric} median" not in part:
+            continue
+        text[label] = [f"{_num(m)} ({_num(i, 2)})"
+                       for m, i in zip(part[f"{metric} median"], part[f"{metric} IQR"],
+                                       strict=True)]
+        best[label] = part[f"{metric} best"].to_numpy()
+    return text.reset_index(drop=True), best.reset_index(drop=True)
+
+
+def _mean_display(summary: pd.DataFrame) -> pd.DataFrame:
+    text = pd.DataFrame({"instance": summary.instance, "budget": summary.budget.map(_num),
+                         "method": summary.method, "runs": summary.runs.map(_num)})
+    for metric, label in METRICS.items():
+        if f"{metric} mean" in summary:
+            text[label] = [f"{_num(m)} ± {_num(s, 2)}" for m, s in
+                           zip(summary[f"{metric} mean"], summary[f"{metric} sd"], strict=True)]
+    return text.reset_index(drop=True)
+
+
+def _pairwise_display(pairwise: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    text = pd.DataFrame({
+        "instance": pairwise.instance, "budget": pairwise.budget.map(_num),
+        "A vs B": pairwise.A + " vs " + pairwise.B, "n": pairwise.n.map(_num),
+        "median A": pairwise["median A"].map(_num), "median B": pairwise["median B"].map(_num),
+        "A12": pairwise.A12.map(lambda v: _num(v, 2)), "effect": pairwise.effect,
+        "W/T/L": [f"{w}/{t}/{loss}" for w, t, loss in
+                  zip(pairwise.wins, pairwise.ties, pairwise.losses, strict=True)],
+        "p (Holm)": pairwise.p_holm.map(_p),
+        "note": pairwise.note,
+    })
+    best = pd.DataFrame(False, index=text.index, columns=text.columns)
+    best["p (Holm)"] = pairwise.significant.to_numpy()
+    return text.reset_index(drop=True), best.reset_index(drop=True)
+
+
+def _ranks_table(result: FriedmanResult) -> pd.DataFrame:
+    table = pd.DataFrame({"method": result.ranks.index, "average rank": result.ranks.values})
+    table["metric"] = result.metric
+    table["blocks"] = result.blocks
+    table["p"] = result.p
+    table["note"] = result.note
+    return table
+
+
+def _write_latex(comparison: Comparison, tables: dict[str, pd.DataFrame],
+                 metrics: Sequence[str], folder: Path) -> None:
+    for instance in comparison.instances:
+        text, best = _summary_display(tables["summary"], instance)
+        _latex_table(text, best, folder / f"summary-{_slug(instance)}.tex",
+                     f"{comparison.name}, {instance}: median (IQR) over replicate seeds; best "
+                     "median per budget in bold.")
+    for metric in metrics:
+        text, best = _pairwise_display(tables[f"pairwise_{metric}"])
+        _latex_table(text.drop(columns=["note"]), best.drop(columns=["note"]),
+                     folder / f"pairwise-{metric}.tex",
+                     f"{comparison.name}: pairwise comparison of the {METRICS[metric]}, "
+                     "Wilcoxon signed-rank on paired seeds, Holm-corrected per instance and "
+                     "budget; A12 = probability that A is lower; significant in bold.")
+
+
+def _latex_table(text: pd.DataFrame, best: pd.DataFrame, path: Path, caption: str) -> None:
+    styled = text.style.hide(axis="index")
+    styled = styled.apply(lambda _: np.where(best, "font-weight: bold;", ""), axis=None)
+    body = styled.to_latex(hrules=True, convert_css=True, caption=caption,
+                           column_format="l" * text.shape[1])
+    path.write_text(_latex_escape_content(body), encoding="utf-8")
+
+
+def _latex_escape_content(body: str) -> str:
+    """Escape the characters LaTeX treats specially in cell text (pandas leaves them)."""
+    lines = []
+    for line in body.splitlines():
+        if line.startswith("\\") and not line.startswith("\\bfseries"):
+            lines.append(line)
+            continue
+        line = line.replace("%", r"\%").replace("_", r"\_").replace("#", r"\#")
+        line = line.replace("±", r"$\pm$").replace("–", "--").replace("∞", r"$\infty$")
+        line = line.replace("σ", r"$\sigma$").replace("<1e-6", r"$<10^{-6}$")
+        lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------------------
+# documents
+
+
+@dataclass
+class _Section:
+    title: str
+    level: int = 2
+    paragraphs: list[str] = field(default_factory=list)
+    table: tuple[pd.DataFrame, pd.DataFrame] | None = None
+    figures: list[_Figure] = field(default_factory=list)
+
+
+def _sections(comparison: Comparison, tables: dict[str, pd.DataFrame],
+              friedman: dict[str, FriedmanResult], metrics: Sequence[str], alpha: float,
+              drawn: list[_Figure], summary: list[str]) -> list[_Section]:
+    by_name = {f.name: f for f in drawn}
+    runs = comparison.runs
+    cells = tables["cells"]
+    sections = [_Section("Summary", paragraphs=list(summary))]
+    facts = [
+        f"{len(runs)} finished runs: {len(comparison.instances)} instance(s) × "
+        f"{len(comparison.methods)} method(s) ({', '.join(comparison.methods)}) × "
+        f"{len(comparison.budgets)} budget(s) ({', '.join(_num(b) for b in comparison.budgets)}"
+        f" evaluations); replicate seeds {_num(int(runs.seed.min()))}–"
+        f"{_num(int(runs.seed.max()))}, paired across methods.",
+        *comparison.notes,
+    ]
+    expected = int(cells.runs.max())
+    thin = cells[cells.runs < expected]
+    if len(thin):
+        facts.append(f"The study is partial: {len(thin)} of {len(cells)} cells have fewer than "
+                     f"{expected} runs (the tables give each cell's count).")
+    sections.append(_Section("The study", paragraphs=facts))
+    for instance in comparison.instances:
+        section = _Section(f"{instance}", paragraphs=[
+            "Median (interquartile range) over replicate seeds at each budget; the best median "
+            "of each budget in bold (lower is better for every column)."])
+        section.table = _summary_display(tables["summary"], instance)
+        section.figures = [by_name[n] for n in (
+            f"budget-{_slug(instance)}", f"convergence-{_slug(instance)}",
+            f"ecdf-{_slug(instance)}", f"front-{_slug(instance)}",
+            f"curves-{_slug(instance)}") if n in by_name]
+        sections.append(section)
+    for metric in metrics:
+        text, best = _pairwise_display(tables[f"pairwise_{metric}"])
+        sections.append(_Section(
+            f"Pairwise tests: {METRICS[metric]}",
+            paragraphs=[f"Wilcoxon signed-rank test on the seeds both methods ran, "
+                        f"Holm-corrected over the pairs of each instance and budget "
+                        f"(significant at {alpha:g} in bold). A12 (Vargha–Delaney): the "
+                        "probability that a run of A gives a lower value than a run of B; "
+                        "W/T/L: paired wins, ties and losses of A."],
+            table=(text, best)))
+        result = friedman[metric]
+        ranks = tables[f"ranks_{metric}"][["method", "average rank"]].copy()
+        ranks["average rank"] = ranks["average rank"].map(lambda v: _num(v, 3))
+        verdict = (f"{result.note}; p = {_p(result.p)}" if np.isfinite(result.p)
+                   else result.note)
+        figs = [by_name[n] for n in (f"cd-{metric}",) if n in by_name]
+        sections.append(_Section(
+            f"Across instances: {METRICS[metric]}", level=3,
+            paragraphs=[f"Average rank (1 = best) of each method's median over the "
+                        f"{result.blocks} instance–budget cells where every method ran: "
+                        f"{verdict}."],
+            table=(ranks, pd.DataFrame(False, index=ranks.index, columns=ranks.columns)),
+            figures=figs))
+    if "ecdf-all" in by_name:
+        sections.append(_Section("All instances", figures=[by_name["ecdf-all"]]))
+    means = _mean_display(tables["summary"])
+    sections.append(_Section("Appendix: mean ± standard deviation", paragraphs=[
+        "The summary tables' cells as mean ± standard deviation over replicate seeds."],
+        table=(means, pd.DataFrame(False, index=means.index, columns=means.columns))))
+    sections.append(_Section("Files", paragraphs=[
+        "Every table as CSV in `tables/`, the main tables as LaTeX (booktabs) in `tables/`, "
+        "every figure as PNG and SVG in `figures/`. Each number comes from the stored runs of "
+        f"the study `{comparison.study.path}`; `load_study` reads them back."]))
+    return sections
+
+
+def _header(comparison: Comparison) -> str:
+    from metaknot import __version__
+
+    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
+    return f"metaknot {__version__}, {stamp}"
+
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:2em auto;
+max-width:1100px;padding:0 1em;color:#222;line-height:1.45}
+h1{font-size:1.7em}h2{border-bottom:1px solid #ddd;padding-bottom:.2em;margin-top:2em}
+table{border-collapse:collapse;margin:.8em 0;font-size:.86em}
+th,td{border-bottom:1px solid #e4e4e4;padding:.25em .6em;text-align:right}
+th{background:#f6f6f6}td:first-child,th:first-child{text-align:left}
+figure{margin:1.2em 0}figure img{max-width:100%;height:auto;border:1px solid #eee}
+figcaption{font-size:.85em;color:#555}.meta{color:#666;font-size:.9em}
+.scroll{overflow-x:auto}
+"""
+
+
+def _html_table(text: pd.DataFrame, best: pd.DataFrame) -> str:
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in text.columns)
+    rows = []
+    for i in range(len(text)):
+        cells = []
+        for column in text.columns:
+            value = html.escape(str(text.iloc[i][column]))
+            cells.append(f"<td><strong>{value}</strong></td>" if best.iloc[i][column]
+                         else f"<td>{value}</td>")
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>'
+            + "".join(rows) + "</tbody></table></div>")
+
+
+def _inline(text: str) -> str:
+    """Markdown ``**bold**`` and ```code``` as HTML."""
+    text = html.escape(text)
+    text = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", text)
+    return re.sub(r"`(.+?)`", r"<code>\1</code>", text)
+
+
+def _html(comparison: Comparison, sections: list[_Section], out: Path) -> str:
+    parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+             f"<title>metaknot report: {html.escape(comparison.name)}</title>"
+             f"<style>{_CSS}</style></head><body>",
+             f"<h1>Study {html.escape(comparison.name)}</h1>",
+             f"<p class='meta'>{html.escape(_header(comparison))}</p>"]
+    for section in sections:
+        parts.append(f"<h{section.level}>{html.escape(section.title)}</h{section.level}>")
+        parts += [f"<p>{_inline(p)}</p>" for p in section.paragraphs]
+        if section.table is not None:
+            parts.append(_html_table(*section.table))
+        for figure in section.figures:
+            data = base64.b64encode(figure.png.read_bytes()).decode()
+            parts.append(f"<figure><img alt='{html.escape(figure.title)}' "
+                         f"src='data:image/png;base64,{data}'>"
+                         f"<figcaption><strong>{html.escape(figure.title)}.</strong> "
+                         f"{html.escape(figure.caption)}</figcaption></figure>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def _md_table(text: pd.DataFrame, best: pd.DataFrame) -> str:
+    def cell(i: int, column: str) -> str:
+        value = str(text.iloc[i][column]).replace("|", "\\|")
+        return f"**{value}**" if best.iloc[i][column] and value else value
+
+    lines = ["| " + " | ".join(str(c) for c in text.columns) + " |",
+             "| " + " | ".join("---" for _ in text.columns) + " |"]
+    lines += ["| " + " | ".join(cell(i, c) for c in text.columns) + " |"
+              for i in range(len(text))]
+    return "\n".join(lines)
+
+
+def _markdown(comparison: Comparison, sections: list[_Section], out: Path) -> str:
+    parts = [f"# Study {comparison.name}", "", f"*{_header(comparison)}*", ""]
+    for section in sections:
+        parts += ["#" * section.level + " " + section.title, ""]
+        for paragraph in section.paragraphs:
+            parts += [paragraph, ""]
+        if section.table is not None:
+            parts += [_md_table(*section.table), ""]
+        for figure in section.figures:
+            relative = figure.png.relative_to(out).as_posix()
+            parts += [f"![{figure.title}]({relative})", "",
+                      f"*{figure.title}.* {figure.caption}", ""]
+    return "\n".join(parts)
+
+
+def _slug(text: str) -> str:
+    slug = re.sub(r"[^A-Za-z0-9]+", "-", text).strip("-").lower()
+    return slug or "instance"

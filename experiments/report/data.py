@@ -1,0 +1,162 @@
+"""A study's runs, arranged for comparison: problem instances, methods, budgets, replicates.
+
+A *problem instance* is what the methods are compared on: the data (with its noise level), the
+degree, the parameterization, the objective with its options, and the knot count K where the
+encoding fixes one. A *method* is the run's ``label`` (the algorithm's name unless a
+configuration names it), so the same algorithm on indices and on free knots, or tuned and
+default, can be told apart. Runs are paired across methods by their replicate ``seed``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from metaknot.experiments.store import StoreError, Study, load_study
+
+__all__ = ["METRICS", "Comparison", "ReportError", "prepare"]
+
+#: Outcome columns of the seed paper's tables, lower is better for each.
+METRICS = {
+    "best_f": "objective",
+    "rmse": "RMSE",
+    "euclidean_distance": "Euclidean distance",
+    "max_deviation": "max deviation",
+    "n_control_points": "control points",
+}
+#: Settings that make a problem instance (those that vary within a study name it).
+INSTANCE_SETTINGS = ("data", "noise", "degree", "parameterization", "objective", "n_knots")
+SHORT = {"noise": "σ", "degree": "p", "parameterization": "", "objective": "", "n_knots": "K"}
+
+
+class ReportError(ValueError):
+    """The study cannot be reported on; the message says why (no traceback needed)."""
+
+
+@dataclass
+class Comparison:
+    """The runs of a study arranged for comparison.
+
+    Attributes
+    ----------
+    study
+        The study as read from the store (never modified).
+    runs
+        The ``ok`` runs, with ``instance`` (a readable name), ``method`` and ``budget``.
+    trace
+        The trace points of those runs, with ``instance`` and ``method``.
+    instances, methods, budgets
+        In display order.
+    """
+
+    study: Study
+    runs: pd.DataFrame
+    trace: pd.DataFrame
+    instances: list[str]
+    methods: list[str]
+    budgets: list[int]
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        return self.study.name
+
+    def cell_counts(self) -> pd.DataFrame:
+        """Runs per instance, budget and method (to show where a partial study is thin)."""
+        return (self.runs.groupby(["instance", "budget", "method"], sort=False).size()
+                .rename("runs").reset_index())
+
+
+def prepare(study: Study | str | Path) -> Comparison:
+    """Read (if a path) and arrange a study; raises :class:`ReportError` if nothing to report."""
+    if not isinstance(study, Study):
+        try:
+            study = load_study(study)
+        except StoreError as exc:
+            raise ReportError(str(exc)) from None
+    runs = study.runs
+    if runs.empty:
+        raise ReportError(f"{study.path}: the study has no runs yet")
+    ok = runs[runs["status"] == "ok"].copy()
+    notes = []
+    failed = len(runs) - len(ok)
+    if failed:
+        notes.append(f"{failed} run(s) failed and are left out (see the study's failed/ "
+                     "folder); the tables count the runs each cell has.")
+    if ok.empty:
+        raise ReportError(f"{study.path}: none of the {len(runs)} runs finished (all failed)")
+    ok["method"] = _methods(ok)
+    ok["instance"] = _instances(ok)
+    ok["budget"] = ok["budget"].astype(int)
+    for metric in METRICS:
+        if metric in ok:
+            ok[metric] = pd.to_numeric(ok[metric], errors="coerce")
+    duplicated = ok.duplicated(["instance", "budget", "method", "seed"], keep=False)
+    if duplicated.any():
+        raise ReportError(
+            f"{study.path}: {int(duplicated.sum())} runs share instance, budget, method and "
+            "seed but differ in their settings; give the variants different labels "
+            "(label=... in the configuration) to compare them")
+    instances = _order(ok["instance"], ok["data"])
+    methods = sorted(ok["method"].unique(), key=lambda m: (_mean_rank(ok, m), m))
+    budgets = sorted(int(b) for b in ok["budget"].unique())
+    trace = study.trace.merge(ok[["run_id", "instance", "method", "budget"]], on="run_id")
+    return Comparison(study=study, runs=ok.reset_index(drop=True), trace=trace,
+                      instances=instances, methods=methods, budgets=budgets, notes=notes)
+
+
+def _methods(runs: pd.DataFrame) -> pd.Series:
+    label = runs["label"] if "label" in runs else pd.Series(np.nan, index=runs.index)
+    return label.where(label.notna() & (label.astype(str) != ""), runs["algorithm"]).astype(str)
+
+
+def _instances(runs: pd.DataFrame) -> pd.Series:
+    """A readable instance name: the data, then each setting that varies in the study."""
+    varying = [c for c in INSTANCE_SETTINGS[1:] if c in runs
+               and runs[c].astype(str).nunique(dropna=False) > 1]
+    options = [c for c in runs if c.startswith("objective.")
+               and runs[c].astype(str).nunique(dropna=False) > 1]
+    names = runs["data"].astype(str)
+    for column in varying + options:
+        values = runs[column]
+        prefix = SHORT.get(column, column.split(".", 1)[-1])
+        text = values.map(lambda v, p=prefix: "" if _missing(v) else
+                          f"{p}={_fmt(v)}" if p else _fmt(v))
+        names = names + text.map(lambda t: f" {t}" if t else "")
+    return names
+
+
+def _missing(value: object) -> bool:
+    return value is None or (isinstance(value, float) and np.isnan(value))
+
+
+def _fmt(value: object) -> str:
+    if isinstance(value, float) and value.is_integer():
+        return str(int(value))
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def _order(instances: pd.Series, data: pd.Series) -> list[str]:
+    """Instances in the order their data first appear, then by name."""
+    first = {d: i for i, d in enumerate(dict.fromkeys(data))}
+    pairs = dict(zip(instances, data, strict=True))
+    return sorted(pairs, key=lambda inst: (first[pairs[inst]], _natural(inst)))
+
+
+def _natural(text: str) -> list:
+    import re
+
+    return [float(t) if t.replace(".", "", 1).isdigit() else t
+            for t in re.split(r"(\d+(?:\.\d+)?)", text)]
+
+
+def _mean_rank(runs: pd.DataFrame, method: str) -> float:
+    """Average within-cell rank of a method's median objective (display order: best first)."""
+    medians = runs.groupby(["instance", "budget", "method"]).best_f.median().unstack()
+    ranks = medians.rank(axis=1)
+    return float(ranks[method].mean()) if method in ranks else np.inf

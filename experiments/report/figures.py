@@ -1,0 +1,281 @@
+"""The report's figures (matplotlib / seaborn), each a function returning a ``Figure``.
+
+Convergence and fixed-target views read the stored trace (its log-spaced checkpoints are shared
+by all runs, so no interpolation is needed); fitted curves are rebuilt from each run's stored
+best candidate, never re-optimised.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import seaborn as sns
+
+from .data import Comparison
+from .tables import FriedmanResult
+
+__all__ = ["budget_figure", "cd_diagram", "convergence_figure", "ecdf_figure",
+           "fitted_curves_figure", "front_figure", "palette", "rebuild_problem",
+           "target_hits"]
+
+TARGETS = 10
+
+
+def palette(comparison: Comparison) -> dict[str, Any]:
+    """One colour per method, the same in every figure."""
+    colours = sns.color_palette("colorblind", max(len(comparison.methods), 3))
+    return dict(zip(comparison.methods, colours, strict=False))
+
+
+def _largest_budget(comparison: Comparison, instance: str) -> pd.DataFrame:
+    """Each method's runs at its largest budget on ``instance``."""
+    runs = comparison.runs[comparison.runs.instance == instance]
+    top = runs.groupby("method").budget.transform("max")
+    return runs[runs.budget == top]
+
+
+def _band(ax: Any, x: np.ndarray, values: pd.DataFrame, colour: Any, label: str) -> None:
+    median = values.median(axis=1)
+    low, high = values.quantile(0.25, axis=1), values.quantile(0.75, axis=1)
+    ax.plot(x, median, color=colour, label=label, lw=1.6)
+    ax.fill_between(x, low, high, color=colour, alpha=0.2, lw=0)
+
+
+def convergence_figure(comparison: Comparison, instance: str) -> plt.Figure:
+    """Best-so-far objective and the incumbent's RMSE against evaluations: median and IQR over
+    each method's runs at its largest budget."""
+    runs = _largest_budget(comparison, instance)
+    trace = comparison.trace[comparison.trace.run_id.isin(runs.run_id)
+                             & comparison.trace.checkpoint]
+    colours = palette(comparison)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
+    for ax, column, title in ((axes[0], "best_f", "objective (best so far)"),
+                              (axes[1], "rmse", "RMSE of the incumbent")):
+        for method in comparison.methods:
+            part = trace[trace.method == method]
+            if part.empty or column not in part:
+                continue
+            wide = part.pivot_table(index="evaluations", columns="run_id", values=column,
+                                    aggfunc="first").replace([np.inf, -np.inf], np.nan)
+            budget = int(runs[runs.method == method].budget.max())
+            _band(ax, wide.index.to_numpy(), wide, colours[method],
+                  f"{method} ({budget:,} evals)")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("evaluations")
+        ax.set_title(title)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{instance}: convergence (median, IQR band)")
+    return fig
+
+
+def target_hits(comparison: Comparison, instance: str, column: str = "rmse",
+                targets: int = TARGETS) -> tuple[pd.DataFrame, np.ndarray]:
+    """Evaluations each run (at its method's largest budget) needed to bring the incumbent's
+    ``column`` (``rmse`` or ``best_f``) to each of ``targets`` log-spaced targets (``inf``:
+    never). Targets run from the worst method's median final value down to the best final
+    value of any run."""
+    runs = _largest_budget(comparison, instance)
+    final = runs.groupby("method")[column].median()
+    easy, hard = float(final.max()), float(runs[column].min())
+    if not (np.isfinite(easy) and np.isfinite(hard) and easy > 0 and hard > 0):
+        return pd.DataFrame(columns=["run_id", "method", "target", "evaluations"]), np.empty(0)
+    levels = np.geomspace(easy, hard, targets) if easy > hard else np.array([easy])
+    trace = comparison.trace[comparison.trace.run_id.isin(runs.run_id)]
+    rows = []
+    for (run_id, method), points in trace.groupby(["run_id", "method"], sort=False):
+        values = points[column].to_numpy()
+        evals = points.evaluations.to_numpy()
+        for level in levels:
+            hit = np.flatnonzero(values <= level * (1 + 1e-12))
+            rows.append((run_id, method, level, evals[hit[0]] if hit.size else np.inf))
+    return pd.DataFrame(rows, columns=["run_id", "method", "target", "evaluations"]), levels
+
+
+def ecdf_figure(comparison: Comparison, instances: list[str], title: str) -> plt.Figure:
+    """Fixed-target view: the fraction of (run, target) pairs reached within a number of
+    evaluations, per method (COCO / IOHanalyzer style), pooled over ``instances``, for targets
+    on the objective (best so far) and on the incumbent's RMSE."""
+    colours = palette(comparison)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True, sharey=True)
+    top = max(comparison.budgets)
+    x = np.unique(np.geomspace(1, top, 200).round())
+    for ax, column, label in ((axes[0], "best_f", "objective targets"),
+                              (axes[1], "rmse", "RMSE targets")):
+        hits = pd.concat([target_hits(comparison, i, column)[0] for i in instances],
+                         ignore_index=True)
+        for method in comparison.methods:
+            values = hits.loc[hits.method == method, "evaluations"].to_numpy(dtype=float)
+            if values.size == 0:
+                continue
+            fraction = (values[None, :] <= x[:, None]).mean(axis=1)
+            ax.step(x, fraction, where="post", color=colours[method], label=method)
+        ax.set_xscale("log")
+        ax.set_ylim(0, 1.02)
+        ax.set_xlabel("evaluations")
+        ax.set_title(label)
+    axes[0].set_ylabel("fraction of (run, target) pairs reached")
+    axes[0].legend(fontsize=8)
+    fig.suptitle(title)
+    return fig
+
+
+def rebuild_problem(run: pd.Series) -> Any:
+    """The run's problem, rebuilt from its stored configuration (same data, same noise)."""
+    from metaknot.experiments.spec import run_spec
+
+    config = json.loads(run["config"])
+    spec = run_spec({**config, "study": "report", "results_dir": "."}, check_build=False)
+    return spec.build_problem()
+
+
+def _median_run(runs: pd.DataFrame) -> pd.Series:
+    order = runs.sort_values(["best_f", "seed"], kind="stable")
+    return order.iloc[(len(order) - 1) // 2]
+
+
+def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
+    """Data points, the fitted curve and its knots for the median run (by objective) of each
+    method at its largest budget; 3-D data are drawn in 3-D."""
+    runs = _largest_budget(comparison, instance)
+    methods = [m for m in comparison.methods if (runs.method == m).any()]
+    colours = palette(comparison)
+    dim = int(runs["dim"].iloc[0]) if "dim" in runs else 2
+    columns = min(len(methods), 3)
+    rows = -(-len(methods) // columns)
+    fig = plt.figure(figsize=(4.2 * columns, 3.9 * rows), constrained_layout=True)
+    for k, method in enumerate(methods):
+        run = _median_run(runs[runs.method == method])
+        projection = "3d" if dim == 3 else None
+        ax = fig.add_subplot(rows, columns, k + 1, projection=projection)
+        problem = rebuild_problem(run)
+        solution = problem.decode(np.asarray(run["best_x"]))
+        fit = solution.fit
+        points = problem.points
+        u = np.linspace(problem.params[0], problem.params[-1], 1500)
+        curve = fit.spline(u)
+        knots = fit.spline(fit.interior_knots) if len(fit.interior_knots) else np.empty(
+            (0, points.shape[1]))
+        def coords(a: np.ndarray) -> tuple[np.ndarray, ...]:
+            return tuple(a[:, i] for i in range(min(dim, 3)))
+
+        if dim == 1:
+            ax.plot(problem.params, points[:, 0], ".", color="0.6", ms=3, label="data")
+            ax.plot(u, curve[:, 0], color=colours[method], lw=1.2, label="fit")
+            ax.plot(fit.interior_knots, knots[:, 0], "x", color="crimson", ms=5, label="knots")
+        else:
+            ax.plot(*coords(points), ".", color="0.6", ms=3, label="data")
+            ax.plot(*coords(curve), color=colours[method], lw=1.2, label="fit")
+            if len(knots):
+                ax.plot(*coords(knots), "x", color="crimson", ms=5, label="knots")
+            if dim == 2:
+                ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title(f"{method}: {fit.n_control_points} control points, RMSE {fit.rmse:.2e}\n"
+                     f"(median run, seed {int(run['seed'])}, {int(run['budget']):,} evals)",
+                     fontsize=9)
+        if k == 0:
+            ax.legend(fontsize=7, loc="best")
+    fig.suptitle(f"{instance}: fitted curves")
+    return fig
+
+
+def fitpack_front(problem: Any, n: int = 40) -> pd.DataFrame:
+    """FITPACK's own smoothing fits (``splprep``) over a range of smoothing factors: control
+    points and RMSE of each (one row per distinct control-point count, the best RMSE)."""
+    from scipy.interpolate import splev, splprep
+
+    points, u, k = problem.points, problem.params, problem.degree
+    total = float(((points - points.mean(axis=0)) ** 2).sum())
+    rows = []
+    for s in np.geomspace(total * 1e-12, total * 0.5, n):
+        try:
+            (t, c, _), _ = splprep(points.T, u=u, k=k, s=s, full_output=1, quiet=1)[0]
+        except Exception:  # FITPACK gives up on some s; the front just has a point less
+            continue
+        fitted = np.column_stack(splev(u, (t, c, k)))
+        rmse = float(np.sqrt(np.mean(np.sum((points - fitted) ** 2, axis=1))))
+        rows.append((len(t) - k - 1, rmse))
+    front = pd.DataFrame(rows, columns=["n_control_points", "rmse"])
+    return front.groupby("n_control_points", as_index=False).rmse.min()
+
+
+def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
+    """Control points against RMSE, one dot per run, with FITPACK's front as a line: a dot
+    below the line beats FITPACK at that number of control points."""
+    runs = comparison.runs[comparison.runs.instance == instance]
+    colours = palette(comparison)
+    fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
+    problem = rebuild_problem(runs.sort_values("seed").iloc[0])
+    front = fitpack_front(problem)
+    ax.plot(front.n_control_points, front.rmse, "-", color="0.3", lw=1.2, marker=".",
+            label="FITPACK (splprep) front")
+    for method in comparison.methods:
+        part = runs[runs.method == method]
+        if len(part):
+            ax.scatter(part.n_control_points, part.rmse, s=12, alpha=0.6,
+                       color=colours[method], label=method, edgecolors="none")
+    ax.set_yscale("log")
+    lo, hi = runs.n_control_points.min(), runs.n_control_points.max()
+    left, right = max(0, lo - 0.15 * (hi - lo + 4)), hi + 0.15 * (hi - lo + 4)
+    ax.set_xlim(left, right)
+    seen = front[(front.n_control_points >= left) & (front.n_control_points <= right)].rmse
+    errors = pd.concat([runs.rmse, seen]).replace([np.inf, -np.inf], np.nan).dropna()
+    errors = errors[errors > 0]
+    if len(errors):
+        ax.set_ylim(errors.min() / 1.5, errors.max() * 1.5)
+    ax.set_xlabel("control points")
+    ax.set_ylabel("RMSE")
+    ax.set_title(f"{instance}: control points against error (FITPACK's data: seed "
+                 f"{int(runs.seed.min())})", fontsize=10)
+    ax.legend(fontsize=8)
+    return fig
+
+
+def budget_figure(comparison: Comparison, instance: str) -> plt.Figure:
+    """Control points and RMSE against the budget, per method (median and IQR over seeds):
+    where the objective drives the search as it is given more evaluations."""
+    runs = comparison.runs[comparison.runs.instance == instance]
+    colours = palette(comparison)
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), constrained_layout=True)
+    for ax, column, title in ((axes[0], "best_f", "objective"),
+                              (axes[1], "n_control_points", "control points"),
+                              (axes[2], "rmse", "RMSE")):
+        for method in comparison.methods:
+            part = runs[runs.method == method]
+            if part.empty:
+                continue
+            wide = part.pivot_table(index="budget", columns="seed", values=column,
+                                    aggfunc="first")
+            _band(ax, wide.index.to_numpy(), wide, colours[method], method)
+            ax.plot(wide.index, wide.median(axis=1), "o", color=colours[method], ms=3)
+        ax.set_xscale("log")
+        if column != "n_control_points":
+            ax.set_yscale("log")
+        ax.set_xlabel("budget (evaluations)")
+        ax.set_title(title)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{instance}: outcome against budget (median, IQR band)")
+    return fig
+
+
+def cd_diagram(comparison: Comparison, friedman: FriedmanResult,
+               alpha: float = 0.05) -> plt.Figure | None:
+    """Critical-difference diagram of the average ranks (scikit-posthocs), when the Friedman
+    test applies."""
+    import scikit_posthocs as sp
+
+    if friedman.posthoc is None or len(friedman.ranks) < 3:
+        return None
+    fig, ax = plt.subplots(figsize=(7, 0.6 + 0.35 * len(friedman.ranks)),
+                           constrained_layout=True)
+    sp.critical_difference_diagram(friedman.ranks, friedman.posthoc, ax=ax, alpha=alpha)
+    ax.set_title(f"average ranks of the {friedman.metric} over {friedman.blocks} cells "
+                 f"(Nemenyi, alpha {alpha:g})", fontsize=10)
+    return fig
