@@ -276,6 +276,8 @@ def cd_diagram(comparison: Comparison, friedman: FriedmanResult,
     fig, ax = plt.subplots(figsize=(7, 0.6 + 0.35 * len(friedman.ranks)),
                            constrained_layout=True)
     sp.critical_difference_diagram(friedman.ranks, friedman.posthoc, ax=ax, alpha=alpha)
-    ax.set_title(f"average ranks of the {friedman.metric} over {friedman.blocks} cells "
-                 f"(Nemenyi, alpha {alpha:g})", fontsize=10)
+    from .data import METRICS
+
+    ax.set_title(f"average ranks of the {METRICS.get(friedman.metric, friedman.metric)} over "
+                 f"{friedman.blocks} cells (Nemenyi, alpha {alpha:g})", fontsize=10)
     return fig
