@@ -17,7 +17,7 @@ demo: $(STAMP)  ## a small study (DE, GA, random search on the seed curves), the
 	$(BIN)/metaknot report results/smoke
 
 test: $(STAMP) chromium  ## the whole test suite (slow studies at CI size)
-	$(BIN)/python -m pytest -n 2 -q
+	$(BIN)/python -m pytest -n 2 --dist loadgroup -q
 
 chromium:  ## the headless browser the report test opens report.html in (Debian's chromium)
 	@command -v chromium >/dev/null || { apt-get update -q && \

@@ -428,6 +428,7 @@ def _inline(text: str) -> str:
 
 def _html(comparison: Comparison, sections: list[_Section], out: Path) -> str:
     parts = [f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+             "<meta name='viewport' content='width=device-width, initial-scale=1'>"
              f"<title>metaknot report: {html.escape(comparison.name)}</title>"
              f"<style>{_CSS}</style></head><body>",
              f"<h1>Study {html.escape(comparison.name)}</h1>",
