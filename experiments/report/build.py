@@ -106,7 +106,7 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
         friedman[metric] = friedman_test(comparison, metric, alpha)
         tables[f"ranks_{metric}"] = _ranks_table(friedman[metric])
     summary = plain_summary(comparison, tables[f"pairwise_{metrics[0]}"], alpha,
-                            friedman[metrics[0]])
+                            friedman[metrics[0]], metric=metrics[0])
     for name, table in tables.items():
         table.to_csv(out / "tables" / f"{name}.csv", index=False)
     _write_latex(comparison, tables, metrics, out / "tables")
@@ -284,25 +284,30 @@ def _write_latex(comparison: Comparison, tables: dict[str, pd.DataFrame],
 
 
 def _latex_table(text: pd.DataFrame, best: pd.DataFrame, path: Path, caption: str) -> None:
-    styled = text.style.hide(axis="index")
+    styled = text.style.hide(axis="index").format(escape="latex")
     styled = styled.apply(lambda _: np.where(best, "font-weight: bold;", ""), axis=None)
-    body = styled.to_latex(hrules=True, convert_css=True, caption=caption,
+    body = styled.to_latex(hrules=True, convert_css=True, caption=_latex_escape(caption),
                            column_format="l" * text.shape[1])
-    path.write_text(_latex_escape_content(body), encoding="utf-8")
+    path.write_text(_latex_symbols(body), encoding="utf-8")
 
 
-def _latex_escape_content(body: str) -> str:
-    """Escape the characters LaTeX treats specially in cell text (pandas leaves them)."""
-    lines = []
-    for line in body.splitlines():
-        if line.startswith("\\") and not line.startswith("\\bfseries"):
-            lines.append(line)
-            continue
-        line = line.replace("%", r"\%").replace("_", r"\_").replace("#", r"\#")
-        line = line.replace("±", r"$\pm$").replace("–", "--").replace("∞", r"$\infty$")
-        line = line.replace("σ", r"$\sigma$").replace("<1e-6", r"$<10^{-6}$")
-        lines.append(line)
-    return "\n".join(lines) + "\n"
+#: LaTeX's special characters in text, as pandas' own ``escape="latex"`` writes them.
+_LATEX_SPECIAL = {"\\": r"\textbackslash ", "&": r"\&", "%": r"\%", "$": r"\$",
+                  "#": r"\#", "_": r"\_", "{": r"\{", "}": r"\}",
+                  "~": r"\textasciitilde ", "^": r"\textasciicircum "}
+
+
+def _latex_escape(text: str) -> str:
+    """Text (a caption) with LaTeX's special characters escaped."""
+    return re.sub(r"[\\&%$#_{}~^]", lambda m: _LATEX_SPECIAL[m.group(0)], text)
+
+
+def _latex_symbols(body: str) -> str:
+    """The few non-ASCII symbols of the tables as LaTeX (math mode), and p below 1e-6."""
+    for symbol, latex in (("±", r"$\pm$"), ("–", "--"), ("∞", r"$\infty$"),
+                          ("σ", r"$\sigma$"), ("×", r"$\times$"), ("<1e-6", r"$<10^{-6}$")):
+        body = body.replace(symbol, latex)
+    return body if body.endswith("\n") else body + "\n"
 
 
 # --------------------------------------------------------------------------------------------

@@ -28,8 +28,10 @@ METRICS = {
     "n_control_points": "control points",
 }
 #: Settings that make a problem instance (those that vary within a study name it).
-INSTANCE_SETTINGS = ("data", "noise", "degree", "parameterization", "objective", "n_knots")
-SHORT = {"noise": "σ", "degree": "p", "parameterization": "", "objective": "", "n_knots": "K"}
+INSTANCE_SETTINGS = ("data", "n_points", "noise", "degree", "parameterization", "objective",
+                     "n_knots")
+SHORT = {"n_points": "N", "noise": "σ", "degree": "p", "parameterization": "", "objective": "",
+         "n_knots": "K"}
 
 
 class ReportError(ValueError):
@@ -114,11 +116,14 @@ def _methods(runs: pd.DataFrame) -> pd.Series:
 
 
 def _instances(runs: pd.DataFrame) -> pd.Series:
-    """A readable instance name: the data, then each setting that varies in the study."""
-    varying = [c for c in INSTANCE_SETTINGS[1:] if c in runs
-               and runs[c].astype(str).nunique(dropna=False) > 1]
-    options = [c for c in runs if c.startswith("objective.")
-               and runs[c].astype(str).nunique(dropna=False) > 1]
+    """A readable instance name: the data, then each setting that varies within the runs of
+    the same data (the number of points differs between curves, but names none)."""
+    def varies(column: str) -> bool:
+        text = runs[column].astype(str)
+        return bool((text.groupby(runs["data"]).nunique(dropna=False) > 1).any())
+
+    varying = [c for c in INSTANCE_SETTINGS[1:] if c in runs and varies(c)]
+    options = [c for c in runs if c.startswith("objective.") and varies(c)]
     names = runs["data"].astype(str)
     for column in varying + options:
         values = runs[column]

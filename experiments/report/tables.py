@@ -189,10 +189,14 @@ def friedman_test(comparison: Comparison, metric: str = "best_f",
 
 
 def plain_summary(comparison: Comparison, pairwise: pd.DataFrame, alpha: float = 0.05,
-                  friedman: FriedmanResult | None = None) -> list[str]:
+                  friedman: FriedmanResult | None = None,
+                  metric: str | None = None) -> list[str]:
     """A few sentences: per instance, which method is best at how many budgets, by how much
-    and whether significantly; then the comparison across instances."""
-    metric_name = METRICS.get(pairwise["metric"].iloc[0], "value") if len(pairwise) else ""
+    and whether significantly; then the comparison across instances. ``metric`` defaults to
+    the pairwise table's (or the objective)."""
+    if metric is None:
+        metric = str(pairwise["metric"].iloc[0]) if len(pairwise) else "best_f"
+    metric_name = METRICS.get(metric, metric)
     lines = []
     runs = comparison.runs
     if len(comparison.methods) < 2:
@@ -203,7 +207,7 @@ def plain_summary(comparison: Comparison, pairwise: pd.DataFrame, alpha: float =
             cell = runs[(runs.instance == instance) & (runs.budget == budget)]
             if cell.empty:
                 continue
-            medians = cell.groupby("method")[pairwise["metric"].iloc[0]].median().sort_values()
+            medians = cell.groupby("method")[metric].median().sort_values()
             if len(medians) < 2:
                 continue
             best, second = medians.index[0], medians.index[1]
