@@ -10,13 +10,17 @@ name               method
 ``averaging``      averaging knots (NURBS Book eqs. 9.68-9.69)
 ``fitpack``        FITPACK's knots (scipy ``splprep``), smoothing factor searched
 ``random_search``  independent random candidates
+``one_plus_one``   (1+1) EA (or (1+λ)), 1/n bit flips or index steps
+``local_search``   best-improvement knot removal/insertion/shifts from averaging knots
 =================  ===============================================================
 """
 
 from .baselines import AveragingKnots, FitpackKnots, UniformKnots
 from .dolphin import DolphinEcholocation
 from .ga import GeneticAlgorithm
+from .local_search import LocalSearch
 from .nlopt_knots import NloptKnots
+from .one_plus_one import OnePlusOneEA
 from .random_search import RandomSearch
 
 __all__ = [
@@ -24,7 +28,9 @@ __all__ = [
     "DolphinEcholocation",
     "FitpackKnots",
     "GeneticAlgorithm",
+    "LocalSearch",
     "NloptKnots",
+    "OnePlusOneEA",
     "RandomSearch",
     "UniformKnots",
 ]

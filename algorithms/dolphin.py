@@ -11,11 +11,13 @@ sample every variable of the next NL locations independently. On a binary mask t
 Choices the paper leaves open:
 
 * Fitness (maximised) from the objective (minimised): ``"inverse"`` is the seed's ``1/objective``;
-  ``"rank"`` ranks the loop's feasible locations (worst 1 .. best n, ties averaged) for
-  objectives that can be 0 or negative (``bic``); ``"auto"`` takes inverse if all the loop's
-  feasible values are positive, else rank. Infeasible locations get 0. Fitness is scaled so the
-  loop-best has 1; as probabilities depend on fitness only relative to ``epsilon``, ``epsilon``
-  is in units of the loop-best's fitness (default 1e-3: below the lowest fitness of a loop).
+  ``"rank"`` ranks the loop's feasible locations (worst 1 .. best n, ties averaged);
+  ``"auto"`` takes inverse when the problem's objective has a natural zero
+  (``objective.ratio_scale``: the seed's ``paper``), else rank — so on ``bic``, defined up to a
+  constant, rescaling the data does not change the search. Infeasible locations get 0.
+  Fitness is scaled so the loop-best has 1; as probabilities depend on fitness only relative to
+  ``epsilon``, ``epsilon`` is in units of the loop-best's fitness (default 1e-3: below the
+  lowest fitness of a loop).
 * ``loops=None``: ``ceil(budget / population)`` loops, derived at ``setup`` from the task's
   budget, so PP reaches 1 at the last loop (whose sampled locations go unused, as in the
   paper). An explicit ``loops`` ends the run after that many loops, even with budget left.
@@ -30,6 +32,7 @@ Choices the paper leaves open:
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -147,6 +150,11 @@ def fitness_values(objective: np.ndarray, transform: str = "auto") -> np.ndarray
 class DolphinEcholocation(Optimizer):
     """Dolphin Echolocation on binary masks and ordered integer alternatives.
 
+    On a 0/1 mask (the seed paper's encoding) the method reduces to "each new bit is the
+    loop-best's bit with probability PP, else flipped": ``re``, ``epsilon`` and ``fitness``
+    have no effect there (setting them warns). They act on ordered alternatives such as
+    ``KnotIndices``, where neighbouring alternatives share accumulated fitness.
+
     Parameters
     ----------
     population
@@ -183,6 +191,17 @@ class DolphinEcholocation(Optimizer):
         self._lower = np.asarray(problem.encoding.lower).astype(np.int64)
         self._n_alt = np.asarray(problem.encoding.upper).astype(np.int64) - self._lower + 1
         self._binary = bool((self._n_alt == 2).all())
+        if self.fitness == "auto":
+            objective = getattr(problem, "objective", None)
+            self._transform = "inverse" if getattr(objective, "ratio_scale", False) else "rank"
+        else:
+            self._transform = self.fitness
+        if self._binary and (self.re, self.epsilon, self.fitness) != (5, 1e-3, "auto"):
+            warnings.warn(
+                "on a 0/1 mask (two alternatives per variable) Dolphin Echolocation copies each "
+                "bit of the loop-best with probability PP and flips it otherwise: re, epsilon "
+                "and fitness have no effect there; they act on index encodings (KnotIndices)",
+                UserWarning, stacklevel=2)
         if self.loops is None:
             budget = getattr(problem, "budget", None)
             if budget is None:
@@ -221,7 +240,7 @@ class DolphinEcholocation(Optimizer):
             self.probabilities = binary_probabilities(alternatives[best], pp)
             picked = (u >= self.probabilities[0]).astype(np.int64)
         else:
-            af = accumulative_fitness(alternatives, fitness_values(F, self.fitness),
+            af = accumulative_fitness(alternatives, fitness_values(F, self._transform),
                                       self._n_alt, self.re, self.epsilon,
                                       best=alternatives[best])
             self.probabilities = alternative_probabilities(af, alternatives[best], pp)

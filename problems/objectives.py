@@ -33,6 +33,11 @@ class Objective(ABC):
     name: ClassVar[str]
     #: True if the objective reads ``BatchFit.max_deviation`` (an extra pass over the data).
     needs_max_deviation: bool = False
+    #: True if values are positive quantities with a natural zero, so their ratios mean
+    #: something (``paper``: control points x distance). Optimizers that turn values into
+    #: fitness by inversion (Dolphin Echolocation's ``fitness="auto"``) need this; for the
+    #: others (``bic`` is defined up to a constant) only ranks are meaningful.
+    ratio_scale: ClassVar[bool] = False
 
     @abstractmethod
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray: ...
@@ -71,6 +76,7 @@ class Paper(Objective):
     """
 
     name = "paper"
+    ratio_scale = True
 
     def __init__(self, error_floor: float = 1e-5) -> None:
         self.error_floor = _check_nonneg("error_floor", error_floor)

@@ -182,6 +182,7 @@ def test_fitness_transforms_by_hand():
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.filterwarnings("ignore:on a 0/1 mask")  # re and epsilon are set on purpose here
 @pytest.mark.parametrize(("pp1", "power", "re", "epsilon"), [(0.1, 1.0, 5, 1e-3),
                                                               (0.5, 0.5, 1, 1.0)])
 def test_binary_agreement_with_loop_best_is_pp(spiral_mask, pp1, power, re, epsilon):
@@ -398,3 +399,58 @@ def test_sample_alternatives_inverts_the_cumulative_distribution():
     cumulative = np.cumsum(p, axis=0)
     reference = (u[:, :, None] >= cumulative.T[None, :, :]).sum(axis=2)
     np.testing.assert_array_equal(picked, reference)
+
+
+# --------------------------------------------------------------------------------------------
+# fitness="auto": inversion only for objectives with a natural zero; rank otherwise
+# --------------------------------------------------------------------------------------------
+
+
+def _noisy_spiral(scale: float):
+    data = archimedean_spiral(80)
+    noise = np.random.default_rng(5).normal(0.0, 0.02, data.points.shape)
+    return type(data)(scale * (data.points + noise), name="noisy spiral")
+
+
+def _de_run(problem, **options):
+    return mk.minimize(problem, DolphinEcholocation(population=20, **options), budget=600,
+                       seed=3)
+
+
+def test_auto_fitness_on_bic_does_not_depend_on_the_data_scale():
+    """BIC is defined up to a constant: rescaling the data shifts every value by n ln(c^2).
+    With fitness="auto" (rank on BIC) the search must not change."""
+    small = KnotIndices(_noisy_spiral(1.0), n_knots=6, objective="bic")
+    large = KnotIndices(_noisy_spiral(1e8), n_knots=6, objective="bic")
+    X = small.sample(np.random.default_rng(0), 50)
+    shift = large.evaluate(X) - small.evaluate(X)
+    np.testing.assert_allclose(shift, shift[0], rtol=1e-9)  # a constant shift
+    # the values change sign with the scale: a transform chosen by sign would switch
+    assert (small.evaluate(X) < 0).all() and (large.evaluate(X) > 0).all()
+    a, b = _de_run(small), _de_run(large)
+    np.testing.assert_array_equal(a.best_x, b.best_x)
+    np.testing.assert_array_equal(a.trace_evaluations, b.trace_evaluations)
+    np.testing.assert_array_equal(_de_run(small, fitness="rank").best_x, a.best_x)
+
+
+def test_auto_fitness_on_the_paper_objective_is_the_seeds_inverse():
+    problem = KnotIndices(_noisy_spiral(1.0), n_knots=6, objective="paper")
+    auto, inverse = _de_run(problem), _de_run(problem, fitness="inverse")
+    np.testing.assert_array_equal(auto.best_x, inverse.best_x)
+    np.testing.assert_array_equal(auto.trace_best, inverse.trace_best)
+    rank = _de_run(problem, fitness="rank")
+    assert not np.array_equal(rank.trace_best, auto.trace_best)  # the choice matters here
+
+
+@pytest.mark.parametrize("options", [{"re": 2}, {"epsilon": 0.5}, {"fitness": "rank"}])
+def test_settings_without_effect_on_masks_warn(spiral_mask, options):
+    evaluator = mk.Evaluator(spiral_mask, 100)
+    with pytest.warns(UserWarning, match="re, epsilon and fitness have no effect"):
+        DolphinEcholocation(**options).setup(evaluator.task, np.random.default_rng(0))
+
+
+def test_no_warning_with_defaults_or_on_indices(small_indices, spiral_mask, recwarn):
+    DolphinEcholocation().setup(mk.Evaluator(spiral_mask, 100).task, np.random.default_rng(0))
+    DolphinEcholocation(re=2, fitness="rank").setup(mk.Evaluator(small_indices, 100).task,
+                                                    np.random.default_rng(0))
+    assert not [w for w in recwarn if issubclass(w.category, UserWarning)]

@@ -1,0 +1,141 @@
+"""Greedy knot insertion, removal and shifts from the averaging knots (``local_search``).
+
+The simple local method any population method must beat at equal budget:
+
+1. **Start** from the averaging knots (NURBS Book eqs. 9.68-9.69): on a 0/1 mask, scanned over
+   the knot count K as the ``averaging`` baseline does (the best K under the problem's
+   objective); on ordered indices, at the problem's K.
+2. **Improve** by best-improvement steps. The neighbours of the incumbent, evaluated as one
+   batch: every knot removed, a knot inserted at the middle data point of every knot span (masks
+   only; indices keep K), and every knot shifted by ``±1..max_step`` data points (onto free
+   points). The best neighbour replaces the incumbent if it is better; when none is, the search
+   is at a local optimum and stops (``finished``), leaving the rest of the budget unused.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from metaknot.optimizer import Optimizer, check_param
+from metaknot.problem import Problem
+from metaknot.problems import KnotProblem
+from metaknot.registry import register
+from metaknot.task import problem_type
+
+from .baselines import AveragingKnots
+
+__all__ = ["LocalSearch", "index_neighbours", "mask_neighbours"]
+
+
+def mask_neighbours(mask: np.ndarray, max_step: int = 1) -> np.ndarray:
+    """Distinct masks one move from ``mask``: a knot removed, a knot inserted at the middle of a
+    span (between consecutive selected points, or an end), a knot shifted to a free point."""
+    mask = np.asarray(mask, dtype=np.int64)
+    n = mask.size
+    on = np.flatnonzero(mask)
+    moves = []
+    for i in on:  # removals
+        y = mask.copy()
+        y[i] = 0
+        moves.append(y)
+    bounds = np.concatenate(([-1], on, [n]))
+    for left, right in itertools.pairwise(bounds):  # insertions
+        if right - left >= 2:
+            y = mask.copy()
+            y[(left + right) // 2] = 1
+            moves.append(y)
+    for i in on:  # shifts
+        for step in range(1, max_step + 1):
+            for j in (i - step, i + step):
+                if 0 <= j < n and not mask[j]:
+                    y = mask.copy()
+                    y[i], y[j] = 0, 1
+                    moves.append(y)
+    if not moves:
+        return np.empty((0, n), dtype=np.int64)
+    return np.unique(np.array(moves), axis=0)
+
+
+def index_neighbours(x: np.ndarray, lower: int, upper: int, max_step: int = 1) -> np.ndarray:
+    """Sorted index sets one shift from ``x``: a knot moved by ``±1..max_step`` to a free
+    index within ``lower..upper``."""
+    x = np.asarray(x, dtype=np.int64)
+    taken = set(x.tolist())
+    moves = []
+    for k, value in enumerate(x):
+        for step in range(1, max_step + 1):
+            for target in (value - step, value + step):
+                if lower <= target <= upper and target not in taken:
+                    y = x.copy()
+                    y[k] = target
+                    moves.append(np.sort(y))
+    if not moves:
+        return np.empty((0, x.size), dtype=np.int64)
+    return np.unique(np.array(moves), axis=0)
+
+
+@register("local_search")
+class LocalSearch(Optimizer):
+    """Best-improvement local search from the averaging knots (see the module notes).
+
+    Parameters
+    ----------
+    max_step
+        Largest shift of a knot, in data points (>= 1).
+    batch_size
+        Candidates per batch of the start's scan over K (masks).
+    """
+
+    encodings = ("binary", "integer")
+
+    def __init__(self, max_step: int = 2, batch_size: int = 64) -> None:
+        self.max_step = check_param("max_step", max_step, low=1, integer=True)
+        self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
+
+    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+        super().setup(problem, rng)
+        if not issubclass(problem_type(problem), KnotProblem):
+            raise ValueError(f"optimizer {self.name!r} needs a knot problem; got {problem.name!r}")
+        self._start = AveragingKnots(batch_size=self.batch_size)
+        self._start.setup(problem, rng)
+        self.incumbent: np.ndarray | None = None
+        self.incumbent_f = np.inf
+        self._scanning = True
+        self._stuck = False
+        self.steps = 0
+
+    def _neighbours(self) -> np.ndarray:
+        encoding = self.problem.encoding
+        if encoding.kind == "binary":
+            return mask_neighbours(self.incumbent, self.max_step)
+        return index_neighbours(self.incumbent, int(encoding.lower.min()),
+                                int(encoding.upper.max()), self.max_step)
+
+    def ask(self) -> np.ndarray:
+        """The start's scan, then the incumbent's neighbours (none once at a local optimum)."""
+        if self._scanning:
+            batch = self._start.ask()
+            if len(batch):
+                return batch
+            self._scanning = False
+        if self.incumbent is None or not np.isfinite(self.incumbent_f):
+            self._stuck = True  # no feasible start: nothing to improve
+            return np.empty((0, self.problem.encoding.n_var), dtype=np.int64)
+        moves = self._neighbours()
+        if len(moves) == 0:
+            self._stuck = True
+        return moves
+
+    def tell(self, X: np.ndarray, F: np.ndarray) -> None:
+        best = int(np.argmin(F))
+        if F[best] < self.incumbent_f:
+            self.incumbent, self.incumbent_f = np.array(X[best], copy=True), float(F[best])
+            if not self._scanning:
+                self.steps += 1
+        elif not self._scanning:
+            self._stuck = True  # no neighbour is better: a local optimum
+
+    def finished(self) -> bool:
+        return self._stuck

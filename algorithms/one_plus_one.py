@@ -1,0 +1,98 @@
+"""The (1+1) evolutionary algorithm (``one_plus_one``): the reference a population method must
+beat at equal budget.
+
+One parent; each step mutates it into ``offspring`` children (one: the classical (1+1) EA; more:
+the (1+λ) EA, evaluated as one batch) and the best child replaces the parent if it is no worse
+(equal values are accepted, so the search drifts across plateaus). On a 0/1 mask every bit flips
+independently with probability ``rate`` (default ``1/n``, the standard rate); a child that would
+equal its parent is drawn again (the number of flips is conditioned on being at least one), so no
+evaluation is spent on a copy. On ordered indices (``KnotIndices``) every knot moves with
+probability ``rate`` by a step of ``±1..max_step`` along the data (at least one knot moves),
+and the set is repaired as the GA does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from metaknot.optimizer import Optimizer, check_param
+from metaknot.problem import Problem
+from metaknot.registry import register
+
+__all__ = ["OnePlusOneEA", "flip_at_least_one", "step_at_least_one"]
+
+
+def _at_least_one(n_var: int, rate: float, rows: int, rng: np.random.Generator) -> np.ndarray:
+    """Boolean ``(rows, n_var)``: each entry True with probability ``rate``, conditioned on at
+    least one True per row (a binomial count conditioned >= 1, at distinct random places)."""
+    hit = np.zeros((rows, n_var), dtype=bool)
+    for row in hit:
+        count = 0
+        while count == 0:
+            count = int(rng.binomial(n_var, rate))
+        row[rng.choice(n_var, size=count, replace=False)] = True
+    return hit
+
+
+def flip_at_least_one(x: np.ndarray, rate: float, rows: int,
+                      rng: np.random.Generator) -> np.ndarray:
+    """``rows`` children of the 0/1 vector ``x``: bit flips with probability ``rate`` each, at
+    least one per child."""
+    return np.asarray(x)[None, :] ^ _at_least_one(x.size, rate, rows, rng)
+
+
+def step_at_least_one(x: np.ndarray, rate: float, rows: int, max_step: int,
+                      rng: np.random.Generator) -> np.ndarray:
+    """``rows`` children of the integer vector ``x``: each gene moves with probability
+    ``rate`` by ``±1..max_step`` (uniform), at least one per child (not repaired)."""
+    hit = _at_least_one(x.size, rate, rows, rng)
+    step = rng.integers(1, max_step + 1, size=hit.shape) * rng.choice((-1, 1), size=hit.shape)
+    return np.where(hit, np.asarray(x)[None, :] + step, x[None, :])
+
+
+@register("one_plus_one")
+class OnePlusOneEA(Optimizer):
+    """(1+1) EA, or (1+λ) EA with ``offspring > 1``, on masks and ordered indices.
+
+    Parameters
+    ----------
+    rate
+        Per-variable mutation probability in (0, 1]; ``None`` means ``1 / n_var``.
+    offspring
+        Children per step, evaluated together (1: the classical (1+1) EA).
+    max_step
+        Largest move of an index along the data (index encodings).
+    """
+
+    encodings = ("binary", "integer")
+
+    def __init__(self, rate: float | None = None, offspring: int = 1, max_step: int = 1) -> None:
+        self.rate = None if rate is None else check_param("rate", rate, low=0, high=1,
+                                                          low_open=True)
+        self.offspring = check_param("offspring", offspring, low=1, integer=True)
+        self.max_step = check_param("max_step", max_step, low=1, integer=True)
+
+    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+        super().setup(problem, rng)
+        n_var = problem.encoding.n_var
+        self._rate = 1.0 / n_var if self.rate is None else self.rate
+        self.parent: np.ndarray | None = None
+        self.parent_f = np.inf
+
+    def ask(self) -> np.ndarray:
+        """The first parent (a sample of the problem), then ``offspring`` children."""
+        if self.parent is None:
+            return self.problem.sample(self.rng, 1)
+        encoding = self.problem.encoding
+        if encoding.kind == "binary":
+            return flip_at_least_one(self.parent, self._rate, self.offspring, self.rng)
+        children = step_at_least_one(self.parent, self._rate, self.offspring, self.max_step,
+                                     self.rng)
+        return encoding.repair(children)
+
+    def tell(self, X: np.ndarray, F: np.ndarray) -> None:
+        """Keep the best child if it is no worse than the parent."""
+        best = int(np.argmin(F))
+        if self.parent is None or F[best] <= self.parent_f:
+            self.parent = np.array(X[best], copy=True)
+            self.parent_f = float(F[best])

@@ -1,0 +1,189 @@
+"""The (1+1) EA and the local search: mutation laws, acceptance, neighbourhoods, local optima."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+import metaknot as mk
+from metaknot.algorithms import LocalSearch, OnePlusOneEA
+from metaknot.algorithms.local_search import index_neighbours, mask_neighbours
+from metaknot.algorithms.one_plus_one import flip_at_least_one, step_at_least_one
+from metaknot.problems import KnotIndices, KnotSelection, get_curve
+
+
+class OneMax(mk.Problem):
+    """Number of zeros of a 0/1 vector (lower is better)."""
+
+    name = "test_onemax"
+
+    def __init__(self, n_var: int = 20) -> None:
+        self.encoding = mk.Encoding.binary(n_var)
+
+    def evaluate(self, X):
+        return (np.asarray(X) == 0).sum(axis=1).astype(float)
+
+    def decode(self, x):
+        return np.asarray(x)
+
+
+class Flat(OneMax):
+    def evaluate(self, X):
+        return np.zeros(len(X))
+
+
+# --------------------------------------------------------------------------------------------
+# (1+1) EA
+
+
+@pytest.mark.parametrize(("n", "rate"), [(30, 1 / 30), (30, 0.5), (8, 0.05)])
+def test_bit_flips_are_binomial_conditioned_on_one(n, rate):
+    rng = np.random.default_rng(0)
+    parent = rng.integers(0, 2, n)
+    children = flip_at_least_one(parent, rate, 4000, rng)
+    flips = (children != parent).sum(axis=1)
+    assert flips.min() >= 1
+    expected = n * rate / (1 - (1 - rate) ** n)  # E[Binomial | >= 1]
+    sd = np.sqrt(n * rate * (1 - rate)) / np.sqrt(len(flips))
+    assert abs(flips.mean() - expected) < 6 * sd + 1e-9
+    # every position flips alike
+    per_bit = (children != parent).mean(axis=0)
+    assert per_bit.std() < 0.1 * per_bit.mean() + 0.01
+
+
+def test_index_steps_move_at_least_one_knot_within_max_step():
+    rng = np.random.default_rng(1)
+    parent = np.array([5, 20, 40, 60])
+    children = step_at_least_one(parent, 0.25, 3000, 3, rng)
+    moved = children != parent
+    assert moved.any(axis=1).all()
+    steps = np.abs(children - parent)[moved]
+    assert set(np.unique(steps)) == {1, 2, 3}
+
+
+def test_the_ea_solves_onemax():
+    # the (1+1) EA needs about e n ln n evaluations on OneMax: 163 for n = 20
+    result = mk.minimize(OneMax(20), OnePlusOneEA(), budget=2000, seed=3)
+    assert result.best_f == 0
+
+
+def test_equal_children_are_accepted_on_a_plateau():
+    ea = OnePlusOneEA()
+    evaluator = mk.Evaluator(Flat(12), 50)
+    ea.setup(evaluator.task, np.random.default_rng(2))
+    parents = []
+    while not evaluator.done:
+        X = ea.ask()
+        ea.tell(X, evaluator(X))
+        parents.append(ea.parent.copy())
+    # every step moved to the (equally good) child
+    assert all(not np.array_equal(a, b) for a, b in itertools.pairwise(parents))
+
+
+def test_worse_children_are_rejected():
+    ea = OnePlusOneEA(offspring=4)
+    problem = OneMax(16)
+    evaluator = mk.Evaluator(problem, 400)
+    ea.setup(evaluator.task, np.random.default_rng(4))
+    values = []
+    while not evaluator.done:
+        X = ea.ask()
+        assert len(X) == (1 if ea.parent is None else 4)  # (1+λ): λ children per step
+        ea.tell(X, evaluator(X))
+        values.append(ea.parent_f)
+    assert (np.diff(values) <= 0).all()  # the parent never gets worse
+
+
+def test_rate_and_offspring_matter():
+    """Each setting acts: a high rate or more children give a different run."""
+    problem = KnotSelection(get_curve("archimedean", n_points=60))
+    base = mk.minimize(problem, OnePlusOneEA(), budget=400, seed=7)
+    for options in ({"rate": 0.3}, {"offspring": 5}):
+        other = mk.minimize(problem, OnePlusOneEA(**options), budget=400, seed=7)
+        assert not np.array_equal(other.trace_best, base.trace_best), options
+
+
+def test_index_variant_keeps_sorted_distinct_sets():
+    problem = KnotIndices(get_curve("archimedean", n_points=60), n_knots=8)
+    ea = OnePlusOneEA(offspring=30, max_step=4)
+    evaluator = mk.Evaluator(problem, 600)
+    ea.setup(evaluator.task, np.random.default_rng(5))
+    while not evaluator.done:
+        X = ea.ask()
+        assert (np.diff(X, axis=1) > 0).all()
+        assert X.min() >= 1 and X.max() <= 58
+        ea.tell(X, evaluator(X))
+
+
+# --------------------------------------------------------------------------------------------
+# local search
+
+
+def _mask_moves_by_definition(mask, max_step):
+    n, out = mask.size, set()
+    on = [i for i in range(n) if mask[i]]
+    for i in on:
+        y = mask.copy()
+        y[i] = 0
+        out.add(tuple(y))
+        for j in range(n):
+            if 0 < abs(j - i) <= max_step and not mask[j]:
+                y = mask.copy()
+                y[i], y[j] = 0, 1
+                out.add(tuple(y))
+    ends = [-1, *on, n]
+    for a, b in itertools.pairwise(ends):
+        if b - a >= 2:
+            y = mask.copy()
+            y[(a + b) // 2] = 1
+            out.add(tuple(y))
+    return out
+
+
+@pytest.mark.parametrize("max_step", [1, 2, 3])
+def test_mask_neighbours_are_the_defined_moves(max_step):
+    rng = np.random.default_rng(max_step)
+    for _ in range(30):
+        mask = (rng.random(14) < 0.3).astype(np.int64)
+        got = {tuple(r) for r in mask_neighbours(mask, max_step)}
+        assert got == _mask_moves_by_definition(mask, max_step)
+        assert tuple(mask) not in got
+
+
+def test_index_neighbours_shift_one_knot():
+    x = np.array([2, 3, 7])
+    got = {tuple(r) for r in index_neighbours(x, 1, 8, 2)}
+    # knot 2 -> 1 or 4 (3 is taken); knot 3 -> 1, 4 or 5 (2 is taken); knot 7 -> 5, 6 or 8
+    assert got == {(1, 3, 7), (3, 4, 7), (1, 2, 7), (2, 4, 7), (2, 5, 7), (2, 3, 5),
+                   (2, 3, 6), (2, 3, 8)}
+
+
+@pytest.mark.parametrize("curve", ["archimedean", "vivaldi"])
+def test_local_search_ends_at_a_local_optimum_no_worse_than_its_start(curve):
+    problem = KnotSelection(get_curve(curve))
+    start = mk.minimize(problem, "averaging", budget=10_000, seed=0)
+    result = mk.minimize(problem, LocalSearch(max_step=2), budget=10_000, seed=0)
+    assert result.best_f <= start.best_f
+    assert result.n_evaluations < 10_000  # it stopped: a local optimum
+    moves = mask_neighbours(result.best_x, 2)
+    assert problem.evaluate(moves).min() >= result.best_f  # no neighbour is better
+
+
+def test_local_search_on_indices_keeps_k_and_improves():
+    problem = KnotIndices(get_curve("vivaldi"), n_knots=12)
+    start = mk.minimize(problem, "averaging", budget=10, seed=0)
+    result = mk.minimize(problem, LocalSearch(max_step=3), budget=5000, seed=0)
+    assert result.best_x.size == 12
+    assert result.best_f < start.best_f
+    moves = index_neighbours(result.best_x, 1, problem.data.n_points - 2, 3)
+    if result.n_evaluations < 5000:
+        assert problem.evaluate(moves).min() >= result.best_f
+
+
+def test_local_search_max_step_matters():
+    problem = KnotIndices(get_curve("vivaldi"), n_knots=12)
+    one = mk.minimize(problem, LocalSearch(max_step=1), budget=5000, seed=0)
+    three = mk.minimize(problem, LocalSearch(max_step=3), budget=5000, seed=0)
+    assert not np.array_equal(one.trace_evaluations, three.trace_evaluations)
