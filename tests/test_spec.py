@@ -646,7 +646,9 @@ def test_fitpack_front_preset():
 def test_smoke_preset():
     cfg = compose_cfg("experiment=smoke", hydra=True)
     assert sweep_values(cfg.hydra.sweeper.params) == {
-        "problem": list(CURVES), "algorithm": ["dolphin", "ga", "random_search"],
+        "problem": list(CURVES),
+        "algorithm": ["dolphin", "ga", "random_search", "one_plus_one", "averaging",
+                      "local_search"],
         "budget": ["500", "1500"], "seed": [str(s) for s in range(8)]}
     spec = run_spec(cfg)
     assert spec.study == "smoke" and spec.config["encoding"]["kind"] == "mask"
@@ -752,8 +754,8 @@ def test_fast_composition_equals_full_composition_on_the_smoke_study():
     jobs, specs, counting = compare_with_full_composition(
         ["experiment=smoke", f"results_dir={RESULTS}"],
         select=lambda i, _: i < 80 and i % 16 == 1 + i // 16)
-    assert len(jobs) == 3 * 3 * 2 * 8
-    assert counting.calls == 3 * 3  # once per problem x algorithm: the fast path was taken
+    assert len(jobs) == 3 * 6 * 2 * 8
+    assert counting.calls == 3 * 6  # once per problem x algorithm: the fast path was taken
     for job, spec in zip(jobs, specs, strict=True):
         settings = dict(o.split("=", 1) for o in job)
         assert spec.config["problem"]["curve"] == settings["problem"]
