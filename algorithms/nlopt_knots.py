@@ -1,12 +1,25 @@
 """Free-knot baselines: the K interior knot positions of a ``FreeKnots`` problem optimised by nlopt.
 
 Knots stay ordered and separated by construction. nlopt searches ``y`` in the unit box
-``[0, 1]^K`` (finite bounds, as the GN_* algorithms need), mapped to knots by *sort plus a minimum
-gap*: on the parameter range ``[a, b]``, with ``gap = min_gap * (b - a)`` and
-``free = (b - a) - (K + 1) * gap``, knot ``i`` (0-based) is
-``a + (i + 1) * gap + free * sort(y)_i``. Every span, the end spans included, is then at least
-``gap`` long, whatever ``y`` is. Infeasible fits (+inf, e.g. a span without data) reach nlopt as a
-finite penalty: the worst finite value seen plus its magnitude plus 1.
+``[0, 1]^K`` (finite bounds, as the GN_* algorithms need), mapped to knots through their spans.
+On the parameter range ``[a, b]`` every one of the K + 1 spans is ``gap`` plus a share of the
+``free`` length ``(b - a) - (K + 1) gap``, where ``gap`` is ``data_gap`` times the widest spacing
+of the data parameters (half of it by default for the global algorithms, which sample the whole
+box: then almost every box point gives a feasible fit), or ``min_gap`` of the range if larger:
+
+* ``box_map="spans"`` (the default of the global algorithms, ``GN_*`` and MLSL): the shares are
+  a softmax of log-weights centred on the averaging knots (NURBS Book eqs. 9.68-9.69): span
+  ``j < K`` has log-weight ``log p_j + beta (y_j - 1/2)``, the last span ``log p_K``, with ``p``
+  the averaging knots' shares and ``beta = ln(span_range)``. The box centre is the averaging
+  knots; a corner stretches or shrinks a span by ``sqrt(span_range)`` against the others.
+  Global methods (CRS2, ISRES, MLSL) then sample sensible knot vectors instead of uniformly
+  random ones.
+* ``box_map="sorted"`` (the default of the local ones, which move each knot from the averaging
+  start): the shares are the sorted coordinates (knot ``i`` at ``a + (i + 1) gap + free
+  sort(y)_i``), uniform over ordered knot vectors.
+
+Infeasible fits (+inf: a numerically singular system) reach nlopt as a finite penalty: the worst
+finite value seen plus its magnitude plus 1.
 
 With ``variable_count=True`` an outer search picks K in ``1..n_knots``: about half the budget
 goes to short runs (one start each, from the averaging knots) on a coarse grid of ``k_grid``
@@ -58,6 +71,17 @@ class NloptKnots(Optimizer):
     min_gap
         Smallest knot span (end spans included) as a fraction of the parameter range, in
         ``(0, 0.5]``; :meth:`setup` also needs ``(n_knots + 1) * min_gap < 1``.
+    data_gap
+        Smallest knot span as a multiple of the widest data-parameter spacing (>= 0; 1: every
+        span holds a data point); the larger of the two gaps applies, at most half the room.
+        ``None``: 0.5 for the global algorithms, 0 for the local ones.
+    box_map
+        ``"spans"`` (softmax of span log-weights around the averaging knots), ``"sorted"``, or
+        ``"auto"``: spans for the global algorithms (they sample the box), sorted for the local
+        ones (they move each knot from the averaging start).
+    span_range
+        ``"spans"`` map: the largest factor (> 1) between a span's weight at the two faces of
+        the box.
     initial_step
         nlopt's initial step in the unit box ``(0, 1]``.
     perturbation
@@ -69,12 +93,16 @@ class NloptKnots(Optimizer):
     encodings = ("continuous",)
 
     def __init__(self, algorithm: str = "LN_BOBYQA", local_algorithm: str = "LN_BOBYQA",
-                 restarts: int = 0, min_gap: float = 1e-4, initial_step: float = 0.1,
+                 restarts: int = 0, min_gap: float = 1e-4, data_gap: float | None = None,
+                 box_map: str = "auto", span_range: float = 4.0, initial_step: float = 0.1,
                  perturbation: float = 0.05, k_grid: int = 5) -> None:
         self.algorithm = _check_name("algorithm", algorithm, ALGORITHMS)
         self.local_algorithm = _check_name("local_algorithm", local_algorithm, LOCAL_ALGORITHMS)
         self.restarts = check_param("restarts", restarts, low=0, integer=True)
         self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)
+        self.data_gap = None if data_gap is None else check_param("data_gap", data_gap, low=0)
+        self.box_map = _check_name("box_map", box_map, ("auto", "spans", "sorted"))
+        self.span_range = check_param("span_range", span_range, low=1, low_open=True)
         self.initial_step = check_param("initial_step", initial_step, low=0, high=1,
                                         low_open=True)
         self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
@@ -91,21 +119,66 @@ class NloptKnots(Optimizer):
         super().setup(problem, rng)
         self._worst_finite = -np.inf
 
-    def _frame(self, n_knots: int) -> tuple[float, np.ndarray, float]:
-        """Start ``a``, the minimum offsets ``(i + 1) * gap`` and the free length."""
-        a, b = self.problem.params[0], self.problem.params[-1]
-        gap = self.min_gap * (b - a)
-        return a, gap * np.arange(1, n_knots + 1), (b - a) - (n_knots + 1) * gap
+    @property
+    def map(self) -> str:
+        """The box map in use (``box_map``, with ``"auto"`` resolved for the algorithm)."""
+        if self.box_map != "auto":
+            return self.box_map
+        return "sorted" if self.algorithm in LOCAL_ALGORITHMS else "spans"
+
+    def gap(self, n_knots: int) -> float:
+        """The smallest knot span for ``n_knots`` knots: ``min_gap`` of the range, or
+        ``data_gap`` times the widest spacing of the data parameters if larger (so every span
+        holds a data point), at most half the room ``n_knots`` knots leave."""
+        u = self.problem.params
+        length = float(u[-1] - u[0])
+        data_gap = self.data_gap if self.data_gap is not None else (
+            0.0 if self.algorithm in LOCAL_ALGORITHMS else 0.5)
+        gap = max(self.min_gap * length, data_gap * float(np.diff(u).max()))
+        return min(gap, 0.5 * length / (n_knots + 1))
+
+    def _frame(self, n_knots: int) -> tuple[float, float, float]:
+        """Start ``a``, the gap and the free length for ``n_knots`` knots."""
+        a, b = float(self.problem.params[0]), float(self.problem.params[-1])
+        gap = self.gap(n_knots)
+        return a, gap, (b - a) - (n_knots + 1) * gap
+
+    def _prior(self, n_knots: int) -> np.ndarray:
+        """Log-shares of the free length of the averaging knots' spans (``"spans"`` map)."""
+        cache = self.__dict__.setdefault("_priors", {})
+        if n_knots not in cache:
+            a, gap, free = self._frame(n_knots)
+            u = self.problem.params
+            ext = np.concatenate(([a], averaging_knots(u, n_knots, self.problem.degree),
+                                  [float(u[-1])]))
+            share = np.maximum(np.diff(ext) - gap, 1e-3 * free / (n_knots + 1))
+            cache[n_knots] = np.log(share / share.sum())
+        return cache[n_knots]
 
     def knots(self, y: np.ndarray) -> np.ndarray:
-        """Knot positions of the unit-box vector ``y`` (sorted, spans >= the minimum gap)."""
-        a, offsets, free = self._frame(y.size)
-        return a + offsets + free * np.sort(y)
+        """Knot positions of the unit-box vector ``y`` (sorted, spans >= the gap)."""
+        y = np.asarray(y, dtype=np.float64)
+        a, gap, free = self._frame(y.size)
+        if self.map == "sorted":
+            return a + gap * np.arange(1, y.size + 1) + free * np.sort(y)
+        logw = self._prior(y.size).copy()
+        logw[:-1] += np.log(self.span_range) * (y - 0.5)
+        share = np.exp(logw - logw.max())
+        spans = gap + free * share / share.sum()
+        return a + np.cumsum(spans)[:-1]
 
     def unit(self, knots: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`knots` for sorted knots (clipped to the unit box)."""
-        a, offsets, free = self._frame(knots.size)
-        return np.clip((knots - a - offsets) / free, 0.0, 1.0)
+        knots = np.asarray(knots, dtype=np.float64)
+        a, gap, free = self._frame(knots.size)
+        if self.map == "sorted":
+            offsets = gap * np.arange(1, knots.size + 1)
+            return np.clip((knots - a - offsets) / free, 0.0, 1.0)
+        ext = np.concatenate(([a], knots, [float(self.problem.params[-1])]))
+        share = np.log(np.maximum(np.diff(ext) - gap, 1e-12 * free))
+        prior = self._prior(knots.size)
+        relative = (share[:-1] - share[-1]) - (prior[:-1] - prior[-1])
+        return np.clip(0.5 + relative / np.log(self.span_range), 0.0, 1.0)
 
     def run(self, evaluator: Evaluator) -> None:
         try:

@@ -90,7 +90,7 @@ def test_every_candidate_is_sorted_and_separated(algorithm):
 
 
 def test_unit_box_map_round_trips_separated_knots():
-    optimizer = NloptKnots(min_gap=0.01)
+    optimizer = NloptKnots(min_gap=0.01, data_gap=0.0, box_map="sorted")
     optimizer.setup(spiral(), np.random.default_rng(0))
     knots = averaging_knots(optimizer.problem.params, 5, 3)
     np.testing.assert_allclose(optimizer.knots(optimizer.unit(knots)), knots, atol=1e-12)
@@ -287,3 +287,74 @@ def test_min_gap_too_large_for_the_knot_count_and_other_problems_are_rejected():
         mk.minimize(spiral(), NloptKnots(min_gap=0.2), budget=10)  # 6 spans x 0.2 > 1
     with pytest.raises(ValueError, match="FreeKnots"):
         mk.minimize(KnotIndices("archimedean", n_knots=5), NloptKnots(), budget=10)
+
+
+# --------------------------------------------------------------------------------------------
+# the box-to-knots maps
+
+
+@pytest.mark.parametrize("box_map", ["spans", "sorted"])
+@pytest.mark.parametrize(("curve", "k"), [("epitrochoid", 20), ("archimedean", 40),
+                                          ("vivaldi", 40)])
+def test_every_box_point_gives_knots_that_respect_the_data_spacing(box_map, curve, k):
+    problem = FreeKnots(curve, n_knots=k)
+    optimizer = NloptKnots(algorithm="GN_CRS2_LM", box_map=box_map)
+    optimizer.setup(problem, np.random.default_rng(0))
+    u = problem.params
+    gap = optimizer.gap(k)
+    assert gap >= min(0.5 * np.diff(u).max(), 0.5 * (u[-1] - u[0]) / (k + 1)) * (1 - 1e-12)
+    rng = np.random.default_rng(1)
+    corners = rng.integers(0, 2, size=(200, k)).astype(float)
+    for y in np.concatenate((rng.random((300, k)), corners)):
+        spans = np.diff(np.concatenate(([u[0]], optimizer.knots(y), [u[-1]])))
+        assert (spans >= gap * (1 - 1e-9)).all()
+        assert np.isclose(spans.sum(), u[-1] - u[0])
+
+
+@pytest.mark.parametrize("box_map", ["spans", "sorted"])
+def test_the_maps_invert(box_map):
+    problem = FreeKnots("vivaldi", n_knots=15)
+    optimizer = NloptKnots(box_map=box_map)
+    optimizer.setup(problem, np.random.default_rng(0))
+    rng = np.random.default_rng(2)
+    for y in 0.1 + 0.8 * rng.random((50, 15)):
+        y = np.sort(y) if box_map == "sorted" else y
+        np.testing.assert_allclose(optimizer.unit(optimizer.knots(y)), y, atol=1e-9)
+
+
+def test_the_spans_map_is_centred_on_the_averaging_knots():
+    problem = FreeKnots("epitrochoid", n_knots=20)
+    optimizer = NloptKnots(algorithm="GN_ISRES")  # a global algorithm: the spans map
+    optimizer.setup(problem, np.random.default_rng(0))
+    assert optimizer.map == "spans"
+    start = averaging_knots(problem.params, 20, 3)
+    np.testing.assert_allclose(optimizer.knots(np.full(20, 0.5)), start, rtol=0, atol=1e-12)
+
+
+class Tally(FreeKnots):
+    """Counts the evaluated candidates and the infeasible ones."""
+
+    def evaluate(self, X):
+        F = super().evaluate(X)
+        self.n = getattr(self, "n", 0) + len(F)
+        self.infeasible = getattr(self, "infeasible", 0) + int(np.isinf(F).sum())
+        return F
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("curve", ["epitrochoid", "archimedean", "vivaldi"])
+@pytest.mark.parametrize("k", [20, 40])
+def test_global_methods_stay_feasible_and_improve_on_the_averaging_start(curve, k):
+    """The data-tied gap keeps almost every candidate feasible; CRS2 and MLSL beat the
+    averaging knots within 5,000 evaluations (ISRES, an evolution strategy that needs many more
+    generations, need not: see the README)."""
+    options = {"objective": "paper", "objective_options": {"error_floor": 0.0}}
+    reference = FreeKnots(curve, n_knots=k, **options)
+    start = reference.evaluate(averaging_knots(reference.params, k, 3)[None, :])[0]
+    for algorithm in ("GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS"):
+        problem = Tally(curve, n_knots=k, **options)
+        result = mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=5000, seed=0)
+        assert problem.infeasible < 0.1 * problem.n, (algorithm, problem.infeasible, problem.n)
+        assert result.best_f <= start * (1 + 1e-9), algorithm
+        if algorithm != "GN_ISRES":
+            assert result.best_f < start * (1 - 1e-3), (algorithm, result.best_f / start)
