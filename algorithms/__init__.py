@@ -12,23 +12,29 @@ name               method
 ``random_search``  independent random candidates
 ``one_plus_one``   (1+1) EA (or (1+λ)), 1/n bit flips or index steps
 ``local_search``   best-improvement knot removal/insertion/shifts from averaging knots
+``cmaes``          CMA-ES on free knots (the ``cmaes`` package)
+``nevergrad``      any nevergrad optimizer (``nevergrad:NGOpt``, ``nevergrad:CMA``, ...)
 =================  ===============================================================
 """
 
 from .baselines import AveragingKnots, FitpackKnots, UniformKnots
+from .cmaes_adapter import CMAESKnots
 from .dolphin import DolphinEcholocation
 from .ga import GeneticAlgorithm
 from .local_search import LocalSearch
+from .nevergrad_adapter import NevergradOptimizer
 from .nlopt_knots import NloptKnots
 from .one_plus_one import OnePlusOneEA
 from .random_search import RandomSearch
 
 __all__ = [
     "AveragingKnots",
+    "CMAESKnots",
     "DolphinEcholocation",
     "FitpackKnots",
     "GeneticAlgorithm",
     "LocalSearch",
+    "NevergradOptimizer",
     "NloptKnots",
     "OnePlusOneEA",
     "RandomSearch",

@@ -1,22 +1,13 @@
 """Free-knot baselines: the K interior knot positions of a ``FreeKnots`` problem optimised by nlopt.
 
 Knots stay ordered and separated by construction. nlopt searches ``y`` in the unit box
-``[0, 1]^K`` (finite bounds, as the GN_* algorithms need), mapped to knots through their spans.
-On the parameter range ``[a, b]`` every one of the K + 1 spans is ``gap`` plus a share of the
-``free`` length ``(b - a) - (K + 1) gap``, where ``gap`` is ``data_gap`` times the widest spacing
-of the data parameters (half of it by default for the global algorithms, which sample the whole
-box: then almost every box point gives a feasible fit), or ``min_gap`` of the range if larger:
-
-* ``box_map="spans"`` (the default of the global algorithms, ``GN_*`` and MLSL): the shares are
-  a softmax of log-weights centred on the averaging knots (NURBS Book eqs. 9.68-9.69): span
-  ``j < K`` has log-weight ``log p_j + beta (y_j - 1/2)``, the last span ``log p_K``, with ``p``
-  the averaging knots' shares and ``beta = ln(span_range)``. The box centre is the averaging
-  knots; a corner stretches or shrinks a span by ``sqrt(span_range)`` against the others.
-  Global methods (CRS2, ISRES, MLSL) then sample sensible knot vectors instead of uniformly
-  random ones.
-* ``box_map="sorted"`` (the default of the local ones, which move each knot from the averaging
-  start): the shares are the sorted coordinates (knot ``i`` at ``a + (i + 1) gap + free
-  sort(y)_i``), uniform over ordered knot vectors.
+``[0, 1]^K`` (finite bounds, as the GN_* algorithms need), mapped to knots by a
+:class:`~metaknot.algorithms.knot_map.KnotMap`: every span at least a gap (``data_gap`` times
+the widest data spacing, half of it by default for the global algorithms, which sample the
+whole box: then almost every box point gives a feasible fit; or ``min_gap`` of the range), and
+``box_map="auto"`` takes the ``"spans"`` map (span weights centred on the averaging knots) for
+the global algorithms and the ``"sorted"`` map for the local ones, which move each knot from
+the averaging start.
 
 Infeasible fits (+inf: a numerically singular system) reach nlopt as a finite penalty: the worst
 finite value seen plus its magnitude plus 1.
@@ -39,6 +30,8 @@ from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problems import FreeKnots
 from metaknot.registry import register
+
+from .knot_map import KnotMap
 
 LOCAL_ALGORITHMS = ("LN_BOBYQA", "LN_SBPLX", "LN_COBYLA", "LN_NELDERMEAD")
 GLOBAL_ALGORITHMS = ("GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS")
@@ -118,6 +111,7 @@ class NloptKnots(Optimizer):
                              f"it must be < 1 / {problem.n_knots + 1}")
         super().setup(problem, rng)
         self._worst_finite = -np.inf
+        self._box = None
 
     @property
     def map(self) -> str:
@@ -126,59 +120,28 @@ class NloptKnots(Optimizer):
             return self.box_map
         return "sorted" if self.algorithm in LOCAL_ALGORITHMS else "spans"
 
+    @property
+    def box(self) -> KnotMap:
+        """The box-to-knots map (see :mod:`metaknot.algorithms.knot_map`) for this problem."""
+        if getattr(self, "_box", None) is None:
+            data_gap = self.data_gap if self.data_gap is not None else (
+                0.0 if self.algorithm in LOCAL_ALGORITHMS else 0.5)
+            self._box = KnotMap(self.problem.params, self.problem.degree, kind=self.map,
+                                min_gap=self.min_gap, data_gap=data_gap,
+                                span_range=self.span_range)
+        return self._box
+
     def gap(self, n_knots: int) -> float:
-        """The smallest knot span for ``n_knots`` knots: ``min_gap`` of the range, or
-        ``data_gap`` times the widest spacing of the data parameters if larger (so every span
-        holds a data point), at most half the room ``n_knots`` knots leave."""
-        u = self.problem.params
-        length = float(u[-1] - u[0])
-        data_gap = self.data_gap if self.data_gap is not None else (
-            0.0 if self.algorithm in LOCAL_ALGORITHMS else 0.5)
-        gap = max(self.min_gap * length, data_gap * float(np.diff(u).max()))
-        return min(gap, 0.5 * length / (n_knots + 1))
-
-    def _frame(self, n_knots: int) -> tuple[float, float, float]:
-        """Start ``a``, the gap and the free length for ``n_knots`` knots."""
-        a, b = float(self.problem.params[0]), float(self.problem.params[-1])
-        gap = self.gap(n_knots)
-        return a, gap, (b - a) - (n_knots + 1) * gap
-
-    def _prior(self, n_knots: int) -> np.ndarray:
-        """Log-shares of the free length of the averaging knots' spans (``"spans"`` map)."""
-        cache = self.__dict__.setdefault("_priors", {})
-        if n_knots not in cache:
-            a, gap, free = self._frame(n_knots)
-            u = self.problem.params
-            ext = np.concatenate(([a], averaging_knots(u, n_knots, self.problem.degree),
-                                  [float(u[-1])]))
-            share = np.maximum(np.diff(ext) - gap, 1e-3 * free / (n_knots + 1))
-            cache[n_knots] = np.log(share / share.sum())
-        return cache[n_knots]
+        """The smallest knot span for ``n_knots`` knots (:meth:`KnotMap.gap`)."""
+        return self.box.gap(n_knots)
 
     def knots(self, y: np.ndarray) -> np.ndarray:
         """Knot positions of the unit-box vector ``y`` (sorted, spans >= the gap)."""
-        y = np.asarray(y, dtype=np.float64)
-        a, gap, free = self._frame(y.size)
-        if self.map == "sorted":
-            return a + gap * np.arange(1, y.size + 1) + free * np.sort(y)
-        logw = self._prior(y.size).copy()
-        logw[:-1] += np.log(self.span_range) * (y - 0.5)
-        share = np.exp(logw - logw.max())
-        spans = gap + free * share / share.sum()
-        return a + np.cumsum(spans)[:-1]
+        return self.box.knots(y)
 
     def unit(self, knots: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`knots` for sorted knots (clipped to the unit box)."""
-        knots = np.asarray(knots, dtype=np.float64)
-        a, gap, free = self._frame(knots.size)
-        if self.map == "sorted":
-            offsets = gap * np.arange(1, knots.size + 1)
-            return np.clip((knots - a - offsets) / free, 0.0, 1.0)
-        ext = np.concatenate(([a], knots, [float(self.problem.params[-1])]))
-        share = np.log(np.maximum(np.diff(ext) - gap, 1e-12 * free))
-        prior = self._prior(knots.size)
-        relative = (share[:-1] - share[-1]) - (prior[:-1] - prior[-1])
-        return np.clip(0.5 + relative / np.log(self.span_range), 0.0, 1.0)
+        return self.box.unit(knots)
 
     def run(self, evaluator: Evaluator) -> None:
         try:

@@ -13,6 +13,7 @@ and are found by name, without any change to metaknot.
 from __future__ import annotations
 
 import difflib
+import functools
 import importlib
 from collections.abc import Callable
 from importlib.metadata import entry_points
@@ -100,6 +101,14 @@ def _lookup(kind: Kind, name: str) -> Callable[..., Any]:
         if isinstance(obj, type):
             obj.name = name
         return _REGISTRY[kind][name]
+    if ":" in name:  # "family:variant", e.g. "nevergrad:NGOpt"
+        base, variant = name.split(":", 1)
+        if base in _REGISTRY[kind] or base in eps:
+            factory = _lookup(kind, base)
+            parameter = getattr(factory, "variant_parameter", None)
+            if parameter is None:
+                raise ValueError(f"{kind} {base!r} has no variants; use {base!r} alone")
+            return functools.partial(factory, **{parameter: variant})
     known = sorted(set(_REGISTRY[kind]) | set(eps))
     close = difflib.get_close_matches(name, known, n=1)
     hint = f" Did you mean {close[0]!r}?" if close else ""
@@ -107,7 +116,11 @@ def _lookup(kind: Kind, name: str) -> Callable[..., Any]:
 
 
 def get_optimizer(name: str, **kwargs: Any) -> Optimizer:
-    """Instantiate a registered optimizer by name with the given hyperparameters."""
+    """Instantiate a registered optimizer by name with the given hyperparameters.
+
+    A name ``"family:variant"`` selects a variant of an optimizer that declares a
+    ``variant_parameter`` (``"nevergrad:NGOpt"`` is ``nevergrad`` with ``optimizer="NGOpt"``).
+    """
     return _lookup("optimizer", name)(**kwargs)
 
 

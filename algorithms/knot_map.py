@@ -1,0 +1,102 @@
+"""The unit box ``[0, 1]^K`` as ordered knot vectors: how box-constrained continuous optimizers
+(nlopt, CMA-ES, nevergrad) search free knot positions.
+
+On the parameter range ``[a, b]`` every one of the K + 1 spans is ``gap`` plus a share of the
+free length ``(b - a) - (K + 1) gap``; ``gap`` is ``data_gap`` times the widest spacing of the
+data parameters, or ``min_gap`` of the range if larger, at most half the room K knots leave.
+
+* ``kind="spans"``: the shares are a softmax of log-weights centred on the averaging knots (NURBS
+  Book eqs. 9.68-9.69): span ``j < K`` has log-weight ``log p_j + beta (y_j - 1/2)``, the last
+  span ``log p_K``, with ``p`` the averaging knots' shares and ``beta = ln(span_range)``. The box
+  centre is the averaging knots; a corner stretches or shrinks a span by ``sqrt(span_range)``
+  against the others. Every box point is a sensible knot vector, which is what methods that
+  sample the whole box need.
+* ``kind="sorted"``: the shares are the sorted coordinates (knot ``i`` at
+  ``a + (i + 1) gap + free sort(y)_i``), uniform over ordered knot vectors; natural for local
+  methods that move each knot from a start.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from metaknot.bspline import averaging_knots
+
+__all__ = ["KnotMap"]
+
+
+class KnotMap:
+    """Maps between the unit box and ordered knot vectors (see the module notes).
+
+    Parameters
+    ----------
+    params
+        The data parameters (strictly increasing).
+    degree
+        Spline degree (for the averaging knots of the ``"spans"`` map).
+    kind
+        ``"spans"`` or ``"sorted"``.
+    min_gap, data_gap
+        Smallest span as a fraction of the range, and as a multiple of the widest data spacing.
+    span_range
+        ``"spans"``: the factor (> 1) between a span's weights at the two faces of the box.
+    """
+
+    def __init__(self, params: np.ndarray, degree: int, *, kind: str = "spans",
+                 min_gap: float = 1e-4, data_gap: float = 0.5,
+                 span_range: float = 4.0) -> None:
+        if kind not in ("spans", "sorted"):
+            raise ValueError(f"kind must be 'spans' or 'sorted'; got {kind!r}")
+        self.params = np.asarray(params, dtype=np.float64)
+        self.degree = int(degree)
+        self.kind = kind
+        self.min_gap, self.data_gap, self.span_range = float(min_gap), float(data_gap), \
+            float(span_range)
+        self._priors: dict[int, np.ndarray] = {}
+
+    def gap(self, n_knots: int) -> float:
+        """The smallest span for ``n_knots`` knots."""
+        u = self.params
+        length = float(u[-1] - u[0])
+        gap = max(self.min_gap * length, self.data_gap * float(np.diff(u).max()))
+        return min(gap, 0.5 * length / (n_knots + 1))
+
+    def _frame(self, n_knots: int) -> tuple[float, float, float]:
+        a, b = float(self.params[0]), float(self.params[-1])
+        gap = self.gap(n_knots)
+        return a, gap, (b - a) - (n_knots + 1) * gap
+
+    def _prior(self, n_knots: int) -> np.ndarray:
+        """Log-shares of the free length of the averaging knots' spans."""
+        if n_knots not in self._priors:
+            a, gap, free = self._frame(n_knots)
+            ext = np.concatenate(([a], averaging_knots(self.params, n_knots, self.degree),
+                                  [float(self.params[-1])]))
+            share = np.maximum(np.diff(ext) - gap, 1e-3 * free / (n_knots + 1))
+            self._priors[n_knots] = np.log(share / share.sum())
+        return self._priors[n_knots]
+
+    def knots(self, y: np.ndarray) -> np.ndarray:
+        """Knot positions of the unit-box vector ``y`` (sorted, spans >= the gap)."""
+        y = np.asarray(y, dtype=np.float64)
+        a, gap, free = self._frame(y.size)
+        if self.kind == "sorted":
+            return a + gap * np.arange(1, y.size + 1) + free * np.sort(y)
+        logw = self._prior(y.size).copy()
+        logw[:-1] += np.log(self.span_range) * (y - 0.5)
+        share = np.exp(logw - logw.max())
+        spans = gap + free * share / share.sum()
+        return a + np.cumsum(spans)[:-1]
+
+    def unit(self, knots: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`knots` for sorted knots (clipped to the unit box)."""
+        knots = np.asarray(knots, dtype=np.float64)
+        a, gap, free = self._frame(knots.size)
+        if self.kind == "sorted":
+            offsets = gap * np.arange(1, knots.size + 1)
+            return np.clip((knots - a - offsets) / free, 0.0, 1.0)
+        ext = np.concatenate(([a], knots, [float(self.params[-1])]))
+        share = np.log(np.maximum(np.diff(ext) - gap, 1e-12 * free))
+        prior = self._prior(knots.size)
+        relative = (share[:-1] - share[-1]) - (prior[:-1] - prior[-1])
+        return np.clip(0.5 + relative / np.log(self.span_range), 0.0, 1.0)

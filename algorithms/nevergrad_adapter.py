@@ -1,0 +1,127 @@
+"""Any optimizer of nevergrad's registry on every knot problem (``nevergrad``, or by name as
+``nevergrad:<optimizer>``, e.g. ``nevergrad:NGOpt``, ``nevergrad:DiscreteOnePlusOne``,
+``nevergrad:CMA``). nevergrad is an optional dependency (``pip install metaknot[adapters]``).
+
+The candidate is a nevergrad ``Array``: 0/1 with integer casting for masks, integers in the
+index range for ``KnotIndices`` (repaired to sorted distinct sets before evaluation, the GA's
+rule), and the unit box of a :class:`~metaknot.algorithms.knot_map.KnotMap` for free knots (span
+weights centred on the averaging knots). ``batch_size`` candidates are asked at a time
+(nevergrad's ``num_workers``) and evaluated as one batch; the framework's budget is nevergrad's
+budget, and nevergrad's random state is seeded from the run's generator.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from metaknot.optimizer import Optimizer, check_param
+from metaknot.problem import Problem
+from metaknot.registry import register
+
+from .knot_map import KnotMap
+
+__all__ = ["NevergradOptimizer"]
+
+
+def _require_nevergrad():
+    try:
+        import nevergrad
+    except ImportError:
+        raise ImportError("optimizer 'nevergrad' needs the nevergrad package: pip install "
+                          "nevergrad (or metaknot[adapters])") from None
+    _patch_metamodel()
+    return nevergrad
+
+
+def _patch_metamodel() -> None:
+    """Compatibility with numpy 2: nevergrad's surrogate step (used by NGOpt and MetaModel)
+    converts a 1-element array to float, which numpy 2.4 refuses with a TypeError; raised
+    through ``tell`` it leaves a worker thread behind and the process never exits. Turned into
+    nevergrad's own ``MetaModelFailure``, NGOpt falls back to its base optimizer, as it does for
+    any other surrogate failure."""
+    from nevergrad.optimization import metamodel, optimizerlib
+
+    if getattr(optimizerlib.learn_on_k_best, "metaknot_patched", False):
+        return
+    learn = metamodel.learn_on_k_best
+
+    def learn_on_k_best(*args, **kwargs):
+        try:
+            return learn(*args, **kwargs)
+        except TypeError as exc:
+            raise metamodel.MetaModelFailure(f"surrogate failed: {exc}") from exc
+
+    learn_on_k_best.metaknot_patched = True
+    optimizerlib.learn_on_k_best = learn_on_k_best
+
+
+@register("nevergrad")
+class NevergradOptimizer(Optimizer):
+    """A nevergrad optimizer by registry name.
+
+    Parameters
+    ----------
+    optimizer
+        Name in ``nevergrad.optimizers.registry`` (``NGOpt``: nevergrad's own choice).
+    batch_size
+        Candidates asked and evaluated together (nevergrad's ``num_workers``).
+    """
+
+    encodings = ("binary", "integer", "continuous")
+    #: ``nevergrad:<name>`` in the registry sets this parameter.
+    variant_parameter = "optimizer"
+
+    def __init__(self, optimizer: str = "NGOpt", batch_size: int = 16) -> None:
+        if not isinstance(optimizer, str) or not optimizer:
+            raise ValueError(f"optimizer must be a nevergrad registry name; got {optimizer!r}")
+        self.optimizer = optimizer
+        self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
+
+    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+        ng = _require_nevergrad()
+        if self.optimizer not in ng.optimizers.registry:
+            import difflib
+
+            close = difflib.get_close_matches(self.optimizer, list(ng.optimizers.registry), 3)
+            raise ValueError(f"nevergrad has no optimizer {self.optimizer!r}"
+                             + (f"; did you mean {', '.join(close)}?" if close else ""))
+        if getattr(problem, "variable_count", False):
+            raise ValueError("optimizer 'nevergrad' searches a fixed number of free knots; "
+                             "use variable_count=False")
+        super().setup(problem, rng)
+        encoding = problem.encoding
+        n = encoding.n_var
+        self.box = None
+        if encoding.kind == "continuous":
+            self.box = KnotMap(problem.params, problem.degree)
+            parametrization = ng.p.Array(shape=(n,), lower=0.0, upper=1.0)
+        else:
+            parametrization = ng.p.Array(shape=(n,), lower=float(encoding.lower.min()),
+                                         upper=float(encoding.upper.max()))
+            parametrization.set_integer_casting()
+        parametrization.random_state.seed(int(rng.integers(2**31)))
+        budget = getattr(problem, "budget", None)
+        self.ng = ng.optimizers.registry[self.optimizer](
+            parametrization=parametrization, budget=budget, num_workers=self.batch_size)
+        self._asked: list = []
+        self._worst = -np.inf
+
+    def ask(self) -> np.ndarray:
+        self._asked = [self.ng.ask() for _ in range(self.batch_size)]
+        values = np.array([np.asarray(c.value, dtype=np.float64) for c in self._asked])
+        encoding = self.problem.encoding
+        if self.box is not None:
+            return np.array([self.box.knots(y) for y in values])
+        X = np.rint(values).astype(np.int64)
+        return encoding.repair(X) if encoding.distinct_sorted else X
+
+    def tell(self, X: np.ndarray, F: np.ndarray) -> None:
+        F = np.asarray(F, dtype=np.float64)
+        finite = F[np.isfinite(F)]
+        if finite.size:
+            self._worst = max(self._worst, float(finite.max()))
+        # infeasible: a finite value worse than every finite one seen
+        penalty = self._worst + abs(self._worst) + 1.0 if np.isfinite(self._worst) else 1e12
+        for candidate, value in zip(self._asked, F, strict=False):
+            self.ng.tell(candidate, float(value) if np.isfinite(value) else penalty)
+        self._asked = []

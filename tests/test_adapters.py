@@ -1,0 +1,98 @@
+"""Adapters to other optimizer libraries: by name, seeded, budgeted, with a clear message when
+the library is missing. (The every-optimizer tests run them for budget, seeds and callbacks.)"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+import metaknot as mk
+from metaknot.algorithms import CMAESKnots, NevergradOptimizer
+from metaknot.bspline import averaging_knots
+from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
+
+SPIRAL = get_curve("archimedean", n_points=60)
+
+
+@pytest.mark.parametrize(("name", "module"), [("cmaes", "cmaes"), ("nevergrad", "nevergrad")])
+def test_a_missing_library_is_named(monkeypatch, name, module):
+    monkeypatch.setitem(sys.modules, module, None)  # import now fails
+    with pytest.raises(ImportError, match=f"needs the {module} package"):
+        mk.minimize(FreeKnots(SPIRAL, n_knots=5), name, budget=10, seed=0)
+
+
+def test_nevergrad_variants_by_name():
+    assert mk.get_optimizer("nevergrad:CMA").optimizer == "CMA"
+    assert mk.get_optimizer("nevergrad:DiscreteOnePlusOne", batch_size=4).batch_size == 4
+    with pytest.raises(ValueError, match="did you mean"):
+        mk.minimize(KnotSelection(SPIRAL), "nevergrad:DiscreteOnePlusOn", budget=10, seed=0)
+    with pytest.raises(ValueError, match="has no variants"):
+        mk.get_optimizer("ga:fast")
+
+
+@pytest.mark.parametrize("optimizer", ["NGOpt", "DiscreteOnePlusOne", "TwoPointsDE"])
+def test_nevergrad_on_index_sets_evaluates_sorted_distinct_sets(optimizer):
+    seen = []
+
+    class Watching(KnotIndices):
+        def evaluate(self, X):
+            seen.append(np.array(X))
+            return super().evaluate(X)
+
+    problem = Watching(SPIRAL, n_knots=6)
+    result = mk.minimize(problem, NevergradOptimizer(optimizer, batch_size=8), budget=200,
+                         seed=1)
+    X = np.concatenate(seen)
+    assert len(X) == result.n_evaluations == 200
+    assert (np.diff(X, axis=1) > 0).all() and X.min() >= 1 and X.max() <= 58
+
+
+def test_nevergrad_batch_size_is_the_batch():
+    sizes = []
+    mk.minimize(KnotSelection(SPIRAL), NevergradOptimizer("DiscreteOnePlusOne", batch_size=7),
+                budget=50, seed=0, callbacks=[lambda p: sizes.append(len(p.batch_f))])
+    assert sizes == [7] * 7 + [1]
+
+
+@pytest.mark.parametrize("k", [10, 20])
+def test_cmaes_improves_on_the_averaging_knots(k):
+    problem = FreeKnots("vivaldi", n_knots=k, objective="paper",
+                        objective_options={"error_floor": 0.0})
+    start = problem.evaluate(averaging_knots(problem.params, k, 3)[None, :])[0]
+    infeasible = []
+    result = mk.minimize(problem, CMAESKnots(), budget=3000, seed=0,
+                         callbacks=[lambda p: infeasible.append(np.isinf(p.batch_f).sum())])
+    assert result.best_f < 0.95 * start
+    assert sum(infeasible) < 0.1 * result.n_evaluations
+
+
+def test_cmaes_settings_matter():
+    problem = FreeKnots("vivaldi", n_knots=10)
+    base = mk.minimize(problem, CMAESKnots(), budget=400, seed=0)
+    for options in ({"sigma": 0.4}, {"population": 20}, {"span_range": 20.0}):
+        other = mk.minimize(problem, CMAESKnots(**options), budget=400, seed=0)
+        assert not np.array_equal(other.trace_best, base.trace_best), options
+
+
+def test_cmaes_refuses_a_variable_knot_count():
+    with pytest.raises(ValueError, match="fixed number of knots"):
+        mk.minimize(FreeKnots(SPIRAL, n_knots=5, variable_count=True), "cmaes", budget=10)
+
+
+def test_ngopt_surrogate_failure_falls_back_and_the_process_exits():
+    """NGOpt's surrogate step fails under numpy 2 (a TypeError inside nevergrad); the adapter
+    turns it into nevergrad's MetaModelFailure, so NGOpt falls back and the process ends (it
+    used to hang on a leftover thread). Run in a subprocess with a timeout: a hang fails."""
+    import subprocess
+
+    code = ("import metaknot as mk\n"
+            "from metaknot.problems import FreeKnots, get_curve\n"
+            "p = FreeKnots(get_curve('archimedean', n_points=40), n_knots=6)\n"
+            "r = mk.minimize(p, 'nevergrad:NGOpt', budget=150, seed=11)\n"
+            "print(r.n_evaluations)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=240)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "150"
