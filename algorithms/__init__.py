@@ -14,6 +14,7 @@ name               method
 ``local_search``   best-improvement knot removal/insertion/shifts from averaging knots
 ``cmaes``          CMA-ES on free knots (the ``cmaes`` package)
 ``nevergrad``      any nevergrad optimizer (``nevergrad:NGOpt``, ``nevergrad:CMA``, ...)
+``pymoo``          pymoo's GA, DE or BRKGA (``pymoo:GA``, ``pymoo:DE``, ``pymoo:BRKGA``)
 =================  ===============================================================
 """
 
@@ -25,6 +26,7 @@ from .local_search import LocalSearch
 from .nevergrad_adapter import NevergradOptimizer
 from .nlopt_knots import NloptKnots
 from .one_plus_one import OnePlusOneEA
+from .pymoo_adapter import PymooOptimizer
 from .random_search import RandomSearch
 
 __all__ = [
@@ -37,6 +39,7 @@ __all__ = [
     "NevergradOptimizer",
     "NloptKnots",
     "OnePlusOneEA",
+    "PymooOptimizer",
     "RandomSearch",
     "UniformKnots",
 ]

@@ -9,14 +9,15 @@ import numpy as np
 import pytest
 
 import metaknot as mk
-from metaknot.algorithms import CMAESKnots, NevergradOptimizer
+from metaknot.algorithms import CMAESKnots, NevergradOptimizer, PymooOptimizer
 from metaknot.bspline import averaging_knots
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
 
 SPIRAL = get_curve("archimedean", n_points=60)
 
 
-@pytest.mark.parametrize(("name", "module"), [("cmaes", "cmaes"), ("nevergrad", "nevergrad")])
+@pytest.mark.parametrize(("name", "module"), [("cmaes", "cmaes"), ("nevergrad", "nevergrad"),
+                                              ("pymoo", "pymoo")])
 def test_a_missing_library_is_named(monkeypatch, name, module):
     monkeypatch.setitem(sys.modules, module, None)  # import now fails
     with pytest.raises(ImportError, match=f"needs the {module} package"):
@@ -96,3 +97,46 @@ def test_ngopt_surrogate_failure_falls_back_and_the_process_exits():
                           timeout=240)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "150"
+
+
+@pytest.mark.parametrize("algorithm", ["GA", "DE", "BRKGA"])
+def test_pymoo_variants_by_name_and_reproducible(algorithm):
+    assert mk.get_optimizer(f"pymoo:{algorithm}").algorithm == algorithm
+    problem = KnotIndices(SPIRAL, n_knots=6)
+    runs = [mk.minimize(problem, f"pymoo:{algorithm}", budget=300, seed=4) for _ in range(2)]
+    np.testing.assert_array_equal(runs[0].best_x, runs[1].best_x)
+    assert runs[0].n_evaluations == 300
+
+
+def _pymoo_on(problem, algorithm):
+    optimizer = PymooOptimizer(algorithm, population=20)
+    optimizer.setup(mk.Evaluator(problem, 100).task, np.random.default_rng(0))
+    return optimizer
+
+
+def test_pymoo_decodes_random_keys():
+    keys = np.random.default_rng(3).random((200, 58))
+    mask = _pymoo_on(KnotSelection(SPIRAL), "DE").decode(keys)
+    np.testing.assert_array_equal(mask, (keys > 0.5).astype(int))
+    indices = _pymoo_on(KnotIndices(SPIRAL, n_knots=6), "BRKGA").decode(keys[:, :6])
+    assert (np.diff(indices, axis=1) > 0).all() and indices.min() >= 1 and indices.max() <= 58
+    free = _pymoo_on(FreeKnots(SPIRAL, n_knots=6), "DE")
+    knots = free.decode(keys[:, :6])
+    np.testing.assert_allclose(knots, [free.box.knots(k) for k in keys[:, :6]])
+    assert (np.diff(knots, axis=1) > 0).all()
+
+
+def test_pymoo_ga_genotypes():
+    assert _pymoo_on(KnotSelection(SPIRAL), "GA").genotype == "binary"
+    assert _pymoo_on(KnotIndices(SPIRAL, n_knots=6), "GA").genotype == "integer"
+    assert _pymoo_on(FreeKnots(SPIRAL, n_knots=6), "GA").genotype == "keys"
+    ga = _pymoo_on(KnotIndices(SPIRAL, n_knots=6), "GA")
+    repaired = ga.decode(np.array([[3.2, 3.4, 10.0, 10.0, 57.6, 58.0]]))
+    assert (np.diff(repaired, axis=1) > 0).all()
+
+
+def test_pymoo_population_matters():
+    problem = KnotSelection(SPIRAL)
+    small = mk.minimize(problem, PymooOptimizer("GA", population=10), budget=300, seed=0)
+    large = mk.minimize(problem, PymooOptimizer("GA", population=60), budget=300, seed=0)
+    assert not np.array_equal(small.trace_best, large.trace_best)

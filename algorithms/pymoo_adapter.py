@@ -1,0 +1,159 @@
+"""pymoo's single-objective algorithms on every knot problem (``pymoo``, or by name as
+``pymoo:GA``, ``pymoo:DE``, ``pymoo:BRKGA``). pymoo is an optional dependency
+(``pip install metaknot[adapters]``).
+
+pymoo searches a genotype that is decoded into the problem's candidate:
+
+* ``GA`` on a 0/1 mask: the mask itself (binary sampling, two-point crossover, bit flips);
+* ``GA`` on index sets: integers in the index range (SBX and polynomial mutation with rounding),
+  repaired to sorted distinct sets (the GA's rule);
+* otherwise (``DE``, ``BRKGA``, and ``GA`` on free knots): random keys in ``[0, 1]^n``: a bit is
+  set where its key exceeds 1/2, an index is ``lower + floor(key (upper - lower + 1))`` (then
+  repaired), and free knots come from the unit box of a
+  :class:`~metaknot.algorithms.knot_map.KnotMap` (span weights centred on the averaging knots).
+
+pymoo runs through its ask/tell interface with metaknot's evaluator (each population is one
+batch, counted against the framework's budget; pymoo's own evaluation counter is fed with the
+values, nothing is evaluated twice), seeded from the run's generator. A population cut short by
+the budget is not told.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from metaknot.optimizer import Optimizer, check_param
+from metaknot.problem import Problem
+from metaknot.registry import register
+
+from .knot_map import KnotMap
+
+__all__ = ["PymooOptimizer"]
+
+ALGORITHMS = ("GA", "DE", "BRKGA")
+
+
+def _require_pymoo():
+    try:
+        import pymoo
+    except ImportError:
+        raise ImportError("optimizer 'pymoo' needs the pymoo package: pip install pymoo "
+                          "(or metaknot[adapters])") from None
+    return pymoo
+
+
+@register("pymoo")
+class PymooOptimizer(Optimizer):
+    """A pymoo single-objective algorithm by name.
+
+    Parameters
+    ----------
+    algorithm
+        ``"GA"``, ``"DE"`` or ``"BRKGA"``.
+    population
+        Population size (``BRKGA``: elites + offspring + mutants, split 20/70/10 %).
+    """
+
+    encodings = ("binary", "integer", "continuous")
+    variant_parameter = "algorithm"
+
+    def __init__(self, algorithm: str = "GA", population: int = 50) -> None:
+        if algorithm not in ALGORITHMS:
+            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}; "
+                             f"got {algorithm!r}")
+        self.algorithm = algorithm
+        self.population = check_param("population", population, low=4, integer=True)
+
+    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+        _require_pymoo()
+        if getattr(problem, "variable_count", False):
+            raise ValueError("optimizer 'pymoo' searches a fixed number of free knots; "
+                             "use variable_count=False")
+        super().setup(problem, rng)
+        from pymoo.core.problem import Problem as PymooProblem
+
+        encoding = problem.encoding
+        n = encoding.n_var
+        self.genotype = "keys"
+        if self.algorithm == "GA" and encoding.kind == "binary":
+            self.genotype = "binary"
+        elif self.algorithm == "GA" and encoding.kind == "integer":
+            self.genotype = "integer"
+        if self.genotype == "integer":
+            lower, upper = encoding.lower.astype(float), encoding.upper.astype(float)
+        else:
+            lower, upper = np.zeros(n), np.ones(n)
+        vtype = {"binary": bool, "integer": int, "keys": float}[self.genotype]
+        self.box = KnotMap(problem.params, problem.degree) if encoding.kind == "continuous" \
+            else None
+        self.pymoo_problem = PymooProblem(n_var=n, n_obj=1, xl=lower, xu=upper, vtype=vtype)
+        self.method = self._algorithm()
+        self.method.setup(self.pymoo_problem, termination=("n_eval", 10**12),
+                          seed=int(rng.integers(2**31)))
+        self._pop = None
+        self._worst = -np.inf
+
+    def _algorithm(self):
+        from pymoo.algorithms.soo.nonconvex.brkga import BRKGA
+        from pymoo.algorithms.soo.nonconvex.de import DE
+        from pymoo.algorithms.soo.nonconvex.ga import GA
+        from pymoo.operators.crossover.pntx import TwoPointCrossover
+        from pymoo.operators.crossover.sbx import SBX
+        from pymoo.operators.mutation.bitflip import BitflipMutation
+        from pymoo.operators.mutation.pm import PM
+        from pymoo.operators.repair.rounding import RoundingRepair
+        from pymoo.operators.sampling.rnd import BinaryRandomSampling, IntegerRandomSampling
+
+        size = self.population
+        if self.algorithm == "DE":
+            return DE(pop_size=size)
+        if self.algorithm == "BRKGA":
+            elites, mutants = max(1, size // 5), max(1, size // 10)
+            return BRKGA(n_elites=elites, n_offsprings=size - elites - mutants,
+                         n_mutants=mutants)
+        if self.genotype == "binary":
+            return GA(pop_size=size, sampling=BinaryRandomSampling(),
+                      crossover=TwoPointCrossover(), mutation=BitflipMutation(),
+                      eliminate_duplicates=True)
+        if self.genotype == "integer":
+            return GA(pop_size=size, sampling=IntegerRandomSampling(),
+                      crossover=SBX(vtype=float, repair=RoundingRepair()),
+                      mutation=PM(vtype=float, repair=RoundingRepair()),
+                      eliminate_duplicates=True)
+        return GA(pop_size=size)
+
+    def decode(self, G: np.ndarray) -> np.ndarray:
+        """Candidates of the problem from pymoo genotypes (see the module notes)."""
+        encoding = self.problem.encoding
+        G = np.asarray(G, dtype=np.float64)
+        if self.genotype == "binary":
+            return G.astype(np.int64)
+        if self.genotype == "integer":
+            X = np.rint(G).astype(np.int64)
+            return encoding.repair(X) if encoding.distinct_sorted else X
+        if encoding.kind == "binary":
+            return (G > 0.5).astype(np.int64)
+        if encoding.kind == "integer":
+            lo, hi = encoding.lower, encoding.upper
+            X = np.minimum(lo + np.floor(G * (hi - lo + 1)).astype(np.int64), hi)
+            return encoding.repair(X) if encoding.distinct_sorted else X
+        return np.array([self.box.knots(g) for g in G])
+
+    def ask(self) -> np.ndarray:
+        self._pop = self.method.ask()
+        return self.decode(self._pop.get("X"))
+
+    def tell(self, X: np.ndarray, F: np.ndarray) -> None:
+        from pymoo.problems.static import StaticProblem
+
+        F = np.asarray(F, dtype=np.float64)
+        if self._pop is None or len(F) < len(self._pop):
+            return  # the budget cut the population short: the run ends here
+        finite = F[np.isfinite(F)]
+        if finite.size:
+            self._worst = max(self._worst, float(finite.max()))
+        penalty = self._worst + abs(self._worst) + 1.0 if np.isfinite(self._worst) else 1e12
+        values = np.where(np.isfinite(F), F, penalty)[:, None]
+        self.method.evaluator.eval(StaticProblem(self.pymoo_problem, F=values), self._pop)
+        self.method.tell(infills=self._pop)
+        self._pop = None
