@@ -438,3 +438,48 @@ def test_continuous_problems_are_rejected():
 def test_bad_parameters(kwargs, name):
     with pytest.raises(ValueError, match=name):
         GeneticAlgorithm(**kwargs)
+
+
+# --------------------------------------------------------------------------------------------
+# each setting acts in the optimizer (not only in the operator functions)
+
+
+def _children(problem: mk.Problem, seed: int = 0, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+    ga = initialised(problem, **kwargs)
+    ga.rng = np.random.default_rng(seed)
+    return ga.pop_x.copy(), ga.offspring(60)
+
+
+def test_crossover_rate_is_used():
+    problem = OneMax(n_var=40)
+    parents_x, copies = _children(problem, crossover_rate=0.0, mutation_rate=0.0, population=30)
+    rows = {tuple(r) for r in parents_x}
+    assert all(tuple(c) in rows for c in copies)  # no crossover, no mutation: parents only
+    _, crossed = _children(problem, crossover_rate=1.0, mutation_rate=0.0, population=30)
+    assert sum(tuple(c) not in rows for c in crossed) > 30
+
+
+def test_tournament_size_is_used():
+    problem = OneMax(n_var=40)
+    ga = initialised(problem, population=20, tournament_size=400, crossover_rate=0.0,
+                     mutation_rate=0.0)
+    best = ga.pop_x[np.argmin(ga.pop_f)]
+    # a tournament of 400 draws from 20 individuals all but surely includes the best
+    assert (ga.offspring(19) == best).all()
+    weak = initialised(problem, population=20, tournament_size=2, crossover_rate=0.0,
+                       mutation_rate=0.0)
+    assert not (weak.offspring(19) == weak.pop_x[np.argmin(weak.pop_f)]).all()
+
+
+def test_index_mutation_kind_is_used():
+    problem = KnotIndices(get_curve("archimedean", n_points=80), n_knots=3)
+    for kind, far in (("step", False), ("reset", True)):
+        ga = initialised(problem, population=30, crossover_rate=0.0, mutation_rate=1.0,
+                         index_mutation=kind, max_step=1, elite=0)
+        parents_x = ga.pop_x.copy()
+        children = ga.offspring(200)
+        # each child comes from one parent; its genes moved by 1 (step) or anywhere (reset):
+        # the distance of a child to its nearest parent (largest gene move)
+        distance = np.min(np.abs(children[:, None, :] - parents_x[None, :, :]).max(axis=2),
+                          axis=1)
+        assert (distance.max() > 3) == far, kind
