@@ -17,18 +17,14 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
+from ._adapters import FinitePenalty, optional_import
 from .knot_map import KnotMap
 
 __all__ = ["CMAESKnots"]
 
 
 def _require_cmaes():
-    try:
-        import cmaes
-    except ImportError:
-        raise ImportError("optimizer 'cmaes' needs the cmaes package: pip install cmaes "
-                          "(or metaknot[adapters])") from None
-    return cmaes
+    return optional_import("cmaes", "cmaes")
 
 
 @register("cmaes")
@@ -67,7 +63,7 @@ class CMAESKnots(Optimizer):
                            span_range=self.span_range)
         self.best_y = np.full(problem.n_knots, 0.5)
         self.best_f = np.inf
-        self._worst = -np.inf
+        self.penalty = FinitePenalty()
         self._start(self.best_y)
 
     def _start(self, mean: np.ndarray) -> None:
@@ -90,11 +86,7 @@ class CMAESKnots(Optimizer):
         F = np.asarray(F, dtype=np.float64)
         if self._asked is None or len(F) < len(self._asked):
             return  # the budget cut the generation short: the run ends here
-        finite = F[np.isfinite(F)]
-        if finite.size:
-            self._worst = max(self._worst, float(finite.max()))
-        penalty = self._worst + abs(self._worst) + 1.0 if np.isfinite(self._worst) else 1e12
-        values = np.where(np.isfinite(F), F, penalty)
+        values = self.penalty(F)
         best = int(np.argmin(F))
         if F[best] < self.best_f:
             self.best_f, self.best_y = float(F[best]), self._asked[best].copy()

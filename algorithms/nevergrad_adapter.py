@@ -18,17 +18,14 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
+from ._adapters import FinitePenalty, optional_import
 from .knot_map import KnotMap
 
 __all__ = ["NevergradOptimizer"]
 
 
 def _require_nevergrad():
-    try:
-        import nevergrad
-    except ImportError:
-        raise ImportError("optimizer 'nevergrad' needs the nevergrad package: pip install "
-                          "nevergrad (or metaknot[adapters])") from None
+    nevergrad = optional_import("nevergrad", "nevergrad")
     _patch_metamodel()
     return nevergrad
 
@@ -104,7 +101,7 @@ class NevergradOptimizer(Optimizer):
         self.ng = ng.optimizers.registry[self.optimizer](
             parametrization=parametrization, budget=budget, num_workers=self.batch_size)
         self._asked: list = []
-        self._worst = -np.inf
+        self.penalty = FinitePenalty()
 
     def ask(self) -> np.ndarray:
         self._asked = [self.ng.ask() for _ in range(self.batch_size)]
@@ -116,12 +113,6 @@ class NevergradOptimizer(Optimizer):
         return encoding.repair(X) if encoding.distinct_sorted else X
 
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
-        F = np.asarray(F, dtype=np.float64)
-        finite = F[np.isfinite(F)]
-        if finite.size:
-            self._worst = max(self._worst, float(finite.max()))
-        # infeasible: a finite value worse than every finite one seen
-        penalty = self._worst + abs(self._worst) + 1.0 if np.isfinite(self._worst) else 1e12
-        for candidate, value in zip(self._asked, F, strict=False):
-            self.ng.tell(candidate, float(value) if np.isfinite(value) else penalty)
+        for candidate, value in zip(self._asked, self.penalty(F), strict=False):
+            self.ng.tell(candidate, float(value))
         self._asked = []

@@ -26,6 +26,7 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
+from ._adapters import FinitePenalty, optional_import
 from .knot_map import KnotMap
 
 __all__ = ["PymooOptimizer"]
@@ -34,12 +35,7 @@ ALGORITHMS = ("GA", "DE", "BRKGA")
 
 
 def _require_pymoo():
-    try:
-        import pymoo
-    except ImportError:
-        raise ImportError("optimizer 'pymoo' needs the pymoo package: pip install pymoo "
-                          "(or metaknot[adapters])") from None
-    return pymoo
+    return optional_import("pymoo", "pymoo")
 
 
 @register("pymoo")
@@ -91,7 +87,7 @@ class PymooOptimizer(Optimizer):
         self.method.setup(self.pymoo_problem, termination=("n_eval", 10**12),
                           seed=int(rng.integers(2**31)))
         self._pop = None
-        self._worst = -np.inf
+        self.penalty = FinitePenalty()
 
     def _algorithm(self):
         from pymoo.algorithms.soo.nonconvex.brkga import BRKGA
@@ -149,11 +145,7 @@ class PymooOptimizer(Optimizer):
         F = np.asarray(F, dtype=np.float64)
         if self._pop is None or len(F) < len(self._pop):
             return  # the budget cut the population short: the run ends here
-        finite = F[np.isfinite(F)]
-        if finite.size:
-            self._worst = max(self._worst, float(finite.max()))
-        penalty = self._worst + abs(self._worst) + 1.0 if np.isfinite(self._worst) else 1e12
-        values = np.where(np.isfinite(F), F, penalty)[:, None]
+        values = self.penalty(F)[:, None]
         self.method.evaluator.eval(StaticProblem(self.pymoo_problem, F=values), self._pop)
         self.method.tell(infills=self._pop)
         self._pop = None

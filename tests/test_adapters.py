@@ -140,3 +140,14 @@ def test_pymoo_population_matters():
     small = mk.minimize(problem, PymooOptimizer("GA", population=10), budget=300, seed=0)
     large = mk.minimize(problem, PymooOptimizer("GA", population=60), budget=300, seed=0)
     assert not np.array_equal(small.trace_best, large.trace_best)
+
+
+def test_finite_penalty_is_worse_than_every_finite_value_seen():
+    from metaknot.algorithms._adapters import FinitePenalty
+
+    penalty = FinitePenalty()
+    np.testing.assert_array_equal(penalty(np.array([np.inf])), [1e12])  # nothing seen yet
+    values = penalty(np.array([-50.0, np.inf, -80.0]))  # BIC values are negative
+    assert values[1] > -50.0 and values[1] == -50.0 + 50.0 + 1.0
+    values = penalty(np.array([3.0, np.inf]))
+    assert values[1] == 3.0 + 3.0 + 1.0 and values[0] == 3.0

@@ -1,0 +1,39 @@
+"""What the adapters to other optimizer libraries share: optional imports, finite penalties."""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+import numpy as np
+
+__all__ = ["FinitePenalty", "optional_import"]
+
+
+def optional_import(module: str, optimizer: str) -> ModuleType:
+    """``module``, or an ImportError naming the optimizer that needs it and how to install it."""
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        raise ImportError(f"optimizer {optimizer!r} needs the {module} package: pip install "
+                          f"{module} (or metaknot[adapters])") from None
+
+
+class FinitePenalty:
+    """Finite stand-ins for infeasible (+inf) values, which the wrapped libraries cannot rank:
+    the worst finite value seen so far plus its magnitude plus 1 (1e12 before any)."""
+
+    def __init__(self) -> None:
+        self.worst = -np.inf
+
+    @property
+    def value(self) -> float:
+        return self.worst + abs(self.worst) + 1.0 if np.isfinite(self.worst) else 1e12
+
+    def __call__(self, F: np.ndarray) -> np.ndarray:
+        """``F`` with every non-finite value replaced by the penalty (after seeing ``F``)."""
+        F = np.asarray(F, dtype=np.float64)
+        finite = F[np.isfinite(F)]
+        if finite.size:
+            self.worst = max(self.worst, float(finite.max()))
+        return np.where(np.isfinite(F), F, self.value)
