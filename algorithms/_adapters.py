@@ -7,7 +7,7 @@ from types import ModuleType
 
 import numpy as np
 
-__all__ = ["FinitePenalty", "optional_import"]
+__all__ = ["FinitePenalty", "optional_import", "refuse_variable_count"]
 
 
 def optional_import(module: str, optimizer: str) -> ModuleType:
@@ -17,6 +17,14 @@ def optional_import(module: str, optimizer: str) -> ModuleType:
     except ImportError:
         raise ImportError(f"optimizer {optimizer!r} needs the {module} package: pip install "
                           f"{module} (or metaknot[adapters])") from None
+
+
+def refuse_variable_count(problem: object, optimizer: str) -> None:
+    """A ``ValueError`` for a ``FreeKnots(variable_count=True)`` problem: the adapters search a
+    fixed number of knots (nlopt also searches the count)."""
+    if getattr(problem, "variable_count", False):
+        raise ValueError(f"optimizer {optimizer!r} searches a fixed number of knots; use "
+                         "variable_count=False (or nlopt, which also searches K)")
 
 
 class FinitePenalty:

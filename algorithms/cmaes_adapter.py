@@ -17,7 +17,7 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty, optional_import
+from ._adapters import FinitePenalty, optional_import, refuse_variable_count
 from .knot_map import KnotMap
 
 __all__ = ["CMAESKnots"]
@@ -54,9 +54,7 @@ class CMAESKnots(Optimizer):
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots")):
             raise ValueError(f"optimizer 'cmaes' needs a FreeKnots problem; got {problem.name!r}")
-        if getattr(problem, "variable_count", False):
-            raise ValueError("optimizer 'cmaes' searches a fixed number of knots; use "
-                             "variable_count=False (or nlopt, which also searches K)")
+        refuse_variable_count(problem, "cmaes")
         _require_cmaes()
         super().setup(problem, rng)
         self.box = KnotMap(problem.params, problem.degree, data_gap=self.data_gap,

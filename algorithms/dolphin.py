@@ -127,17 +127,17 @@ def sample_alternatives(probabilities: np.ndarray, u: np.ndarray) -> np.ndarray:
     return picked
 
 
-def fitness_values(objective: np.ndarray, transform: str = "auto") -> np.ndarray:
-    """Fitness of one loop (see the module notes); the loop-best gets 1, infeasible gets 0."""
+def fitness_values(objective: np.ndarray, transform: str) -> np.ndarray:
+    """Fitness of one loop (see the module notes): ``"inverse"`` (``min / value``) or
+    ``"rank"``; the loop-best gets 1, infeasible locations 0."""
     objective = np.asarray(objective, dtype=np.float64)
     fit = np.zeros_like(objective)
     ok = np.isfinite(objective)
     if not ok.any():
         return fit
-    positive = bool((objective[ok] > 0).all())
-    if transform == "inverse" and not positive:
-        raise ValueError("fitness='inverse' needs positive objective values; use 'rank'")
-    if transform == "inverse" or (transform == "auto" and positive):
+    if transform == "inverse":
+        if not (objective[ok] > 0).all():
+            raise ValueError("fitness='inverse' needs positive objective values; use 'rank'")
         fit[ok] = objective[ok].min() / objective[ok]
     else:
         from scipy.stats import rankdata  # loaded on first use: scipy.stats is slow to import

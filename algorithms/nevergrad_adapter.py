@@ -18,7 +18,7 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty, optional_import
+from ._adapters import FinitePenalty, optional_import, refuse_variable_count
 from .knot_map import KnotMap
 
 __all__ = ["NevergradOptimizer"]
@@ -82,9 +82,7 @@ class NevergradOptimizer(Optimizer):
             close = difflib.get_close_matches(self.optimizer, list(ng.optimizers.registry), 3)
             raise ValueError(f"nevergrad has no optimizer {self.optimizer!r}"
                              + (f"; did you mean {', '.join(close)}?" if close else ""))
-        if getattr(problem, "variable_count", False):
-            raise ValueError("optimizer 'nevergrad' searches a fixed number of free knots; "
-                             "use variable_count=False")
+        refuse_variable_count(problem, "nevergrad")
         super().setup(problem, rng)
         encoding = problem.encoding
         n = encoding.n_var

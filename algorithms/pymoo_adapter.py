@@ -26,7 +26,7 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty, optional_import
+from ._adapters import FinitePenalty, optional_import, refuse_variable_count
 from .knot_map import KnotMap
 
 __all__ = ["PymooOptimizer"]
@@ -62,9 +62,7 @@ class PymooOptimizer(Optimizer):
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         _require_pymoo()
-        if getattr(problem, "variable_count", False):
-            raise ValueError("optimizer 'pymoo' searches a fixed number of free knots; "
-                             "use variable_count=False")
+        refuse_variable_count(problem, "pymoo")
         super().setup(problem, rng)
         from pymoo.core.problem import Problem as PymooProblem
 

@@ -21,7 +21,7 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
-from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, run_spec
+from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
 from .store import Store
 
 __all__ = ["execute", "main", "register_hydra_plugins", "register_plugin_configs"]
@@ -71,8 +71,8 @@ def _in_multirun() -> bool:
         return False
 
 
-def execute(spec: RunSpec, *, multirun: bool = False, raise_errors: bool = False,
-            config: dict[str, Any] | None = None) -> dict[str, Any]:
+def execute(spec: RunSpec, *, multirun: bool = False,
+            raise_errors: bool = False) -> dict[str, Any]:
     """Run ``spec`` unless its record exists, store the record, and return a summary.
 
     A run that raises is stored as ``failed`` (with the best so far, if any) and, unless
@@ -101,7 +101,7 @@ def execute(spec: RunSpec, *, multirun: bool = False, raise_errors: bool = False
         "timestamp": _dt.datetime.now(_dt.UTC).isoformat(timespec="milliseconds"),
         **environment(),
         "kernel_threads": numba.get_num_threads(),
-        "config": json.dumps(config or spec.config, sort_keys=True, default=str),
+        "config": json.dumps(spec.config, sort_keys=True, default=str),
     }
     result, error = None, None
     try:
@@ -157,9 +157,7 @@ def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
     multirun = _in_multirun()
     seeds = cfg.get("seed")
     if OmegaConf.is_list(seeds) or isinstance(seeds, list):
-        plain = OmegaConf.to_container(cfg, resolve=True) if OmegaConf.is_config(cfg) \
-            else dict(cfg)
-        plain.pop("hydra", None)
+        plain = plain_config(cfg)
         return [execute(run_spec({**plain, "seed": seed}), multirun=multirun)
                 for seed in seeds]
     spec = run_spec(cfg)

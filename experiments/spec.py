@@ -26,7 +26,8 @@ from typing import Any
 import numpy as np
 from hydra.errors import CompactHydraException
 
-__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "run_spec"]
+__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "plain_config",
+           "run_spec"]
 
 #: Encoding name in the configuration -> (problem's registry name, encoding kind).
 ENCODINGS = {"mask": ("knot_selection", "binary"), "indices": ("knot_indices", "integer"),
@@ -315,7 +316,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ConfigError
         Naming the first key whose value cannot work.
     """
-    cfg = _plain(cfg)
+    cfg = plain_config(cfg)
     study = cfg.get("study")
     if not isinstance(study, str) or not STUDY_NAME.match(study):
         raise ConfigError(f"study: a name of letters, digits and _.=,+- (no slashes), "
@@ -442,8 +443,8 @@ def run_id(config: Mapping[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def _plain(cfg: Mapping[str, Any]) -> dict[str, Any]:
-    """A resolved plain-dict copy of a DictConfig (or mapping)."""
+def plain_config(cfg: Mapping[str, Any]) -> dict[str, Any]:
+    """A resolved plain-dict copy of a DictConfig (or mapping), without Hydra's own node."""
     from omegaconf import DictConfig, OmegaConf
 
     out: dict[str, Any]

@@ -156,10 +156,9 @@ def _has_interpolations(cfg: Any) -> bool:
 
 
 def _plain_copy(cfg: Any) -> dict[str, Any]:
-    container = OmegaConf.to_container(cfg, resolve=True) if OmegaConf.is_config(cfg) else cfg
-    container = dict(container)
+    container = dict(OmegaConf.to_container(cfg, resolve=True))
     container.pop("hydra", None)
-    return copy.deepcopy(container)
+    return container
 
 
 def _has_key(config: dict[str, Any], dotted: str) -> bool:

@@ -52,8 +52,8 @@ class Evaluator:
     ----------
     task
         The optimizer's view of the problem (no evaluation), bound to this budget.
-    best_x, best_f, best_metrics
-        Best candidate so far, its value and its metrics (``None``, ``inf``, ``{}`` at first).
+    best_x, best_f
+        Best candidate so far and its value (``None`` and ``inf`` at first).
     external_fits
         Fits the optimizer reported making on its own (:meth:`Task.count_fits`).
     """
@@ -66,7 +66,6 @@ class Evaluator:
         self.n_evaluations = 0
         self.best_x: np.ndarray | None = None
         self.best_f = np.inf
-        self.best_metrics: dict[str, float] = {}
         self.external_fits = 0
         self.stop_requested = False
         self.task = Task(problem, self)
@@ -116,7 +115,6 @@ class Evaluator:
         if F[best] < self.best_f:
             self.best_f = float(F[best])
             self.best_x = X[best].copy()
-            self.best_metrics = {k: float(np.asarray(v)[best]) for k, v in metrics.items()}
         progress = Progress(self.n_evaluations, self.budget, self.best_f, F,
                             time.perf_counter() - self._start, metrics)
         for callback in self.callbacks:

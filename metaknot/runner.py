@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -115,25 +116,19 @@ def minimize(
 
 
 class _Clock:
-    """Named wall-clock sections."""
+    """Wall-clock seconds of named sections of a run."""
 
     def __init__(self) -> None:
         self.start = time.perf_counter()
         self.seconds: dict[str, float] = {}
 
-    def __call__(self, name: str) -> _Section:
-        return _Section(self, name)
-
-
-class _Section:
-    def __init__(self, clock: _Clock, name: str) -> None:
-        self.clock, self.name = clock, name
-
-    def __enter__(self) -> None:
-        self.t0 = time.perf_counter()
-
-    def __exit__(self, *exc: object) -> None:
-        self.clock.seconds[self.name] = time.perf_counter() - self.t0
+    @contextlib.contextmanager
+    def __call__(self, name: str) -> Iterator[None]:
+        begin = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.seconds[name] = time.perf_counter() - begin
 
 
 def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evaluator,

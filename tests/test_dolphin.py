@@ -165,12 +165,9 @@ def test_fitness_transforms_by_hand():
     # inverse, scaled so the loop-best has 1: min / F; infeasible 0
     np.testing.assert_allclose(fitness_values([2.0, 4.0, np.inf, 8.0], "inverse"),
                                [1.0, 0.5, 0.0, 0.25])
-    np.testing.assert_allclose(fitness_values([2.0, 4.0, np.inf, 8.0], "auto"),
-                               [1.0, 0.5, 0.0, 0.25])
     # rank among the 4 feasible: 5 worst (1), 0 (2), -3 and -3 tie for 3 and 4 (3.5); / 4
     expected = [3.5 / 4, 1 / 4, 0.0, 3.5 / 4, 2 / 4]
     np.testing.assert_allclose(fitness_values([-3.0, 5.0, np.inf, -3.0, 0.0], "rank"), expected)
-    np.testing.assert_allclose(fitness_values([-3.0, 5.0, np.inf, -3.0, 0.0], "auto"), expected)
     np.testing.assert_allclose(fitness_values([1.0, 3.0, 2.0], "rank"), [1.0, 1 / 3, 2 / 3])
     np.testing.assert_array_equal(fitness_values([np.inf, np.inf], "inverse"), [0.0, 0.0])
     with pytest.raises(ValueError, match="fitness='inverse'"):
