@@ -26,13 +26,45 @@ from metaknot.problems import KnotProblem
 from metaknot.registry import register
 from metaknot.task import problem_type
 
-__all__ = ["AveragingKnots", "FitpackKnots", "UniformKnots", "fitpack_knots", "with_count"]
+__all__ = ["AveragingKnots", "FitpackKnots", "UniformKnots", "fitpack_front", "fitpack_knots",
+           "knots_to_candidate", "with_count"]
 
 
 def fitpack_knots(u: np.ndarray, points: np.ndarray, degree: int, s: float) -> np.ndarray:
     """Interior knots of FITPACK's smoothing spline (``splprep``) for smoothing factor ``s``."""
     (t, _, _), _ = splprep(points.T, u=u, k=degree, s=s, full_output=1, quiet=1)[0]
     return t[degree + 1 : -(degree + 1)]
+
+
+def fitpack_front(problem: KnotProblem, n_smoothing: int = 200) -> dict[str, np.ndarray]:
+    """FITPACK's own front: its smoothing splines (``splprep``, the problem's parameters and
+    degree) over ``n_smoothing`` smoothing factors s spaced geometrically from 1e-14 to 1/2 of
+    the data's total sum of squares, reduced to the best fit per control-point count.
+
+    Returns
+    -------
+    dict
+        ``n_control_points``, ``rmse`` and ``max_deviation`` (arrays, by control points); for
+        each count the fit with the lowest RMSE (FITPACK gives up on some s: those are left out).
+    """
+    from scipy.interpolate import splev
+
+    points, u, k = problem.points, problem.params, problem.degree
+    total = float(((points - points.mean(axis=0)) ** 2).sum())
+    best: dict[int, tuple[float, float]] = {}
+    for s in np.geomspace(total * 1e-14, total * 0.5, n_smoothing):
+        try:
+            (t, c, _), _ = splprep(points.T, u=u, k=k, s=s, full_output=1, quiet=1)[0]
+        except Exception:  # FITPACK refuses some s: the front has a point less
+            continue
+        distance = np.linalg.norm(points - np.column_stack(splev(u, (t, c, k))), axis=1)
+        rmse, count = float(np.sqrt(np.mean(distance**2))), len(t) - k - 1
+        if count not in best or rmse < best[count][0]:
+            best[count] = (rmse, float(distance.max()))
+    counts = np.array(sorted(best), dtype=np.int64)
+    return {"n_control_points": counts,
+            "rmse": np.array([best[c][0] for c in counts]),
+            "max_deviation": np.array([best[c][1] for c in counts])}
 
 
 def with_count(knots: np.ndarray, k: int, lower: float, upper: float) -> np.ndarray:
@@ -49,6 +81,25 @@ def with_count(knots: np.ndarray, k: int, lower: float, upper: float) -> np.ndar
     return t
 
 
+def knots_to_candidate(problem: Problem, knots: np.ndarray) -> np.ndarray:
+    """The candidate of a knot problem (or its task) for these interior knots: the positions
+    (NaN-padded with ``variable_count``), or the nearest data indices (made distinct), or the
+    0/1 mask of those data points."""
+    encoding = problem.encoding
+    if encoding.kind == "continuous":
+        return problem.pad(knots) if getattr(problem, "variable_count", False) else np.sort(knots)
+    u = problem.params
+    j = np.clip(np.searchsorted(u, knots), 1, u.size - 1)
+    idx = np.clip(j - (knots - u[j - 1] <= u[j] - knots), 1, u.size - 2)
+    if encoding.kind == "integer":
+        return encoding.repair(idx[None, :])[0]
+    mask = np.zeros(encoding.n_var, dtype=np.int64)
+    if idx.size:
+        sets = Encoding.integer(idx.size, 1, u.size - 2, distinct_sorted=True)
+        mask[sets.repair(idx[None, :])[0] - 1] = 1
+    return mask
+
+
 class _KnotCountBaseline(Optimizer):
     """K interior knots -> candidate; one K if the problem fixes it, else a scan over K.
 
@@ -59,6 +110,8 @@ class _KnotCountBaseline(Optimizer):
     batch_size
         Candidates per evaluated batch.
     """
+
+    multi_objective = True  # a scan over K builds a front under the objective pareto
 
     def __init__(self, max_knots: int | None = None, batch_size: int = 64) -> None:
         self.max_knots = None if max_knots is None else \
@@ -86,19 +139,7 @@ class _KnotCountBaseline(Optimizer):
 
     def candidate(self, knots: np.ndarray) -> np.ndarray:
         """The problem's candidate for these interior knots (see the module docstring)."""
-        problem, encoding = self.problem, self.problem.encoding
-        if encoding.kind == "continuous":
-            return problem.pad(knots) if self.free_count else np.sort(knots)
-        u = problem.params
-        j = np.clip(np.searchsorted(u, knots), 1, u.size - 1)
-        idx = np.clip(j - (knots - u[j - 1] <= u[j] - knots), 1, u.size - 2)
-        if encoding.kind == "integer":
-            return encoding.repair(idx[None, :])[0]
-        mask = np.zeros(encoding.n_var, dtype=np.int64)
-        if idx.size:
-            sets = Encoding.integer(idx.size, 1, u.size - 2, distinct_sorted=True)
-            mask[sets.repair(idx[None, :])[0] - 1] = 1
-        return mask
+        return knots_to_candidate(self.problem, knots)
 
     def ask(self) -> np.ndarray:
         """The next batch of up to ``batch_size`` candidates (no rows once the scan is done)."""

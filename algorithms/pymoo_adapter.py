@@ -1,12 +1,14 @@
-"""pymoo's single-objective algorithms on every knot problem (``pymoo``, or by name as
-``pymoo:GA``, ``pymoo:DE``, ``pymoo:BRKGA``). pymoo is an optional dependency
-(``pip install metaknot[adapters]``).
+"""pymoo's algorithms on every knot problem (``pymoo``, or by name as ``pymoo:GA``,
+``pymoo:DE``, ``pymoo:BRKGA``, and the multi-objective ``pymoo:NSGA2`` for the objective
+``pareto``). pymoo is an optional dependency (``pip install metaknot[adapters]``).
 
 pymoo searches a genotype that is decoded into the problem's candidate:
 
-* ``GA`` on a 0/1 mask: the mask itself (binary sampling, two-point crossover, bit flips);
-* ``GA`` on index sets: integers in the index range (SBX and polynomial mutation with rounding),
-  repaired to sorted distinct sets (the GA's rule);
+* ``GA`` and ``NSGA2`` on a 0/1 mask: the mask itself (two-point crossover, bit flips; ``GA``
+  samples bits with probability 1/2, ``NSGA2`` draws each individual's density uniformly from
+  (0, 1), so its first population already spans the control-point range of a front);
+* ``GA`` and ``NSGA2`` on index sets: integers in the index range (SBX and polynomial mutation
+  with rounding), repaired to sorted distinct sets (the GA's rule);
 * otherwise (``DE``, ``BRKGA``, and ``GA`` on free knots): random keys in ``[0, 1]^n``: a bit is
   set where its key exceeds 1/2, an index is ``lower + floor(key (upper - lower + 1))`` (then
   repaired), and free knots come from the unit box of a
@@ -31,7 +33,7 @@ from .knot_map import KnotMap
 
 __all__ = ["PymooOptimizer"]
 
-ALGORITHMS = ("GA", "DE", "BRKGA")
+ALGORITHMS = ("GA", "DE", "BRKGA", "NSGA2")
 
 
 def _require_pymoo():
@@ -40,24 +42,37 @@ def _require_pymoo():
 
 @register("pymoo")
 class PymooOptimizer(Optimizer):
-    """A pymoo single-objective algorithm by name.
+    """A pymoo algorithm by name.
 
     Parameters
     ----------
     algorithm
-        ``"GA"``, ``"DE"`` or ``"BRKGA"``.
+        ``"GA"``, ``"DE"``, ``"BRKGA"`` (one objective) or ``"NSGA2"`` (NSGA-II: a front of
+        control points against error under the objective ``pareto``; on one objective it is a
+        GA with crowding).
     population
         Population size (``BRKGA``: elites + offspring + mutants, split 20/70/10 %).
+    initial
+        ``"random"``, or ``"averaging"`` (``GA`` and ``NSGA2`` on 0/1 masks): half the first
+        population are the averaging knots (NURBS Book) at knot counts spread evenly over the
+        range, the rest random, so the search starts from the classical front.
     """
 
     encodings = ("binary", "integer", "continuous")
     variant_parameter = "algorithm"
 
-    def __init__(self, algorithm: str = "GA", population: int = 50) -> None:
+    def __init__(self, algorithm: str = "GA", population: int = 50,
+                 initial: str = "random") -> None:
         if algorithm not in ALGORITHMS:
             raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}; "
                              f"got {algorithm!r}")
         self.algorithm = algorithm
+        self.multi_objective = algorithm == "NSGA2"
+        if initial not in ("random", "averaging"):
+            raise ValueError(f"initial must be 'random' or 'averaging'; got {initial!r}")
+        if initial == "averaging" and algorithm not in ("GA", "NSGA2"):
+            raise ValueError(f"initial='averaging' applies to GA and NSGA2; got {algorithm!r}")
+        self.initial = initial
         self.population = check_param("population", population, low=4, integer=True)
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
@@ -69,9 +84,9 @@ class PymooOptimizer(Optimizer):
         encoding = problem.encoding
         n = encoding.n_var
         self.genotype = "keys"
-        if self.algorithm == "GA" and encoding.kind == "binary":
+        if self.algorithm in ("GA", "NSGA2") and encoding.kind == "binary":
             self.genotype = "binary"
-        elif self.algorithm == "GA" and encoding.kind == "integer":
+        elif self.algorithm in ("GA", "NSGA2") and encoding.kind == "integer":
             self.genotype = "integer"
         if self.genotype == "integer":
             lower, upper = encoding.lower.astype(float), encoding.upper.astype(float)
@@ -80,7 +95,9 @@ class PymooOptimizer(Optimizer):
         vtype = {"binary": bool, "integer": int, "keys": float}[self.genotype]
         self.box = KnotMap(problem.params, problem.degree) if encoding.kind == "continuous" \
             else None
-        self.pymoo_problem = PymooProblem(n_var=n, n_obj=1, xl=lower, xu=upper, vtype=vtype)
+        self.n_obj = getattr(problem, "n_objectives", 1)
+        self.pymoo_problem = PymooProblem(n_var=n, n_obj=self.n_obj, xl=lower, xu=upper,
+                                          vtype=vtype)
         self.method = self._algorithm()
         self.method.setup(self.pymoo_problem, termination=("n_eval", 10**12),
                           seed=int(rng.integers(2**31)))
@@ -88,6 +105,7 @@ class PymooOptimizer(Optimizer):
         self.penalty = FinitePenalty()
 
     def _algorithm(self):
+        from pymoo.algorithms.moo.nsga2 import NSGA2
         from pymoo.algorithms.soo.nonconvex.brkga import BRKGA
         from pymoo.algorithms.soo.nonconvex.de import DE
         from pymoo.algorithms.soo.nonconvex.ga import GA
@@ -105,16 +123,37 @@ class PymooOptimizer(Optimizer):
             elites, mutants = max(1, size // 5), max(1, size // 10)
             return BRKGA(n_elites=elites, n_offsprings=size - elites - mutants,
                          n_mutants=mutants)
+        method = NSGA2 if self.algorithm == "NSGA2" else GA
         if self.genotype == "binary":
-            return GA(pop_size=size, sampling=BinaryRandomSampling(),
-                      crossover=TwoPointCrossover(), mutation=BitflipMutation(),
-                      eliminate_duplicates=True)
+            sampling = _spread_sampling() if method is NSGA2 else BinaryRandomSampling()
+            if self.initial == "averaging":
+                sampling = self._averaging_start(sampling)
+            return method(pop_size=size, sampling=sampling, crossover=TwoPointCrossover(),
+                          mutation=BitflipMutation(), eliminate_duplicates=True)
         if self.genotype == "integer":
-            return GA(pop_size=size, sampling=IntegerRandomSampling(),
-                      crossover=SBX(vtype=float, repair=RoundingRepair()),
-                      mutation=PM(vtype=float, repair=RoundingRepair()),
-                      eliminate_duplicates=True)
-        return GA(pop_size=size)
+            return method(pop_size=size, sampling=IntegerRandomSampling(),
+                          crossover=SBX(vtype=float, repair=RoundingRepair()),
+                          mutation=PM(vtype=float, repair=RoundingRepair()),
+                          eliminate_duplicates=True)
+        return method(pop_size=size)
+
+    def _averaging_start(self, sampling):
+        """A first population of averaging-knot masks (half) and ``sampling``'s (the rest)."""
+        from metaknot.bspline import averaging_knots
+
+        from .baselines import knots_to_candidate
+
+        problem = self.problem
+        if problem.encoding.kind != "binary":
+            raise ValueError("initial='averaging' needs a 0/1 mask problem (knot_selection)")
+        top = problem.data.n_points - problem.degree - 1
+        counts = np.unique(np.linspace(1, top, self.population // 2).round().astype(int))
+        masks = [knots_to_candidate(problem, averaging_knots(problem.params, k, problem.degree))
+                 for k in counts]
+        seed = int(self.rng.integers(2**31))
+        rest = sampling.do(self.pymoo_problem, self.population - len(masks),
+                           random_state=np.random.default_rng(seed)).get("X")
+        return np.vstack([np.array(masks, dtype=bool), np.asarray(rest, dtype=bool)])
 
     def decode(self, G: np.ndarray) -> np.ndarray:
         """Candidates of the problem from pymoo genotypes (see the module notes)."""
@@ -143,7 +182,19 @@ class PymooOptimizer(Optimizer):
         F = np.asarray(F, dtype=np.float64)
         if self._pop is None or len(F) < len(self._pop):
             return  # the budget cut the population short: the run ends here
-        values = self.penalty(F)[:, None]
+        values = self.penalty(F).reshape(len(F), self.n_obj)
         self.method.evaluator.eval(StaticProblem(self.pymoo_problem, F=values), self._pop)
         self.method.tell(infills=self._pop)
         self._pop = None
+
+
+def _spread_sampling():
+    """pymoo sampling of 0/1 masks whose densities are uniform in (0, 1), one per individual."""
+    from pymoo.core.sampling import Sampling
+
+    class SpreadBinarySampling(Sampling):
+        def _do(self, problem, n_samples, *args, random_state=None, **kwargs):
+            density = random_state.random((n_samples, 1))
+            return random_state.random((n_samples, problem.n_var)) < density
+
+    return SpreadBinarySampling()

@@ -13,7 +13,10 @@ class RandomSearch(Optimizer):
     """Draw ``batch_size`` random candidates per step (``problem.sample``); keep the best.
 
     The simplest baseline, and the reference any metaheuristic has to beat at equal budget.
+    It ignores the values, so it also builds a front on two-objective problems.
     """
+
+    multi_objective = True
 
     def __init__(self, batch_size: int = 100) -> None:
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)

@@ -282,6 +282,10 @@ class RunSpec:
         if kind not in encodings:
             return (f"algorithm {self.algorithm!r} handles {', '.join(encodings)} encodings; "
                     f"encoding {self.config['encoding']['kind']!r} is {kind}")
+        objective = self.config["objective"]["name"]
+        if objective == "pareto" and not self.build_optimizer().multi_objective:
+            return (f"algorithm {self.algorithm!r} minimises one objective; objective "
+                    "'pareto' needs a multi-objective one (pymoo with algorithm=NSGA2)")
         return None
 
     def build_problem(self, *, noise: bool = True):

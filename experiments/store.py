@@ -201,6 +201,25 @@ class Study:
     trace: pd.DataFrame
     failures: pd.DataFrame
 
+    def fronts(self) -> pd.DataFrame:
+        """The Pareto fronts of the two-objective runs (objective ``pareto``) in long format:
+        ``run_id``, ``member`` (0.. by control points), ``objective_0``, ``objective_1`` and the
+        members' metrics (``n_control_points``, ``rmse``, ...). Empty if no run has a front."""
+        import pandas as pd
+
+        if "front" not in self.runs:
+            return pd.DataFrame(columns=["run_id", "member", "objective_0", "objective_1"])
+        parts = []
+        for run_id, text in zip(self.runs["run_id"], self.runs["front"], strict=True):
+            if isinstance(text, str):
+                part = pd.DataFrame(json.loads(text))
+                part.insert(0, "member", np.arange(len(part)))
+                part.insert(0, "run_id", run_id)
+                parts.append(part)
+        if not parts:
+            return pd.DataFrame(columns=["run_id", "member", "objective_0", "objective_1"])
+        return pd.concat(parts, ignore_index=True)
+
     def __repr__(self) -> str:
         ok = int((self.runs["status"] == "ok").sum()) if len(self.runs) else 0
         return (f"Study({self.name!r}: {len(self.runs)} runs, {ok} ok, "

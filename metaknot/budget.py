@@ -15,6 +15,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from .callbacks import Callback, Progress, as_callback
+from .front import ParetoArchive
 from .problem import Problem
 from .task import Task
 
@@ -53,7 +54,12 @@ class Evaluator:
     task
         The optimizer's view of the problem (no evaluation), bound to this budget.
     best_x, best_f
-        Best candidate so far and its value (``None`` and ``inf`` at first).
+        Best candidate so far and its value (``None`` and ``inf`` at first). With two
+        objectives, ``best_f`` is the hypervolume gap of the front and ``best_x`` the front's
+        knee (its member closest to the ideal point).
+    front
+        With two objectives, the :class:`~metaknot.front.ParetoArchive` of the non-dominated
+        candidates; else ``None``.
     external_fits
         Fits the optimizer reported making on its own (:meth:`Task.count_fits`).
     """
@@ -68,6 +74,12 @@ class Evaluator:
         self.best_f = np.inf
         self.external_fits = 0
         self.stop_requested = False
+        n_objectives = getattr(problem, "n_objectives", 1)
+        if n_objectives not in (1, 2):
+            raise ValueError(f"problem {problem.name!r} has {n_objectives} objectives; metaknot "
+                             "handles one, or two (a Pareto front)")
+        self.front = ParetoArchive(*reversed(problem.hypervolume_box)) \
+            if n_objectives == 2 else None
         self.task = Task(problem, self)
         self._start = time.perf_counter()
 
@@ -84,7 +96,8 @@ class Evaluator:
         """Evaluate ``X`` (shape ``(B, n_var)``) or the leading part that fits the budget.
 
         Returns the objective values of the evaluated rows: possibly fewer than ``B``. Only the
-        first ``len(result)`` rows of ``X`` were evaluated.
+        first ``len(result)`` rows of ``X`` were evaluated. With two objectives the values have
+        shape ``(len, 2)``, and callbacks see the hypervolume gap after each candidate.
 
         Raises
         ------
@@ -99,10 +112,11 @@ class Evaluator:
             return np.empty(0)
         F, metrics = self.problem.evaluate_with_metrics(X)
         F = np.asarray(F, dtype=np.float64)
-        if F.shape != (X.shape[0],):
+        expected = (X.shape[0],) if self.front is None else (X.shape[0], 2)
+        if F.shape != expected:
             raise ValueError(
                 f"{type(self.problem).__name__}.evaluate returned shape {F.shape}; "
-                f"expected ({X.shape[0]},)"
+                f"expected {expected}"
             )
         if np.isnan(F).any():
             warnings.warn(
@@ -110,12 +124,14 @@ class Evaluator:
                 RuntimeWarning, stacklevel=2,
             )
             F = np.where(np.isnan(F), np.inf, F)
-        self.n_evaluations += F.size
-        best = int(np.argmin(F))
-        if F[best] < self.best_f:
-            self.best_f = float(F[best])
-            self.best_x = X[best].copy()
-        progress = Progress(self.n_evaluations, self.budget, self.best_f, F,
+        self.n_evaluations += len(F)
+        scalar = F if self.front is None else self.front.add(X, F, metrics)
+        best = int(np.argmin(scalar))
+        if scalar[best] < self.best_f:
+            self.best_f = float(scalar[best])
+            self.best_x = X[best].copy() if self.front is None else \
+                self.front.X[self.front.knee()].copy()
+        progress = Progress(self.n_evaluations, self.budget, self.best_f, scalar,
                             time.perf_counter() - self._start, metrics)
         for callback in self.callbacks:
             if callback.on_batch(progress):

@@ -57,10 +57,14 @@ class Optimizer(ABC):
         Registry name (set by :func:`metaknot.register`).
     encodings
         Encoding kinds the optimizer can handle.
+    multi_objective
+        True if the optimizer handles two-objective problems (its ``tell`` gets values of
+        shape ``(B, 2)``; objective ``pareto``), or ignores the values altogether.
     """
 
     name: ClassVar[str] = "optimizer"
     encodings: ClassVar[tuple[str, ...]] = ("binary", "integer", "continuous")
+    multi_objective: bool = False
 
     problem: Problem | Task
     rng: np.random.Generator
@@ -72,6 +76,12 @@ class Optimizer(ABC):
             raise ValueError(
                 f"optimizer {self.name!r} handles {', '.join(self.encodings)} encodings; "
                 f"problem {problem.name!r} is {problem.encoding.kind}"
+            )
+        if getattr(problem, "n_objectives", 1) > 1 and not self.multi_objective:
+            raise ValueError(
+                f"optimizer {self.name!r} minimises one objective; problem {problem.name!r} has "
+                f"{problem.n_objectives} (a front): use a multi-objective optimizer such as "
+                "pymoo:NSGA2, or a single objective (paper, bic, error_bounded)"
             )
         self.problem = problem
         self.rng = rng

@@ -147,10 +147,15 @@ class Problem(ABC):
 
     name: ClassVar[str] = "problem"
     encoding: Encoding
+    #: Objectives per candidate: 1, or 2 for a front (see :mod:`metaknot.front`).
+    n_objectives: int = 1
+    #: Ideal and reference points of the hypervolume of a two-objective problem.
+    hypervolume_box: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (1.0, 1.0))
 
     @abstractmethod
     def evaluate(self, X: np.ndarray) -> np.ndarray:
-        """Objective values of a batch ``X`` of shape ``(B, n_var)``; returns shape ``(B,)``."""
+        """Objective values of a batch ``X`` of shape ``(B, n_var)``; returns shape ``(B,)``
+        (``(B, n_objectives)`` for a problem with several objectives)."""
 
     @abstractmethod
     def decode(self, x: np.ndarray) -> Any:

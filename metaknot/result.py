@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,6 +43,11 @@ class RunResult:
         Fits the optimizer made on its own, outside the evaluation budget (a FITPACK scan).
     status, error
         ``"ok"``, or ``"failed"`` with the error (a partial result of a crashed run).
+    front
+        Two-objective problems: the final Pareto front as columns (``objective_0``,
+        ``objective_1`` and the members' metrics, e.g. ``n_control_points`` and ``rmse``),
+        sorted by the first objective; ``best_f`` is then its hypervolume gap. ``None`` for
+        single-objective runs.
     solution
         ``problem.decode(best_x)`` (for knot problems: the fitted spline and its metrics).
     """
@@ -63,6 +69,7 @@ class RunResult:
     external_fits: int = 0
     status: str = "ok"
     error: str | None = None
+    front: dict[str, list[float]] | None = None
 
     @property
     def trace_evaluations(self) -> np.ndarray:
@@ -102,10 +109,17 @@ class RunResult:
         ``degree``, ``parameterization``, ``encoding``, ``n_knots``, ...), ``objective`` (its
         name) with ``objective.<option>``, ``algorithm`` with ``algorithm.<hyperparameter>``,
         the seed (``seed``, ``seed_spawn_key``), budget and evaluations used, ``best_f`` and the
-        fit metrics, the timings, ``external_fits``, ``status`` / ``error``. The study layer
-        adds the run id, study name, versions and time stamp.
+        fit metrics, the timings, ``external_fits``, ``status`` / ``error``. A two-objective
+        run adds ``hypervolume`` (``1 - best_f``), ``front_size`` and ``front``, the front's
+        columns as JSON (``metaknot.experiments.Study.fronts`` makes a long table of them).
+        The study layer adds the run id, study name, versions and time stamp.
         """
         params = {f"algorithm.{k}": _plain(v) for k, v in self.optimizer_params.items()}
+        front = {} if self.front is None else {
+            "hypervolume": 1.0 - float(self.best_f),
+            "front_size": len(self.front["objective_0"]),
+            "front": json.dumps(self.front),
+        }
         return {
             **{k: _plain(v) for k, v in self.problem_info.items()},
             "problem": self.problem,
@@ -122,6 +136,7 @@ class RunResult:
             "external_fits": int(self.external_fits),
             "status": self.status,
             "error": self.error,
+            **front,
         }
 
 

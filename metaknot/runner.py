@@ -166,4 +166,5 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         external_fits=evaluator.external_fits,
         status="ok" if error is None else "failed",
         error=error,
+        front=None if evaluator.front is None else evaluator.front.table(),
     )

@@ -50,13 +50,14 @@ class KnotSolution:
     x
         The candidate.
     objective_value
-        Its objective value (the problem's ``objective`` names the objective).
+        Its objective value (the problem's ``objective`` names the objective); for the
+        two-objective ``pareto``, its two scaled values.
     fit
         The fitted spline and its metrics.
     """
 
     x: np.ndarray
-    objective_value: float
+    objective_value: float | np.ndarray
     fit: SplineFit
 
     def metrics(self) -> dict[str, float]:
@@ -105,6 +106,11 @@ class KnotProblem(Problem):
     def points(self) -> np.ndarray:
         return self.data.points
 
+    @property
+    def n_objectives(self) -> int:
+        """2 for the objective ``pareto`` (control points and error), else 1."""
+        return self.objective.n_objectives
+
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
         raise NotImplementedError
 
@@ -147,7 +153,8 @@ class KnotProblem(Problem):
             If the candidate's knots cannot be fitted (the message names the reason).
         """
         x = self.encoding.check(x)[0]
-        value = float(self.evaluate_details(x[None, :])[0][0])
+        value = self.evaluate_details(x[None, :])[0][0]
+        value = float(value) if np.ndim(value) == 0 else value
         fit = fit_spline(self.params, self.points, self._interior_knots(x), self.degree)
         return KnotSolution(x=x, objective_value=value, fit=fit)
 

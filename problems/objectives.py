@@ -11,10 +11,12 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from metaknot.bspline import BatchFit
 
-__all__ = ["BIC", "OBJECTIVES", "DataInfo", "ErrorBounded", "Objective", "Paper", "get_objective"]
+__all__ = ["BIC", "OBJECTIVES", "DataInfo", "ErrorBounded", "Objective", "Paper", "Pareto",
+           "get_objective"]
 
 
 @dataclass(frozen=True)
@@ -38,6 +40,8 @@ class Objective(ABC):
     #: fitness by inversion (Dolphin Echolocation's ``fitness="auto"``) need this; for the
     #: others (``bic`` is defined up to a constant) only ranks are meaningful.
     ratio_scale: ClassVar[bool] = False
+    #: Number of objectives: 1, or 2 for a front (values of shape ``(B, 2)``).
+    n_objectives: ClassVar[int] = 1
 
     @abstractmethod
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray: ...
@@ -157,7 +161,62 @@ class ErrorBounded(Objective):
         return np.where(fit.feasible, value, np.inf)
 
 
-OBJECTIVES: dict[str, type[Objective]] = {o.name: o for o in (Paper, BIC, ErrorBounded)}
+class Pareto(Objective):
+    """Two objectives, both minimised: control points and error — the whole trade-off.
+
+    Values have shape ``(B, 2)``, both scaled to ``[0, 1]`` so that the hypervolume is
+    comparable across curves:
+
+    * ``control points / N`` (``N`` data points; interpolation is 1);
+    * ``1 + log10(max(err / diagonal, error_floor)) / -log10(error_floor)``: the error relative
+      to the bounding-box diagonal on a log scale, 0 at ``error_floor`` (errors below it count
+      as exact) and 1 at the diagonal.
+
+    The hypervolume's reference point is ``(1, 1)`` and its ideal point ``(0, 0)``: a run's
+    scalar outcome (``best_f``) is the hypervolume gap, the share of the unit box its front
+    does not dominate (see :mod:`metaknot.front`). Infeasible candidates get ``(+inf, +inf)``.
+
+    Parameters
+    ----------
+    metric
+        ``"rmse"`` or ``"max_deviation"`` (largest point distance).
+    error_floor
+        Relative error counted as exact (default ``1e-6`` of the diagonal).
+    """
+
+    name = "pareto"
+    n_objectives = 2
+    reference = (1.0, 1.0)
+    ideal = (0.0, 0.0)
+
+    def __init__(self, metric: Literal["rmse", "max_deviation"] = "rmse",
+                 error_floor: float = 1e-6) -> None:
+        if metric not in ("max_deviation", "rmse"):
+            raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+        error_floor = float(error_floor)
+        if not 0.0 < error_floor < 1.0:
+            raise ValueError(f"error_floor must lie in (0, 1); got {error_floor}")
+        self.metric = metric
+        self.error_floor = error_floor
+        self.needs_max_deviation = metric == "max_deviation"
+
+    def scale(self, n_control_points: ArrayLike, error: ArrayLike,
+              data: DataInfo) -> np.ndarray:
+        """Control points and errors (absolute) as the objective's scaled ``(n, 2)`` values."""
+        cp = np.asarray(n_control_points, dtype=np.float64)
+        rel = np.maximum(np.asarray(error, dtype=np.float64) / data.scale, self.error_floor)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f1 = 1.0 + np.log10(rel) / -np.log10(self.error_floor)
+        return np.column_stack((cp / data.n_points, f1))
+
+    def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
+        err = fit.max_deviation if self.metric == "max_deviation" else \
+            np.sqrt(fit.sse / data.n_points)
+        values = self.scale(fit.n_control_points, err, data)
+        return np.where(fit.feasible[:, None], values, np.inf)
+
+
+OBJECTIVES: dict[str, type[Objective]] = {o.name: o for o in (Paper, BIC, ErrorBounded, Pareto)}
 
 
 def get_objective(objective: str | Objective, **options: Any) -> Objective:

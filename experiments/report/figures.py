@@ -187,23 +187,13 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
 
 
 def fitpack_front(problem: Any, n: int = 40) -> pd.DataFrame:
-    """FITPACK's own smoothing fits (``splprep``) over a range of smoothing factors: control
-    points and RMSE of each (one row per distinct control-point count, the best RMSE)."""
-    from scipy.interpolate import splev, splprep
+    """FITPACK's own smoothing fits (``splprep``) over ``n`` smoothing factors: control points
+    and RMSE (one row per control-point count, the best RMSE)."""
+    from metaknot.algorithms.baselines import fitpack_front as front
 
-    points, u, k = problem.points, problem.params, problem.degree
-    total = float(((points - points.mean(axis=0)) ** 2).sum())
-    rows = []
-    for s in np.geomspace(total * 1e-12, total * 0.5, n):
-        try:
-            (t, c, _), _ = splprep(points.T, u=u, k=k, s=s, full_output=1, quiet=1)[0]
-        except Exception:  # FITPACK gives up on some s; the front just has a point less
-            continue
-        fitted = np.column_stack(splev(u, (t, c, k)))
-        rmse = float(np.sqrt(np.mean(np.sum((points - fitted) ** 2, axis=1))))
-        rows.append((len(t) - k - 1, rmse))
-    front = pd.DataFrame(rows, columns=["n_control_points", "rmse"])
-    return front.groupby("n_control_points", as_index=False).rmse.min()
+    columns = front(problem, n)
+    return pd.DataFrame({"n_control_points": columns["n_control_points"],
+                         "rmse": columns["rmse"]})
 
 
 def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
