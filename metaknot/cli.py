@@ -1,5 +1,6 @@
 """Command line: ``metaknot run`` (Hydra runs and sweeps into the results store), ``metaknot
-report`` (statistical comparison of a stored study), ``metaknot demo`` (optimizers on the seed
+tune`` (hyperparameter studies with Optuna), ``metaknot report`` (statistical comparison of a
+stored study), ``metaknot demo`` (optimizers on the seed
 curves), ``metaknot list``."""
 
 from __future__ import annotations
@@ -81,6 +82,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("run", add_help=False,
                    help="runs and sweeps from Hydra overrides into the results store "
                         "(metaknot run --help lists the config groups)")
+    sub.add_parser("tune", add_help=False,
+                   help="hyperparameter study with Optuna: tune=dolphin n_trials=100 "
+                        "(metaknot tune --help lists the settings)")
     return parser
 
 
@@ -103,6 +107,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "run":
         return _run(argv[1:])
+    if argv and argv[0] == "tune":
+        from metaknot.experiments.tuning.app import main as tune_main
+
+        return tune_main(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

@@ -1,0 +1,105 @@
+"""``metaknot tune``: a hyperparameter study with Optuna, tuned on training instances and
+judged on held-out ones::
+
+    metaknot tune tune=dolphin n_trials=100
+    metaknot tune tune=ga n_trials=50 workers=2
+    metaknot tune tune=dolphin storage=postgresql+psycopg://user@host/db   # several machines
+
+Re-running the same command resumes the study (it stops once ``n_trials`` trials finished).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..spec import ConfigError
+from .spec import TuneSpec, tune_spec
+
+__all__ = ["main", "tune"]
+
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
+
+
+def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
+    """Run (or resume) the study, then write its outputs and, unless ``evaluate`` is false,
+    judge the best configuration on the held-out instances.
+
+    Returns the paths written and the best trial's value and parameters.
+    """
+    from . import outputs
+    from .runner import open_storage, open_study, references, run_workers, storage_description
+
+    storage = open_storage(spec)  # errors here stop everything before a trial starts
+    study = open_study(spec, storage, spec.worker_index)
+    print(f"tune {spec.study}: {spec.algorithm} on {len(spec.train)} training instances x "
+          f"{len(spec.train_seeds)} seeds, {spec.budget:,} evaluations per run; storage "
+          f"{storage_description(spec)}", flush=True)
+    references(spec, study)
+    exit_codes = run_workers(spec, progress=progress)
+    if any(code != 0 for code in exit_codes):
+        print(f"tune: {sum(c != 0 for c in exit_codes)} worker(s) ended abnormally (exit "
+              f"codes {exit_codes}); their trials are retried by the heartbeat", flush=True)
+    try:
+        best = study.best_trial
+    except ValueError:
+        raise RuntimeError(f"study {spec.study!r} has no complete trial; see "
+                           f"{spec.study_dir / 'trials.csv'}") from None
+    finally:
+        outputs.write_trials(spec, study)
+    written = {"trials": spec.study_dir / "trials.parquet",
+               "best_config": outputs.write_best_config(spec, study)}
+    figures = outputs.write_figures(spec, study)
+    test_dir = None
+    if spec.evaluate:
+        print(f"tune {spec.study}: judging trial {best.number} on {len(spec.test)} held-out "
+              f"instances x {len(spec.test_seeds)} seeds", flush=True)
+        test_dir = outputs.evaluate_held_out(spec, study, workers=spec.workers)
+        written["test_study"] = test_dir
+    written["report"] = outputs.write_report(spec, study, figures, written["best_config"],
+                                             test_dir)
+    print(f"best: trial {best.number}, value {best.value:.4g}, {best.params}")
+    print(f"report: {written['report']}")
+    return {**written, "best_value": best.value, "best_params": best.params}
+
+
+def task(cfg: Any) -> None:
+    tune(tune_spec(cfg))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Hand ``argv`` (Hydra overrides) to the ``tuning`` configuration; a bad configuration is
+    a one-line error before any trial starts."""
+    import hydra
+    from hydra import compose, initialize_config_dir
+    from hydra.errors import HydraException
+
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not any(a.startswith("-") for a in args):
+        try:
+            with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+                cfg = compose("tuning", overrides=args)
+            spec = tune_spec(cfg)
+        except HydraException as exc:
+            lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+            print(f"metaknot tune: error: {' '.join(lines[:2])}", file=sys.stderr)
+            return 2
+        except ConfigError as exc:
+            print(f"metaknot tune: error: {exc}", file=sys.stderr)
+            return 2
+        try:
+            tune(spec)
+        except ConfigError as exc:
+            print(f"metaknot tune: error: {exc}", file=sys.stderr)
+            return 2
+        return 0
+    hydra_main = hydra.main(version_base="1.3", config_path="../conf",
+                            config_name="tuning")(task)
+    old = sys.argv
+    sys.argv = [old[0] if old else "metaknot", *args]
+    try:
+        hydra_main()
+    finally:
+        sys.argv = old
+    return 0

@@ -1,0 +1,202 @@
+"""What a tuning study leaves behind: the best configuration as a ``metaknot run`` preset, the
+trials as a table, Optuna's figures, the held-out comparison and a short report."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..spec import run_spec
+from .spec import TuneSpec
+
+__all__ = ["best_setting", "evaluate_held_out", "write_best_config", "write_figures",
+           "write_report", "write_trials"]
+
+
+def best_setting(spec: TuneSpec, study: Any) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Hyperparameters and encoding of the study's best trial."""
+    return spec.trial_setting(study.best_trial.params)
+
+
+def write_best_config(spec: TuneSpec, study: Any) -> Path:
+    """The best configuration as a method preset: ``conf/method/<algorithm>_tuned.yaml`` in the
+    study directory, for ``metaknot run --config-dir <study dir>/conf method=<algorithm>_tuned``.
+    """
+    import yaml
+
+    params, encoding = best_setting(spec, study)
+    trial = study.best_trial
+    path = spec.study_dir / "conf" / "method" / f"{spec.algorithm}_tuned.yaml"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    encoding_keys = {k: v for k, v in encoding.items() if k != "kind"}
+    body = {"defaults": [{"override /algorithm": spec.algorithm},
+                         {"override /encoding": encoding["kind"]}],
+            "algorithm": {k: _plain(v) for k, v in params.items()},
+            **({"encoding": encoding_keys} if encoding_keys else {}),
+            "label": f"{spec.algorithm}-tuned"}
+    header = (f"# @package _global_\n# {spec.algorithm} tuned by study {spec.study!r}: trial "
+              f"{trial.number}, mean ratio to {spec.reference} {trial.value:.4g} on the training "
+              f"instances.\n# metaknot run --config-dir {spec.study_dir / 'conf'} "
+              f"method={spec.algorithm}_tuned ...\n")
+    path.write_text(header + yaml.safe_dump(body, sort_keys=False))
+    return path
+
+
+def _plain(value: Any) -> Any:
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def write_trials(spec: TuneSpec, study: Any) -> Path:
+    """Every trial (number, state, value, parameters, per-instance ratios, times) as
+    ``trials.parquet`` and ``trials.csv``."""
+    frame = study.trials_dataframe(attrs=("number", "state", "value", "params", "user_attrs",
+                                          "datetime_start", "datetime_complete", "duration"))
+    for column in frame.columns:  # lists (per-seed values) as JSON text
+        if frame[column].map(lambda v: isinstance(v, list | tuple)).any():
+            frame[column] = frame[column].map(
+                lambda v: json.dumps(v) if isinstance(v, list | tuple) else v)
+    if "duration" in frame:
+        frame["duration"] = frame["duration"].dt.total_seconds()
+    path = spec.study_dir / "trials.parquet"
+    frame.to_parquet(path, index=False)
+    frame.to_csv(spec.study_dir / "trials.csv", index=False)
+    return path
+
+
+def write_figures(spec: TuneSpec, study: Any) -> list[Path]:
+    """Optuna's optimisation history, parameter importances and slice plots (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import optuna
+    from optuna.trial import TrialState
+    from optuna.visualization import matplotlib as ovm
+
+    folder = spec.study_dir / "figures"
+    folder.mkdir(exist_ok=True)
+    complete = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))
+    plots = [("history", ovm.plot_optimization_history)]
+    if len(complete) >= 2 and len(spec.space.names()) >= 2:
+        plots.append(("importances", ovm.plot_param_importances))
+    if complete:
+        plots.append(("slice", ovm.plot_slice))
+    out = []
+    optuna.logging.set_verbosity(optuna.logging.ERROR)
+    for name, plot in plots:
+        try:
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # Optuna marks its matplotlib plots experimental
+                axes = plot(study)
+        except (ValueError, RuntimeError) as exc:  # e.g. importances of a constant value
+            print(f"tune: figure {name} skipped: {exc}")
+            continue
+        figure = np.ravel(axes)[0].figure if isinstance(axes, np.ndarray) else axes.figure
+        path = folder / f"{name}.png"
+        figure.savefig(path, dpi=110, bbox_inches="tight")
+        plt.close(figure)
+        out.append(path)
+    return out
+
+
+def evaluate_held_out(spec: TuneSpec, study: Any, workers: int = 1) -> Path:
+    """The tuned configuration, the defaults and the ``compare_with`` methods on the held-out
+    test instances and seeds, as the study ``<study>-test`` in the results store (resumable:
+    stored runs are kept). Returns its directory."""
+    from ..app import execute
+
+    params, encoding = best_setting(spec, study)
+    settings = [(f"{spec.algorithm}-tuned", spec.algorithm, params, encoding),
+                (spec.algorithm, spec.algorithm, {}, spec.encoding),
+                *((name, name, {}, spec.encoding) for name in spec.compare_with)]
+    runs = []
+    for label, algorithm, hyper, enc in settings:
+        for instance in spec.test:
+            for seed in spec.test_seeds:
+                config = spec.run_config(instance, seed, algorithm=algorithm, params=hyper,
+                                         encoding=enc, study=spec.test_study,
+                                         threads=1 if workers > 1 else "auto")
+                runs.append(run_spec({**config, "label": label}))
+    if workers > 1:
+        from joblib import Parallel, delayed
+
+        Parallel(n_jobs=workers)(delayed(execute)(r, multirun=True) for r in runs)
+    else:
+        for run in runs:
+            execute(run, multirun=True)
+    return spec.results_dir / spec.test_study
+
+
+def held_out_summary(spec: TuneSpec) -> tuple[list[str], dict[str, float]]:
+    """Markdown lines comparing the tuned configuration with each other method on the test
+    instances: median ratio of ``best_f`` (paired by instance and seed), Wilcoxon p, A12."""
+    from scipy.stats import wilcoxon
+
+    from ..store import load_study
+
+    runs = load_study(spec.results_dir / spec.test_study).runs
+    runs = runs[runs.status == "ok"]
+    tuned_label = f"{spec.algorithm}-tuned"
+    wide = runs.pivot_table(index=["data", "noise", "seed"], columns="label", values="best_f")
+    lines = ["| tuned against | pairs | median ratio tuned / other | tuned better | "
+             "Wilcoxon p | A12 |", "|---|---|---|---|---|---|"]
+    headline: dict[str, float] = {}
+    for other in [c for c in wide.columns if c != tuned_label]:
+        pair = wide[[tuned_label, other]].dropna()
+        ratio = pair[tuned_label] / pair[other]
+        diff = pair[tuned_label] - pair[other]
+        p = float(wilcoxon(pair[tuned_label], pair[other]).pvalue) if (diff != 0).any() \
+            else 1.0
+        a12 = float(((pair[tuned_label].to_numpy()[:, None] < pair[other].to_numpy()[None, :])
+                     + 0.5 * (pair[tuned_label].to_numpy()[:, None]
+                              == pair[other].to_numpy()[None, :])).mean())
+        better = int((diff < 0).sum())
+        lines.append(f"| {other} | {len(pair)} | {ratio.median():.3f} | {better}/{len(pair)} "
+                     f"| {p:.2g} | {a12:.2f} |")
+        headline[other] = float(ratio.median())
+    return lines, headline
+
+
+def write_report(spec: TuneSpec, study: Any, figures: list[Path], best_config: Path,
+                 test_dir: Path | None) -> Path:
+    """``report.md`` in the study directory: the study, the best configuration, the figures
+    and (if run) the held-out comparison, with a link to its full report."""
+    from optuna.trial import TrialState
+
+    counts = {s.name: len(study.get_trials(deepcopy=False, states=(s,)))
+              for s in (TrialState.COMPLETE, TrialState.PRUNED, TrialState.FAIL)}
+    best = study.best_trial
+    lines = [f"# Tuning {spec.algorithm}: study {spec.study}", "",
+             f"{counts['COMPLETE']} complete, {counts['PRUNED']} pruned and {counts['FAIL']} "
+             f"failed trials ({spec.sampler} sampler, {spec.pruner} pruner). A trial runs "
+             f"{spec.algorithm} with {spec.budget:,} evaluations on "
+             f"{len(spec.train)} training instances x {len(spec.train_seeds)} seeds; its value "
+             f"is the mean over instances of the median `best_f` divided by the median of "
+             f"`{spec.reference}` on that instance (lower is better; 1 = as good as "
+             f"{spec.reference}).", "",
+             f"Training instances: {', '.join(i.key for i in spec.train)}. Held-out test "
+             f"instances: {', '.join(i.key for i in spec.test)} (seeds 0-"
+             f"{len(spec.test_seeds) - 1}; training seeds start at {spec.train_seeds[0]}).", "",
+             f"## Best configuration (trial {best.number}, value {best.value:.4g})", "",
+             "| parameter | value |", "|---|---|",
+             *(f"| {k} | {v!r} |" for k, v in best.params.items()), "",
+             f"As a preset: `{best_config}` —", "",
+             f"    metaknot run --config-dir {best_config.parent.parent} "
+             f"method={spec.algorithm}_tuned problem=... seed=...", ""]
+    if test_dir is not None:
+        table, _ = held_out_summary(spec)
+        lines += ["## Held out: tuned against the defaults", "",
+                  f"Study `{spec.test_study}` in the results store; full report: "
+                  f"`metaknot report {test_dir}`.", "", *table, "",
+                  "Ratios below 1 and A12 above 0.5 favour the tuned configuration; "
+                  "Wilcoxon signed-rank test paired by instance and seed.", ""]
+    if figures:
+        lines += ["## Figures", "", *(f"![{p.stem}](figures/{p.name})" for p in figures), ""]
+    path = spec.study_dir / "report.md"
+    path.write_text("\n".join(lines))
+    return path

@@ -1,0 +1,272 @@
+"""``metaknot tune``: search spaces, trials on training instances, resume, outputs, held-out
+evaluation, several workers and bad configurations."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import optuna
+import pytest
+from optuna.trial import TrialState
+
+from metaknot.experiments.spec import ConfigError, run_spec
+from metaknot.experiments.store import load_study
+from metaknot.experiments.tuning import TRAIN_SEED_OFFSET, tune, tune_spec
+from metaknot.experiments.tuning.app import CONFIG_DIR
+from metaknot.experiments.tuning.runner import (
+    evaluate_setting,
+    open_storage,
+    open_study,
+    references,
+    trial_objective,
+)
+from metaknot.experiments.tuning.space import SearchSpace
+
+#: A small study: two training instances, one seed, 300 evaluations per run.
+SMALL = ["budget=300", "train.seeds=1", "test.seeds=2",
+         "train.instances=[{curve: archimedean, noise: 0.0}, {curve: vivaldi, noise: 0.0}]",
+         "test.instances=[{curve: epitrochoid, noise: 0.0}]"]
+
+
+def compose(tmp_path: Path, *overrides: str):
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        return hydra_compose("tuning", overrides=[f"results_dir={tmp_path}", *SMALL,
+                                                  *overrides])
+
+
+def spec_of(tmp_path: Path, *overrides: str):
+    return tune_spec(compose(tmp_path, *overrides))
+
+
+def stored_trials(spec):
+    return optuna.load_study(study_name=spec.study, storage=open_storage(spec)).trials
+
+
+# --- search spaces ------------------------------------------------------------------------
+
+NAMES = {"population", "pp1", "power", "re", "epsilon", "fitness", "loops"}
+
+
+@pytest.mark.parametrize(("space", "message"), [
+    ({}, "empty"),
+    ({"pp1": {"type": "float", "low": 0.5, "high": 0.5}}, "low must be below high"),
+    ({"pp1": {"type": "float", "low": 0.6, "high": 0.1}}, "empty range"),
+    ({"speed": {"type": "float", "low": 0, "high": 1}}, "no such hyperparameter"),
+    ({"pp1": {"type": "float", "low": 0.0, "high": 1, "log": True}}, "log scale needs low > 0"),
+    ({"fitness": {"type": "categorical", "choices": []}}, "non-empty list"),
+    ({"fitness": {"type": "categorical", "choices": ["rank", "rank"]}}, "repeated"),
+    ({"population": {"type": "int", "low": 1.5, "high": 9}}, "integer for type int"),
+    ({"pp1": {"type": "uniform", "low": 0, "high": 1}}, "int, float or categorical"),
+    ({"pp1": {"type": "float", "low": 0, "high": 1, "when": {"encoding": "mask"}}},
+     "not a categorical parameter listed before"),
+    ({"encoding": {"type": "categorical", "choices": ["mask"]},
+      "re": {"type": "int", "low": 1, "high": 3, "when": {"encoding": "indices"}}},
+     "never be sampled"),
+    ({"encoding": {"type": "categorical", "choices": ["mask", "free"]}}, "choices among"),
+    ({"encoding": {"type": "categorical", "choices": ["mask", "indices"]},
+      "n_knots": {"type": "int", "low": 4, "high": 9}}, "when: {encoding: indices}"),
+])
+def test_bad_search_spaces_are_named(space, message) -> None:
+    with pytest.raises(ConfigError, match=message):
+        SearchSpace(space, NAMES, "dolphin")
+
+
+def test_conditional_parameters_are_sampled_only_when_they_apply() -> None:
+    space = SearchSpace({
+        "encoding": {"type": "categorical", "choices": ["mask", "indices"]},
+        "n_knots": {"type": "int", "low": 4, "high": 40, "log": True,
+                    "when": {"encoding": "indices"}},
+        "pp1": {"type": "float", "low": 0.05, "high": 0.5},
+    }, NAMES, "dolphin")
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=1))
+    seen = set()
+    for _ in range(40):
+        trial = study.ask()
+        values = space.suggest(trial)
+        assert ("n_knots" in values) == (values["encoding"] == "indices")
+        assert 0.05 <= values["pp1"] <= 0.5
+        if "n_knots" in values:
+            assert 4 <= values["n_knots"] <= 40 and isinstance(values["n_knots"], int)
+        seen.add(values["encoding"])
+        study.tell(trial, 0.0)
+    assert seen == {"mask", "indices"}
+
+
+def test_trial_setting_turns_space_values_into_a_problem(tmp_path) -> None:
+    spec = spec_of(tmp_path)
+    params, encoding = spec.trial_setting({"encoding": "indices", "n_knots": 12, "pp1": 0.2})
+    assert encoding == {"kind": "indices", "n_knots": 12}
+    assert params == {"pp1": 0.2}
+    params, encoding = spec.trial_setting({"encoding": "mask", "population": 30})
+    assert encoding == {"kind": "mask", "density": 0.5} and params == {"population": 30}
+
+
+# --- bad configurations: one line, before any trial ----------------------------------------
+
+@pytest.mark.parametrize(("override", "message"), [
+    ("n_trials=0", "n_trials"),
+    ("~tune.space", "empty"),
+    ("+tune.space.speed={type: float, low: 0, high: 1}", "no such hyperparameter"),
+    ("+tune.fixed.pp1=0.2", "fixed and searched at once"),
+    ("test.instances=[{curve: vivaldi, noise: 0.0}]", "also a training instance"),
+    ("train.instances=[]", "non-empty list"),
+    ("sampler=cmaes", "sampler"),
+    ("reference=nothing", "nothing"),
+    ("workers=2|storage=sqlite:///x.db", "not safe for several workers"),
+    ("grace_period=5", "longer than heartbeat_interval"),
+])
+def test_bad_configurations_are_refused_before_a_trial(tmp_path, override, message) -> None:
+    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "tune",
+                           f"results_dir={tmp_path}", *SMALL, *override.split("|")],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2, done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("metaknot tune: error:") and message in line
+    assert not (tmp_path / "tune-dolphin" / "optuna.db").exists()
+
+
+def test_an_unreachable_storage_is_one_line_and_nothing_runs(tmp_path) -> None:
+    url = "postgresql+psycopg://nobody@127.0.0.1:9/none"
+    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "tune", f"storage={url}",
+                           f"results_dir={tmp_path}", *SMALL], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 2
+    (line,) = done.stderr.strip().splitlines()
+    assert "storage: cannot open postgresql+psycopg://nobody@127.0.0.1:9/none" in line
+    assert not list(tmp_path.glob("*/runs"))
+
+
+# --- trials ----------------------------------------------------------------------------------
+
+def test_training_and_test_seeds_are_disjoint(tmp_path) -> None:
+    spec = spec_of(tmp_path, "train.seeds=5", "test.seeds=30")
+    assert spec.train_seeds == tuple(range(TRAIN_SEED_OFFSET, TRAIN_SEED_OFFSET + 5))
+    assert spec.test_seeds == tuple(range(30))
+    with pytest.raises(ConfigError, match=r"test\.seeds"):
+        spec_of(tmp_path, f"test.seeds={TRAIN_SEED_OFFSET + 1}")
+
+
+def test_a_trial_is_the_mean_ratio_to_the_reference_on_the_training_instances(tmp_path):
+    from metaknot.runner import minimize
+
+    spec = spec_of(tmp_path, "train.seeds=2", "n_trials=3", "evaluate=false")
+    tune(spec, progress=False)
+    trials = stored_trials(spec)
+    assert [t.state for t in trials] == [TrialState.COMPLETE] * 3
+    study = optuna.load_study(study_name=spec.study, storage=open_storage(spec))
+    for trial in trials:
+        params, encoding = spec.trial_setting(trial.params)
+        ratios = []
+        for instance in spec.train:
+            # the runs, redone by hand with the training seeds
+            values = []
+            for seed in spec.train_seeds:
+                run = run_spec(spec.run_config(instance, seed, params=params,
+                                               encoding=encoding))
+                values.append(minimize(run.build_problem(), run.build_optimizer(),
+                                       budget=300, seed=np.random.SeedSequence(seed, spawn_key=(1,))
+                                       ).best_f)
+            assert trial.user_attrs[f"best_f:{instance.key}"] == values
+            reference = np.median(evaluate_setting(spec, instance, spec.train_seeds,
+                                                   algorithm="averaging", params={}))
+            assert study.user_attrs[f"reference:{instance.key}"] == reference
+            ratios.append(np.median(values) / reference)
+        assert trial.value == pytest.approx(np.mean(ratios), rel=1e-12)
+        # intermediate values: the running mean after each instance (what the pruner sees)
+        running = np.cumsum(ratios) / np.arange(1, len(ratios) + 1)
+        assert [trial.intermediate_values[i] for i in range(len(ratios))] == \
+            pytest.approx(running)
+
+
+def test_a_pruned_trial_stops_after_the_instance_it_was_pruned_at(tmp_path) -> None:
+    spec = spec_of(tmp_path, "evaluate=false")
+    storage = open_storage(spec)
+    study = open_study(spec, storage)
+    study.pruner = optuna.pruners.ThresholdPruner(upper=0.0)  # prunes at the first report
+    study.optimize(trial_objective(spec, references(spec, study)), n_trials=2)
+    for trial in study.trials:
+        assert trial.state == TrialState.PRUNED
+        assert [k for k in trial.user_attrs if k.startswith("ratio:")] == \
+            [f"ratio:{spec.train[0].key}"]
+
+
+def test_resuming_adds_trials_and_keeps_the_earlier_ones(tmp_path) -> None:
+    spec = spec_of(tmp_path, "n_trials=3", "evaluate=false", "pruner=none")
+    tune(spec, progress=False)
+    before = [(t.number, t.params, t.value) for t in stored_trials(spec)]
+    tune(spec_of(tmp_path, "n_trials=5", "evaluate=false", "pruner=none"), progress=False)
+    after = [(t.number, t.params, t.value) for t in stored_trials(spec)]
+    assert len(after) == 5 and after[:3] == before
+    tune(spec_of(tmp_path, "n_trials=5", "evaluate=false", "pruner=none"), progress=False)
+    assert len(stored_trials(spec)) == 5  # already there: nothing added
+
+
+def test_a_study_with_other_settings_is_refused_and_kept(tmp_path) -> None:
+    spec = spec_of(tmp_path, "n_trials=2", "evaluate=false")
+    tune(spec, progress=False)
+    db = (tmp_path / "tune-dolphin" / "optuna.db").read_bytes()
+    with pytest.raises(ConfigError, match=r"already exists .* \(budget\)"):
+        tune(spec_of(tmp_path, "n_trials=2", "evaluate=false", "budget=400"), progress=False)
+    assert (tmp_path / "tune-dolphin" / "optuna.db").read_bytes() == db
+    assert len(stored_trials(spec)) == 2
+
+
+def test_same_seed_same_study(tmp_path) -> None:
+    studies = []
+    for name in ("a", "b"):
+        spec = spec_of(tmp_path, f"study={name}", "n_trials=4", "evaluate=false")
+        tune(spec, progress=False)
+        studies.append([(t.params, t.value) for t in stored_trials(spec)])
+    assert studies[0] == studies[1]
+
+
+# --- outputs and the held-out judgement ------------------------------------------------------
+
+def test_outputs_and_held_out_study(tmp_path) -> None:
+    spec = spec_of(tmp_path, "n_trials=4", "pruner=none")
+    written = tune(spec, progress=False)
+    study_dir = tmp_path / "tune-dolphin"
+    import pandas as pd
+
+    trials = pd.read_csv(study_dir / "trials.csv")
+    assert len(trials) == 4 and set(trials.state) == {"COMPLETE"}
+    assert pd.read_parquet(study_dir / "trials.parquet").shape[0] == 4
+    for name in ("history", "importances", "slice"):
+        assert (study_dir / "figures" / f"{name}.png").stat().st_size > 1000
+    report = (study_dir / "report.md").read_text()
+    assert "## Best configuration" in report and "figures/history.png" in report
+    assert "| dolphin | 2 |" in report and "| ga | 2 |" in report
+    # the held-out study: tuned, default and GA on the test instances and test seeds only
+    runs = load_study(written["test_study"]).runs
+    assert sorted(runs.label.unique()) == ["dolphin", "dolphin-tuned", "ga"]
+    assert set(runs.seed) == set(spec.test_seeds) and set(runs.data) == {"epitrochoid"}
+    tuned = runs[runs.label == "dolphin-tuned"].iloc[0]
+    best = written["best_params"]
+    assert tuned["algorithm.population"] == best["population"]
+    # the preset runs through metaknot run and gives the same record as the held-out run
+    done = subprocess.run(
+        [sys.executable, "-m", "metaknot.cli", "run", "--config-dir", str(study_dir / "conf"),
+         "method=dolphin_tuned", "problem=epitrochoid", "seed=0", "budget=300",
+         f"results_dir={tmp_path}", "study=again"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    again = load_study(tmp_path / "again").runs.iloc[0]
+    first = runs[(runs.label == "dolphin-tuned") & (runs.seed == 0)].iloc[0]
+    assert again.label == "dolphin-tuned" and again.run_id == first.run_id
+    assert again.best_f == first.best_f
+
+
+@pytest.mark.slow
+def test_two_workers_on_a_journal_storage(tmp_path) -> None:
+    spec = spec_of(tmp_path, "n_trials=8", "workers=2", "evaluate=false", "pruner=none")
+    tune(spec, progress=False)
+    trials = stored_trials(spec)
+    assert (tmp_path / "tune-dolphin" / "optuna.journal").exists()
+    finished = [t for t in trials if t.state == TrialState.COMPLETE]
+    assert 8 <= len(finished) <= 9  # the other worker may finish the trial it was running
+    assert len({t.number for t in trials}) == len(trials)
