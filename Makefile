@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test chromium lint bench seed-paper clean
+.PHONY: demo test chromium postgres lint bench seed-paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,13 +16,18 @@ demo: $(STAMP)  ## a small study (DE, GA, random search on the seed curves), the
 	$(BIN)/metaknot run -m experiment=smoke launcher=joblib
 	$(BIN)/metaknot report results/smoke
 
-test: $(STAMP) chromium  ## the whole test suite (slow studies at CI size)
+test: $(STAMP) chromium postgres  ## the whole test suite (slow studies at CI size)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -q
 
 chromium:  ## the headless browser the report test opens report.html in (Debian's chromium)
 	@command -v chromium >/dev/null || { apt-get update -q && \
 	  apt-get install -y -q --no-install-recommends chromium; } || \
 	  { echo "install Debian's chromium (apt-get install chromium) for the report test"; exit 1; }
+
+postgres:  ## the PostgreSQL server the distributed-tuning test starts on 127.0.0.1 (Debian's postgresql)
+	@ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || { apt-get update -q && \
+	  apt-get install -y -q --no-install-recommends postgresql; } || \
+	  { echo "install Debian's postgresql (apt-get install postgresql) for the tuning test"; exit 1; }
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
