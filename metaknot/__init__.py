@@ -10,6 +10,7 @@ The public API::
 
 from .budget import BudgetExhausted, Evaluator
 from .callbacks import Callback, Progress, ProgressBar, RunStart, Trace, TraceRecorder
+from .front import ParetoArchive, hypervolume_2d, nondominated_mask
 from .optimizer import Optimizer, check_param
 from .problem import Encoding, Problem
 from .registry import (
@@ -31,6 +32,7 @@ __all__ = [
     "Encoding",
     "Evaluator",
     "Optimizer",
+    "ParetoArchive",
     "Problem",
     "Progress",
     "ProgressBar",
@@ -44,7 +46,9 @@ __all__ = [
     "check_param",
     "get_optimizer",
     "get_problem",
+    "hypervolume_2d",
     "make_rng",
     "minimize",
+    "nondominated_mask",
     "register",
 ]

@@ -241,7 +241,7 @@ def test_outputs_and_held_out_study(tmp_path) -> None:
         assert (study_dir / "figures" / f"{name}.png").stat().st_size > 1000
     report = (study_dir / "report.md").read_text()
     assert "## Best configuration" in report and "figures/history.png" in report
-    assert "| dolphin | 2 |" in report and "| ga | 2 |" in report
+    assert "| best_f | dolphin | 2 |" in report and "| rmse | ga | 2 |" in report
     # the held-out study: tuned, default and GA on the test instances and test seeds only
     runs = load_study(written["test_study"]).runs
     assert sorted(runs.label.unique()) == ["dolphin", "dolphin-tuned", "ga"]

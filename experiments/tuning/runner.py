@@ -99,6 +99,7 @@ def open_study(spec: TuneSpec, storage: Any, worker_index: int = 0) -> Any:
     settings (search space, instances, budget, ...) is refused, never overwritten."""
     import optuna
 
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
     study = optuna.create_study(study_name=spec.study, storage=storage,
                                 sampler=_sampler(spec, worker_index), pruner=_pruner(spec),
                                 direction="minimize", load_if_exists=True)
