@@ -256,3 +256,31 @@ def test_a_study_of_fronts_end_to_end(tmp_path) -> None:
         assert len(part) == run.front_size
         F = part[["objective_0", "objective_1"]].to_numpy()
         assert 1 - run.best_f == pytest.approx(hypervolume_2d(F, (1, 1)))
+
+
+def test_report_draws_each_method_s_front(tmp_path) -> None:
+    from metaknot.experiments.app import execute
+    from metaknot.experiments.report import figures as f
+    from metaknot.experiments.report.data import prepare
+    from metaknot.experiments.spec import run_spec
+
+    problem = KnotSelection(get_curve("archimedean", n_points=80), objective="pareto")
+    for optimizer in ("random_search", "averaging"):
+        for seed in range(3):
+            execute(run_spec({
+                "study": "fronts", "results_dir": str(tmp_path),
+                "problem": {"curve": "archimedean", "n_points": 80},
+                "encoding": {"kind": "mask"}, "objective": {"name": "pareto"},
+                "algorithm": {"_name_": optimizer}, "budget": 300, "seed": seed,
+                "threads": 1, "progress": False}), multirun=True)
+    comparison = prepare(tmp_path / "fronts")
+    figure = f.front_figure(comparison, comparison.instances[0])
+    steps = [line for line in figure.axes[0].get_lines() if "front" in line.get_label()]
+    labels = sorted(line.get_label() for line in steps)
+    assert labels == ["FITPACK (splprep) front", "averaging (median-hypervolume run's front)",
+                      "random_search (median-hypervolume run's front)"]
+    drawn = {line.get_label(): line.get_xydata() for line in steps}
+    averaging = drawn["averaging (median-hypervolume run's front)"]
+    stored = mk.minimize(problem, "averaging", budget=300, seed=0).front  # deterministic
+    np.testing.assert_allclose(averaging[:, 0], stored["n_control_points"])
+    np.testing.assert_allclose(averaging[:, 1], stored["rmse"])

@@ -157,8 +157,9 @@ def _draw(comparison: Comparison, friedman: dict[str, FriedmanResult], metrics: 
                       lambda i=instance: f.ecdf_figure(comparison, [i],
                                                        f"{i}: targets reached")))
         plans.append((f"front-{slug}", f"{instance}: control points against RMSE",
-                      "One dot per run; the line is FITPACK's own smoothing fits over a range "
-                      "of smoothing factors. A dot below the line beats FITPACK at that size.",
+                      "One dot per run (for the objective pareto: the front of each method's "
+                      "median run); the grey line is FITPACK's own smoothing fits over a range "
+                      "of smoothing factors. Below the line beats FITPACK at that size.",
                       lambda i=instance: f.front_figure(comparison, i)))
         plans.append((f"curves-{slug}", f"{instance}: fitted curves",
                       "The median run (by objective) of each method at its largest budget, "

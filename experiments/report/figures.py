@@ -206,11 +206,24 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
     front = fitpack_front(problem)
     ax.plot(front.n_control_points, front.rmse, "-", color="0.3", lw=1.2, marker=".",
             label="FITPACK (splprep) front")
+    has_fronts = "front" in runs and runs["front"].map(lambda v: isinstance(v, str)).any()
     for method in comparison.methods:
         part = runs[runs.method == method]
-        if len(part):
+        if not len(part):
+            continue
+        fronts = part[part["front"].map(lambda v: isinstance(v, str))] if has_fronts \
+            else part.iloc[:0]
+        if len(fronts):  # a front per run (objective pareto): the median run's front
+            median_front = json.loads(_median_run(fronts)["front"])
+            ax.step(median_front["n_control_points"], median_front["rmse"], where="post", lw=1.2,
+                    color=colours[method], label=f"{method} (median-hypervolume run's front)")
+        else:
             ax.scatter(part.n_control_points, part.rmse, s=12, alpha=0.6,
                        color=colours[method], label=method, edgecolors="none")
+    if has_fronts:
+        members = pd.concat([pd.DataFrame(json.loads(v)) for v in runs["front"]
+                             if isinstance(v, str)])
+        runs = pd.concat([runs, members[["n_control_points", "rmse"]]])
     ax.set_yscale("log")
     lo, hi = runs.n_control_points.min(), runs.n_control_points.max()
     left, right = max(0, lo - 0.15 * (hi - lo + 4)), hi + 0.15 * (hi - lo + 4)
