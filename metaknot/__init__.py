@@ -23,6 +23,7 @@ from .registry import (
 from .result import RunResult
 from .runner import make_rng, minimize
 from .task import Task
+from .tolerance_fit import ToleranceFit, fit
 
 __version__ = "0.1.0"
 
@@ -39,11 +40,13 @@ __all__ = [
     "RunResult",
     "RunStart",
     "Task",
+    "ToleranceFit",
     "Trace",
     "TraceRecorder",
     "available_optimizers",
     "available_problems",
     "check_param",
+    "fit",
     "get_optimizer",
     "get_problem",
     "hypervolume_2d",

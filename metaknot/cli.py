@@ -1,5 +1,6 @@
 """Command line: ``metaknot run`` (Hydra runs and sweeps into the results store), ``metaknot
-tune`` (hyperparameter studies with Optuna), ``metaknot report`` (statistical comparison of a
+tune`` (hyperparameter studies with Optuna), ``metaknot fit`` (a user's points within a
+tolerance), ``metaknot report`` (statistical comparison of a
 stored study), ``metaknot demo`` (optimizers on the seed
 curves), ``metaknot list``."""
 
@@ -8,6 +9,8 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+
+import numpy as np
 
 from .registry import available_optimizers, available_problems
 from .runner import minimize
@@ -65,6 +68,23 @@ def build_parser() -> argparse.ArgumentParser:
     demo.set_defaults(func=_demo)
     lst = sub.add_parser("list", help="registered problems and optimizers")
     lst.set_defaults(func=_list)
+    fit = sub.add_parser(
+        "fit", help="a user's points to the fewest control points within a tolerance",
+        description="Fit a clamped B-spline with the fewest control points whose error stays "
+                    "within the tolerance (never more than FITPACK's splprep needs), and write "
+                    "knots, control points, metrics, a figure and a DXF file.")
+    fit.add_argument("points", help="a .csv (numbers only, one point per row) or .npy file")
+    fit.add_argument("--tol", type=float, required=True, help="the tolerance")
+    fit.add_argument("--relative", action="store_true",
+                     help="--tol is a fraction of the bounding-box diagonal")
+    fit.add_argument("--metric", choices=["max_deviation", "rmse"], default="max_deviation")
+    fit.add_argument("--function", action="store_true",
+                     help="the first column is x, the others f(x); x is the parameter")
+    fit.add_argument("--degree", type=int, default=3)
+    fit.add_argument("--parameterization", choices=["centripetal", "chord", "uniform"],
+                     default="centripetal")
+    fit.add_argument("--out", default=None, help="output folder (default: <points>-fit)")
+    fit.set_defaults(func=_fit)
     report = sub.add_parser("report", help="statistical comparison report of a stored study",
                             description="Tables, tests and figures of a study in the results "
                                         "store, as report.html (self-contained), report.md, "
@@ -86,6 +106,89 @@ def build_parser() -> argparse.ArgumentParser:
                    help="hyperparameter study with Optuna: tune=dolphin n_trials=100 "
                         "(metaknot tune --help lists the settings)")
     return parser
+
+
+def read_points(path: str) -> np.ndarray:
+    """Points from a ``.npy`` file or a CSV file of numbers only (comma- or
+    whitespace-separated, one point per row).
+
+    Raises
+    ------
+    ValueError
+        Naming the file, and the row and column of a cell that is not a number.
+    """
+    from pathlib import Path
+
+    file = Path(path)
+    if not file.is_file():
+        raise ValueError(f"{path}: no such file")
+    if file.suffix.lower() == ".npy":
+        try:
+            data = np.load(file, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
+        if not np.issubdtype(data.dtype, np.number):
+            raise ValueError(f"{path}: values must be numbers; got dtype {data.dtype}")
+        return np.asarray(data, dtype=np.float64)
+    try:
+        lines = file.read_text().splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: cannot be read as text ({exc})") from None
+    rows = []
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        cells = line.replace(",", " ").split()
+        try:
+            rows.append([float(cell) for cell in cells])
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            hint = " (a header line? remove it)" if number == 1 else ""
+            raise ValueError(f"{path}: row {number}: {bad!r} is not a number{hint}") from None
+        if len(rows[-1]) != len(rows[0]):
+            raise ValueError(f"{path}: row {number} has {len(rows[-1])} columns, the first "
+                             f"row {len(rows[0])}")
+    if not rows:
+        raise ValueError(f"{path}: no points")
+    return np.array(rows)
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def _fit(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from .fit_output import write_fit
+    from .tolerance_fit import fit
+
+    points = read_points(args.points)
+    if args.function and (points.ndim != 2 or points.shape[1] < 2):
+        raise ValueError(f"--function: {args.points} needs two or more columns (x, f(x)); it "
+                         f"has {1 if points.ndim == 1 else points.shape[1]}")
+    n, dims = points.shape[0], points.shape[1] - (1 if args.function else 0)
+    print(f"read {n} points ({dims}-D{', function of x' if args.function else ''}) from "
+          f"{args.points}", flush=True)
+    result = fit(points, args.tol, relative=args.relative, metric=args.metric,
+                 function=args.function, degree=args.degree,
+                 parameterization=args.parameterization)
+    for stage in result.stages:
+        print(stage, flush=True)
+    out = Path(args.out) if args.out else Path(args.points).with_name(
+        Path(args.points).stem + "-fit")
+    written = write_fit(result, points[:, 1:] if args.function else points, out)
+    m = result.metrics
+    print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
+          f"{result.fitpack['n_control_points']}), max deviation {m['max_deviation']:.4g}, "
+          f"RMSE {m['rmse']:.4g} (tolerance {result.tolerance:.4g} on {result.metric}), "
+          f"{m['seconds']:.2f} s")
+    print(f"wrote {len(written)} files to {out}")
+    return 0
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -114,7 +217,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except ValueError as exc:
+    except (ValueError, FileExistsError) as exc:
         print(f"metaknot: error: {exc}", file=sys.stderr)
         return 2
 

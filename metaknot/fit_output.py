@@ -1,0 +1,121 @@
+"""Files of a :class:`~metaknot.tolerance_fit.ToleranceFit` (``metaknot fit --out DIR``).
+
+``fit.json`` (knots, control points, degree, metrics, FITPACK's answer, the method),
+``knots.csv``, ``control_points.csv``, ``metrics.json``, ``fit.png`` / ``fit.svg`` (the data,
+the fitted curve and its knots) and ``fit.dxf`` (the curve as a DXF SPLINE entity, for CAD
+tools). All files are written to a temporary folder first and moved into place together, so a
+failure leaves no partial output.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .tolerance_fit import ToleranceFit
+
+__all__ = ["FILES", "write_fit"]
+
+FILES = ("fit.json", "knots.csv", "control_points.csv", "metrics.json", "fit.png", "fit.svg",
+         "fit.dxf")
+
+
+def _summary(result: ToleranceFit) -> dict:
+    return {
+        "degree": result.degree, "method": result.method, "metric": result.metric,
+        "tolerance": result.tolerance, "knots": result.knots.tolist(),
+        "control_points": result.control_points.tolist(), "metrics": result.metrics,
+        "fitpack": result.fitpack,
+    }
+
+
+def _figure(result: ToleranceFit, points: np.ndarray, folder: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    u = result.params
+    dense = np.linspace(u[0], u[-1], max(2000, 8 * len(u)))
+    curve = result.spline(dense)
+    knots = result.spline(np.unique(result.knots))
+    fig, ax = plt.subplots(figsize=(6.5, 5), constrained_layout=True)
+    if points.shape[1] == 1:  # function data: x against f(x)
+        ax.plot(u, points[:, 0], ".", ms=3, color="0.55", label="data")
+        ax.plot(dense, curve[:, 0], "-", lw=1.3, color="C0", label="fit")
+        ax.plot(np.unique(result.knots), knots[:, 0], "o", ms=4, mfc="none", color="C3",
+                label="knots")
+        ax.set_xlabel("x")
+    else:
+        ax.plot(points[:, 0], points[:, 1], ".", ms=3, color="0.55", label="data")
+        ax.plot(curve[:, 0], curve[:, 1], "-", lw=1.3, color="C0", label="fit")
+        ax.plot(knots[:, 0], knots[:, 1], "o", ms=4, mfc="none", color="C3", label="knots")
+        ax.set_aspect("equal", adjustable="datalim")
+    m = result.metrics
+    ax.set_title(f"{m['n_control_points']} control points ({result.method}; FITPACK: "
+                 f"{result.fitpack['n_control_points']}), max deviation "
+                 f"{m['max_deviation']:.3g}, tolerance {result.tolerance:.3g}", fontsize=9)
+    ax.legend(fontsize=8)
+    for suffix in ("png", "svg"):
+        fig.savefig(folder / f"fit.{suffix}", dpi=120)
+    plt.close(fig)
+
+
+def _dxf(result: ToleranceFit, path: Path) -> None:
+    import ezdxf
+
+    doc = ezdxf.new("R2010")
+    control = result.control_points
+    if control.shape[1] == 1:  # function data: the plane curve (x(u), f(u)) with x(u) = u,
+        # a spline whose coefficients are the Greville abscissae (exact for clamped knots)
+        k = result.degree
+        greville = np.array([result.knots[i + 1 : i + k + 1].mean()
+                             for i in range(len(control))])
+        control = np.column_stack((greville, control[:, 0]))
+    if control.shape[1] == 2:
+        control = np.column_stack((control, np.zeros(len(control))))
+    doc.modelspace().add_open_spline(control[:, :3].tolist(), degree=result.degree,
+                                     knots=result.knots.tolist())
+    doc.saveas(path)
+
+
+def write_fit(result: ToleranceFit, points: np.ndarray, out: str | Path) -> list[Path]:
+    """Write every output file of ``result`` into ``out`` (created if needed).
+
+    Raises
+    ------
+    FileExistsError
+        If ``out`` already holds one of the files (nothing is overwritten).
+    """
+    out = Path(out)
+    clash = [name for name in FILES if (out / name).exists()]
+    if clash:
+        raise FileExistsError(f"{out} already holds {clash[0]}; choose another --out folder")
+    out.mkdir(parents=True, exist_ok=True)
+    points = np.asarray(points, dtype=np.float64)
+    points = points[:, None] if points.ndim == 1 else points
+    with tempfile.TemporaryDirectory(dir=out, prefix=".fit-") as scratch:
+        folder = Path(scratch)
+        summary = _summary(result)
+        (folder / "fit.json").write_text(json.dumps(summary, indent=1))
+        (folder / "metrics.json").write_text(json.dumps(
+            {**result.metrics, "method": result.method, "tolerance": result.tolerance,
+             "metric": result.metric, "fitpack": result.fitpack}, indent=1))
+        np.savetxt(folder / "knots.csv", result.knots[:, None], delimiter=",", header="knot",
+                   comments="")
+        dims = result.control_points.shape[1]
+        header = ",".join(("x", "y", "z")[:dims] if dims <= 3 else
+                          [f"c{i}" for i in range(dims)])
+        np.savetxt(folder / "control_points.csv", result.control_points, delimiter=",",
+                   header=header, comments="")
+        _figure(result, points, folder)
+        _dxf(result, folder / "fit.dxf")
+        written = []
+        for name in FILES:
+            shutil.move(folder / name, out / name)
+            written.append(out / name)
+    return written

@@ -1,0 +1,190 @@
+"""``metaknot fit`` / ``metaknot.fit``: within tolerance, never more control points than
+FITPACK, locally minimal, written to files, and bad input named."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.interpolate import make_lsq_spline, splev, splprep
+
+import metaknot as mk
+from metaknot.bspline import parameterize
+from metaknot.problems import get_curve
+
+PEAK_X = np.linspace(0.0, 1.0, 300)
+PEAK = np.column_stack((PEAK_X, np.exp(-((PEAK_X - 0.5) / 0.03) ** 2) + 0.2 * PEAK_X))
+
+
+def max_deviation(spline, u, points) -> float:
+    fitted = spline(u).reshape(len(u), -1)
+    return float(np.linalg.norm(points.reshape(len(u), -1) - fitted, axis=1).max())
+
+
+@pytest.mark.parametrize("curve", ["archimedean", "vivaldi"])
+def test_fit_is_within_tolerance_and_beats_fitpack(curve: str) -> None:
+    points = get_curve(curve).points
+    result = mk.fit(points, 1e-3, relative=True)
+    diagonal = np.linalg.norm(points.max(axis=0) - points.min(axis=0))
+    assert result.tolerance == pytest.approx(1e-3 * diagonal)
+    u = parameterize(points, "centripetal")
+    np.testing.assert_allclose(result.params, u)
+    assert max_deviation(result.spline, u, points) <= result.tolerance
+    assert result.metrics["max_deviation"] == pytest.approx(
+        max_deviation(result.spline, u, points), rel=1e-9)
+    # FITPACK's answer, checked with splprep itself at the reported s
+    (t, c, k), _ = splprep(points.T, u=u, k=3, s=result.fitpack["s"], full_output=1,
+                           quiet=1)[0]
+    assert len(t) - 4 == result.fitpack["n_control_points"]
+    fitted = np.column_stack(splev(u, (t, c, k)))
+    assert np.linalg.norm(points - fitted, axis=1).max() <= result.tolerance
+    assert result.method == "knot removal"
+    assert result.n_control_points < result.fitpack["n_control_points"]
+
+
+def test_the_spline_is_the_least_squares_fit_on_its_knots() -> None:
+    points = get_curve("vivaldi").points
+    result = mk.fit(points, 2e-3, relative=True)
+    reference = make_lsq_spline(result.params, points, result.knots, k=3)
+    np.testing.assert_allclose(result.control_points, reference.c, rtol=1e-9, atol=1e-12)
+
+
+def test_no_single_knot_can_be_removed() -> None:
+    points = get_curve("archimedean", n_points=60).points
+    result = mk.fit(points, 2e-3, relative=True)
+    u, t, k = result.params, result.knots, result.degree
+    interior = t[k + 1 : len(t) - k - 1]
+    for j in range(len(interior)):
+        fewer = np.concatenate((t[: k + 1], np.delete(interior, j), t[len(t) - k - 1 :]))
+        try:
+            spline = make_lsq_spline(u, points, fewer, k=k)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        assert max_deviation(spline, u, points) > result.tolerance
+
+
+def test_rmse_metric() -> None:
+    points = get_curve("vivaldi").points
+    result = mk.fit(points, 5e-4, relative=True, metric="rmse")
+    u = result.params
+    rmse = np.sqrt(np.mean(np.sum((points - result.spline(u)) ** 2, axis=1)))
+    assert rmse <= result.tolerance and result.metric == "rmse"
+    assert result.metrics["rmse"] == pytest.approx(rmse, rel=1e-9)
+
+
+def test_function_data_uses_x_as_the_parameter() -> None:
+    result = mk.fit(PEAK, 1e-3, function=True)
+    np.testing.assert_array_equal(result.params, PEAK_X)
+    assert np.abs(result.spline(PEAK_X)[:, 0] - PEAK[:, 1]).max() <= 1e-3
+    assert result.n_control_points <= result.fitpack["n_control_points"]
+
+
+def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> None:
+    from metaknot import tolerance_fit
+
+    monkeypatch.setattr(tolerance_fit._Search, "remove", lambda self, knots: knots)
+    monkeypatch.setattr(tolerance_fit._Search, "fewest_averaging", lambda self, upper: None)
+    points = get_curve("archimedean").points
+    result = mk.fit(points, 1e-3, relative=True)
+    assert result.method == "fitpack"
+    assert result.n_control_points == result.fitpack["n_control_points"]
+    assert max_deviation(result.spline, result.params, points) <= result.tolerance
+
+
+@pytest.mark.parametrize(("points", "kwargs", "message"), [
+    (np.array([[0.0, 0], [1, 1], [np.nan, 2], [3, 3], [4, 5], [5, 1]]), {}, "row 3"),
+    (np.array([[0.0, 0], [1, 1], [2, 0], [3, 3]]), {}, "too few for degree 3"),
+    (np.array([[0.0, 0], [1, 1], [1, 1], [3, 3], [4, 5], [5, 1]]), {}, "repeats the point"),
+    (PEAK, {"tol": 0.0}, "tolerance must be a number > 0"),
+    (PEAK, {"tol": -1.0}, "tolerance must be a number > 0"),
+    (PEAK, {"tol": 1e-30}, "below what interpolation reaches"),
+    (PEAK[::-1], {"function": True}, "x must increase strictly"),
+    (PEAK[:, :1], {"function": True}, "at least two columns"),
+    (PEAK, {"metric": "mean"}, "metric"),
+])
+def test_bad_input_is_named(points, kwargs, message) -> None:
+    kwargs = {"tol": 1e-3, **kwargs}
+    with pytest.raises(ValueError, match=message):
+        mk.fit(points, **kwargs)
+
+
+def run_fit(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "metaknot.cli", "fit", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_command_writes_every_file(tmp_path) -> None:
+    import ezdxf
+
+    points = get_curve("vivaldi").points
+    np.savetxt(tmp_path / "curve.csv", points, delimiter=",")
+    done = run_fit("curve.csv", "--tol", "1e-3", "--relative", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "FITPACK:" in done.stdout and "result:" in done.stdout
+    out = tmp_path / "curve-fit"
+    summary = json.loads((out / "fit.json").read_text())
+    from scipy.interpolate import BSpline
+
+    spline = BSpline(np.array(summary["knots"]), np.array(summary["control_points"]), 3)
+    u = parameterize(points, "centripetal")
+    assert max_deviation(spline, u, points) <= summary["tolerance"]
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["n_control_points"] == len(summary["control_points"])
+    np.testing.assert_allclose(np.loadtxt(out / "knots.csv", skiprows=1), summary["knots"])
+    np.testing.assert_allclose(np.loadtxt(out / "control_points.csv", delimiter=",",
+                                          skiprows=1), summary["control_points"])
+    assert (out / "fit.png").stat().st_size > 1000 and "<svg" in (out / "fit.svg").read_text()
+    (entity,) = ezdxf.readfile(out / "fit.dxf").modelspace().query("SPLINE")
+    np.testing.assert_allclose(np.array(entity.control_points), summary["control_points"])
+    np.testing.assert_allclose(list(entity.knots), summary["knots"])
+    assert entity.dxf.degree == 3
+    # a second run into the same folder overwrites nothing
+    again = run_fit("curve.csv", "--tol", "1e-3", "--relative", cwd=tmp_path)
+    assert again.returncode == 2 and "already holds" in again.stderr
+
+
+def test_function_data_as_a_plane_curve_in_dxf(tmp_path) -> None:
+    import ezdxf
+    from scipy.interpolate import BSpline
+
+    np.save(tmp_path / "peak.npy", PEAK)
+    done = run_fit("peak.npy", "--tol", "1e-3", "--function", "--out", "f", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    (entity,) = ezdxf.readfile(tmp_path / "f" / "fit.dxf").modelspace().query("SPLINE")
+    knots = np.array(list(entity.knots))
+    control = np.array(entity.control_points)
+    curve = BSpline(knots, control[:, :2], 3)
+    x = np.linspace(0, 1, 101)
+    fitted = curve(x)
+    np.testing.assert_allclose(fitted[:, 0], x, atol=1e-12)  # x(u) = u
+    f = BSpline(knots, np.array(json.loads((tmp_path / "f" / "fit.json").read_text())
+                                ["control_points"]), 3)
+    np.testing.assert_allclose(fitted[:, 1], f(x)[:, 0], atol=1e-12)
+
+
+@pytest.mark.parametrize(("content", "args", "message"), [
+    ("x,y\n0,0\n1,1\n2,0\n3,1\n4,0\n", [], "row 1: 'x' is not a number (a header line?"),
+    ("0,0\n1,1\n2,zero\n3,1\n4,0\n", [], "row 3: 'zero' is not a number"),
+    ("0,0\n1,1\n2\n3,1\n4,0\n", [], "row 3 has 1 columns"),
+    ("0,0\n1,1\n2,nan\n3,1\n4,0\n5,2\n", [], "row 3"),
+    ("0\n1\n2\n3\n4\n5\n", ["--function"], "--function"),
+    ("0,0\n1,1\n2,0\n3,1\n4,0\n5,2\n", ["--tol", "0"], "tolerance must be a number > 0"),
+])
+def test_bad_files_are_one_line_errors_and_leave_nothing(tmp_path, content, args,
+                                                          message) -> None:
+    (tmp_path / "pts.csv").write_text(content)
+    tol = [] if "--tol" in args else ["--tol", "0.01"]
+    done = run_fit("pts.csv", *tol, *args, cwd=tmp_path)
+    assert done.returncode == 2
+    (line,) = done.stderr.strip().splitlines()
+    assert message in line
+    assert not (tmp_path / "pts-fit").exists() or not any((tmp_path / "pts-fit").iterdir())
+
+
+def test_a_missing_file_is_named(tmp_path) -> None:
+    done = run_fit("nothing.csv", "--tol", "0.01", cwd=tmp_path)
+    assert done.returncode == 2 and "nothing.csv: no such file" in done.stderr
