@@ -47,7 +47,8 @@ class Progress:
         Best objective value so far.
     batch_f
         Objective values of this batch (evaluations ``n_evaluations - len(batch_f) + 1`` to
-        ``n_evaluations``).
+        ``n_evaluations``); for a two-objective problem, the front's hypervolume gap after
+        each candidate.
     elapsed
         Seconds since the evaluator was created.
     batch_metrics
