@@ -270,3 +270,25 @@ def test_two_workers_on_a_journal_storage(tmp_path) -> None:
     finished = [t for t in trials if t.state == TrialState.COMPLETE]
     assert 8 <= len(finished) <= 9  # the other worker may finish the trial it was running
     assert len({t.number for t in trials}) == len(trials)
+
+
+@pytest.mark.parametrize("pruner", ["median", "percentile", "successive_halving", "hyperband",
+                                    "none"])
+def test_every_pruner_runs_a_study(tmp_path, pruner) -> None:
+    spec = spec_of(tmp_path, f"pruner={pruner}", "n_trials=7", "evaluate=false")
+    tune(spec, progress=False)
+    study = optuna.load_study(study_name=spec.study, storage=open_storage(spec))
+    expected = {"median": optuna.pruners.MedianPruner, "none": optuna.pruners.NopPruner,
+                "percentile": optuna.pruners.PercentilePruner,
+                "successive_halving": optuna.pruners.SuccessiveHalvingPruner,
+                "hyperband": optuna.pruners.HyperbandPruner}[pruner]
+    assert isinstance(open_study(spec, open_storage(spec)).pruner, expected)
+    finished = [t for t in study.trials
+                if t.state in (TrialState.COMPLETE, TrialState.PRUNED)]
+    assert len(finished) == 7
+    for trial in finished:
+        ran = [k for k in trial.user_attrs if k.startswith("ratio:")]
+        if trial.state == TrialState.COMPLETE:  # a complete trial ran every instance
+            assert len(ran) == 2
+        else:  # a pruned one stopped at the instance its last intermediate value is from
+            assert pruner != "none" and len(ran) == max(trial.intermediate_values) + 1

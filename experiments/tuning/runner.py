@@ -89,9 +89,17 @@ def _sampler(spec: TuneSpec, worker_index: int) -> Any:
 def _pruner(spec: TuneSpec) -> Any:
     import optuna
 
-    if spec.pruner == "none":
-        return optuna.pruners.NopPruner()
-    return optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1)
+    steps = len(spec.train)
+    return {
+        "none": lambda: optuna.pruners.NopPruner(),
+        "median": lambda: optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=1),
+        "percentile": lambda: optuna.pruners.PercentilePruner(25.0, n_startup_trials=5,
+                                                              n_warmup_steps=1),
+        "successive_halving": lambda: optuna.pruners.SuccessiveHalvingPruner(
+            min_resource=1, reduction_factor=2),
+        "hyperband": lambda: optuna.pruners.HyperbandPruner(
+            min_resource=1, max_resource=steps, reduction_factor=2),
+    }[spec.pruner]()
 
 
 def open_study(spec: TuneSpec, storage: Any, worker_index: int = 0) -> Any:

@@ -27,7 +27,7 @@ __all__ = ["TRAIN_SEED_OFFSET", "Instance", "TuneSpec", "tune_spec"]
 #: ``n <= TRAIN_SEED_OFFSET``: the two never meet.
 TRAIN_SEED_OFFSET = 1_000_000
 SAMPLERS = ("tpe", "random")
-PRUNERS = ("median", "none")
+PRUNERS = ("median", "percentile", "successive_halving", "hyperband", "none")
 KEYS = {"study", "results_dir", "tune", "n_trials", "timeout", "workers", "worker_index",
         "storage", "seed", "sampler", "pruner", "budget", "objective", "reference",
         "train", "test", "compare_with", "evaluate", "heartbeat_interval", "grace_period",
