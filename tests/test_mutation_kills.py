@@ -757,3 +757,22 @@ def test_knots_go_to_the_nearest_interior_data_point(kind):
             np.testing.assert_array_equal(candidate, nearest)
         else:
             np.testing.assert_array_equal(np.flatnonzero(candidate) + 1, nearest)
+
+
+def test_fitpack_unreachable_count_is_brought_to_k_between_the_range_ends():
+    data = get_curve("archimedean", n_points=40)
+    problem = FreeKnots(data, n_knots=33)  # a count FITPACK never chooses on these data
+    opt = FitpackKnots()
+    set_up(opt, problem)
+    rows = []
+    while len(X := opt.ask()):
+        rows.extend(X)
+    reference = FitpackKnots()
+    set_up(reference, problem)
+    found = reference.search({33})
+    assert 33 not in found
+    u = problem.params
+    above = min(c for c in found if c > 33)
+    below = max(c for c in found if c < 33)
+    np.testing.assert_allclose(rows[0], bl.with_count(found[above][1], 33, u[0], u[-1]))
+    np.testing.assert_allclose(rows[1], bl.with_count(found[below][1], 33, u[0], u[-1]))
