@@ -1,0 +1,148 @@
+"""Closed curves: periodic B-splines fitted by least squares.
+
+A closed outline Q_0..Q_{N-1} (the last point is *not* a repeat of the first) is parameterized
+over one period [0, 1), the closing chord Q_{N-1} -> Q_0 included. A periodic spline of degree p
+with breakpoints 0 = t_0 < t_1 < ... < t_{m-1} < 1 has m control points; its knot vector is the
+breakpoints extended by p periodic copies on each side (``m + 2p + 1`` knots, FITPACK's
+``splprep(per=1)`` layout) and its ``m + p`` coefficients repeat the first p at the end, so the
+curve and its first p - 1 derivatives are continuous across the seam.
+
+This module is the reference implementation (dense least squares on the wrapped design matrix,
+checked against FITPACK's periodic least-squares spline, ``splprep(per=1, task=-1)``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.interpolate import BSpline
+
+from .parameterize import check_degree
+
+__all__ = ["PeriodicFit", "closed_parameterize", "fit_periodic", "periodic_errors",
+           "periodic_knot_vector"]
+
+EXPONENTS = {"uniform": 0.0, "chord": 1.0, "centripetal": 0.5}
+
+
+def closed_parameterize(points: ArrayLike, method: str = "centripetal") -> np.ndarray:
+    """Parameter values in [0, 1) of a closed outline (the closing chord included).
+
+    Raises
+    ------
+    ValueError
+        For an unknown method, fewer than 3 points, or consecutive repeated points (the
+        closing pair included).
+    """
+    if method not in EXPONENTS:
+        raise ValueError(f"parameterization must be one of {', '.join(EXPONENTS)}; "
+                         f"got {method!r}")
+    q = np.asarray(points, dtype=np.float64)
+    q = q[:, None] if q.ndim == 1 else q
+    if q.shape[0] < 3:
+        raise ValueError(f"a closed curve needs at least 3 points; got {q.shape[0]}")
+    chords = np.linalg.norm(np.diff(np.vstack((q, q[:1])), axis=0), axis=1)
+    if (chords == 0).any():
+        i = int(np.argmax(chords == 0))
+        raise ValueError(f"point {(i + 1) % len(q)} repeats point {i}; a closed outline "
+                         "lists each point once (do not repeat the first at the end)")
+    steps = chords ** EXPONENTS[method]
+    return np.concatenate(([0.0], np.cumsum(steps[:-1]))) / steps.sum()
+
+
+def periodic_knot_vector(interior: ArrayLike, degree: int = 3) -> np.ndarray:
+    """The extended knot vector of a periodic spline on [0, 1) whose breakpoints are 0 and
+    the sorted ``interior`` knots (all in (0, 1))."""
+    p = check_degree(degree)
+    inner = np.sort(np.asarray(interior, dtype=np.float64).ravel())
+    if inner.size and (inner[0] <= 0.0 or inner[-1] >= 1.0 or (np.diff(inner) <= 0).any()):
+        raise ValueError("interior knots of a periodic spline must be distinct and lie in "
+                         "(0, 1)")
+    breaks = np.concatenate(([0.0], inner))
+    m = breaks.size
+    if m < p:
+        raise ValueError(f"a periodic spline of degree {p} needs at least {p - 1} interior "
+                         f"knots; got {inner.size}")
+    before = breaks[m - p :] - 1.0
+    after = np.concatenate((breaks, [1.0]))[: p + 1] + 1.0
+    return np.concatenate((before, breaks, [1.0], after[1:]))
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicFit:
+    """A least-squares periodic spline with its metrics (``spline`` is a scipy ``BSpline`` with
+    the extended knots; evaluate it on [0, 1))."""
+
+    spline: BSpline
+    params: np.ndarray
+    points: np.ndarray
+
+    @property
+    def n_control_points(self) -> int:
+        return int(self.spline.c.shape[0] - self.spline.k)
+
+    @property
+    def control_points(self) -> np.ndarray:
+        """The m distinct control points (the last p coefficients repeat the first p)."""
+        return np.asarray(self.spline.c[: self.n_control_points])
+
+    def distances(self) -> np.ndarray:
+        return np.linalg.norm(self.points - self.spline(self.params), axis=1)
+
+    @property
+    def rmse(self) -> float:
+        return float(np.sqrt(np.mean(self.distances() ** 2)))
+
+    @property
+    def max_deviation(self) -> float:
+        return float(self.distances().max())
+
+
+def _wrapped_design(u: np.ndarray, t: np.ndarray, p: int) -> np.ndarray:
+    m = t.size - 2 * p - 1
+    full = BSpline.design_matrix(u, t, p).toarray()  # (N, m + p)
+    wrapped = full[:, :m].copy()
+    wrapped[:, :p] += full[:, m:]
+    return wrapped
+
+
+def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
+                 degree: int = 3) -> PeriodicFit:
+    """Least-squares periodic spline through a closed outline.
+
+    Raises
+    ------
+    ValueError
+        If the knots give more control points than data points or a rank-deficient system
+        (knot spans without data).
+    """
+    p = check_degree(degree)
+    u = np.asarray(u, dtype=np.float64)
+    q = np.asarray(points, dtype=np.float64)
+    q = q[:, None] if q.ndim == 1 else q
+    t = periodic_knot_vector(interior, p)
+    m = t.size - 2 * p - 1
+    if m > len(u):
+        raise ValueError(f"{m} control points for {len(u)} data points")
+    design = _wrapped_design(u, t, p)
+    coef, _, rank, singular = np.linalg.lstsq(design, q, rcond=None)
+    if rank < m or singular[-1] < 1e-11 * singular[0]:
+        raise ValueError("the least-squares system is singular: some knot spans have no data")
+    c = np.vstack((coef, coef[:p]))
+    return PeriodicFit(BSpline(t, c, p), u, q)
+
+
+def periodic_errors(u: ArrayLike, points: ArrayLike, knot_sets: list[np.ndarray],
+                    degree: int = 3, metric: str = "max_deviation") -> np.ndarray:
+    """Error (max deviation or RMSE) of the periodic fit for each interior-knot set;
+    ``inf`` where it cannot be fitted."""
+    out = np.full(len(knot_sets), np.inf)
+    for i, knots in enumerate(knot_sets):
+        try:
+            fitted = fit_periodic(u, points, knots, degree)
+        except ValueError:
+            continue
+        out[i] = fitted.max_deviation if metric == "max_deviation" else fitted.rmse
+    return out
