@@ -83,6 +83,14 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--degree", type=int, default=3)
     fit.add_argument("--parameterization", choices=["centripetal", "chord", "uniform"],
                      default="centripetal")
+    shape = fit.add_mutually_exclusive_group()
+    shape.add_argument("--closed", dest="closed", action="store_const", const=True,
+                       help="a closed outline: a periodic spline, no seam")
+    shape.add_argument("--open", dest="closed", action="store_const", const=False,
+                       help="an open curve: clamped at its ends")
+    shape.add_argument("--auto-closed", dest="closed", action="store_const", const=None,
+                       help="closed if the first and last points coincide within the "
+                            "tolerance (the default)")
     fit.add_argument("--out", default=None, help="output folder (default: <points>-fit)")
     fit.set_defaults(func=_fit)
     report = sub.add_parser("report", help="statistical comparison report of a stored study",
@@ -176,12 +184,12 @@ def _fit(args: argparse.Namespace) -> int:
           f"{args.points}", flush=True)
     result = fit(points, args.tol, relative=args.relative, metric=args.metric,
                  function=args.function, degree=args.degree,
-                 parameterization=args.parameterization)
+                 parameterization=args.parameterization, closed=args.closed)
     for stage in result.stages:
         print(stage, flush=True)
     out = Path(args.out) if args.out else Path(args.points).with_name(
         Path(args.points).stem + "-fit")
-    written = write_fit(result, points[:, 1:] if args.function else points, out)
+    written = write_fit(result, result.points if not args.function else points[:, 1:], out)
     m = result.metrics
     print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
           f"{result.fitpack['n_control_points']}), max deviation {m['max_deviation']:.4g}, "

@@ -26,7 +26,8 @@ FILES = ("fit.json", "knots.csv", "control_points.csv", "metrics.json", "fit.png
 
 def _summary(result: ToleranceFit) -> dict:
     return {
-        "degree": result.degree, "method": result.method, "metric": result.metric,
+        "degree": result.degree, "closed": result.closed, "method": result.method,
+        "metric": result.metric,
         "tolerance": result.tolerance, "knots": result.knots.tolist(),
         "control_points": result.control_points.tolist(), "metrics": result.metrics,
         "fitpack": result.fitpack,
@@ -40,14 +41,16 @@ def _figure(result: ToleranceFit, points: np.ndarray, folder: Path) -> None:
     import matplotlib.pyplot as plt
 
     u = result.params
-    dense = np.linspace(u[0], u[-1], max(2000, 8 * len(u)))
+    lo, hi = (0.0, 1.0) if result.closed else (u[0], u[-1])
+    dense = np.linspace(lo, hi, max(2000, 8 * len(u)))
     curve = result.spline(dense)
-    knots = result.spline(np.unique(result.knots))
+    breakpoints = np.unique(result.knots[(result.knots >= lo) & (result.knots <= hi)])
+    knots = result.spline(breakpoints)
     fig, ax = plt.subplots(figsize=(6.5, 5), constrained_layout=True)
     if points.shape[1] == 1:  # function data: x against f(x)
         ax.plot(u, points[:, 0], ".", ms=3, color="0.55", label="data")
         ax.plot(dense, curve[:, 0], "-", lw=1.3, color="C0", label="fit")
-        ax.plot(np.unique(result.knots), knots[:, 0], "o", ms=4, mfc="none", color="C3",
+        ax.plot(breakpoints, knots[:, 0], "o", ms=4, mfc="none", color="C3",
                 label="knots")
         ax.set_xlabel("x")
     else:
@@ -78,13 +81,22 @@ def _dxf(result: ToleranceFit, path: Path) -> None:
         control = np.column_stack((greville, control[:, 0]))
     if control.shape[1] == 2:
         control = np.column_stack((control, np.zeros(len(control))))
-    doc.modelspace().add_open_spline(control[:, :3].tolist(), degree=result.degree,
-                                     knots=result.knots.tolist())
+    if result.closed:  # all coefficients (the first p repeated) on the extended knots
+        control = np.asarray(result.spline.c, dtype=np.float64)
+        if control.shape[1] == 2:
+            control = np.column_stack((control, np.zeros(len(control))))
+    spline = doc.modelspace().add_open_spline(control[:, :3].tolist(), degree=result.degree,
+                                              knots=result.knots.tolist())
+    if result.closed:
+        spline.closed = True
+        spline.dxf.flags = spline.dxf.flags | spline.PERIODIC
     doc.saveas(path)
 
 
 def write_fit(result: ToleranceFit, points: np.ndarray, out: str | Path) -> list[Path]:
-    """Write every output file of ``result`` into ``out`` (created if needed).
+    """Write every output file of ``result`` into ``out`` (created if needed). A closed
+    curve's ``knots.csv`` and DXF hold the periodic (extended) knot vector, its
+    ``control_points.csv`` the distinct control points.
 
     Raises
     ------

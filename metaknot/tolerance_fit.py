@@ -1,6 +1,7 @@
 """A user's points to a compact B-spline within a tolerance: :func:`fit` (``metaknot fit``).
 
-The search, for a clamped spline of degree p (open curves and function data):
+Open curves and function data get a clamped spline of degree p; closed outlines a periodic one
+(:mod:`metaknot.bspline.periodic`, FITPACK's ``splprep(per=1)`` as the reference). The search:
 
 1. **FITPACK's answer** — the reference everyone knows: FITPACK's smoothing spline
    (``scipy.interpolate.splprep``) over a scan of its smoothing factor s, refined by bisection
@@ -32,6 +33,7 @@ from .bspline import (
     fit_spline,
     parameterize,
 )
+from .bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
 
 __all__ = ["ToleranceFit", "fit"]
 
@@ -45,7 +47,8 @@ class ToleranceFit:
     Attributes
     ----------
     spline
-        A :class:`scipy.interpolate.BSpline`, coefficients of shape ``(n_control_points, d)``.
+        A :class:`scipy.interpolate.BSpline`, coefficients of shape ``(n_control_points, d)``
+        (closed curves: a periodic spline on [0, 1), ``n_control_points + p`` coefficients).
     params
         The parameter value of every data point (``x`` for function data).
     tolerance, metric
@@ -58,6 +61,9 @@ class ToleranceFit:
     fitpack
         FITPACK's answer at the same tolerance: ``n_control_points``, ``max_deviation``,
         ``rmse``, ``s`` and ``seconds``.
+    closed, points
+        Whether the curve was fitted as a closed outline, and the points fitted (a closed
+        outline's repeated last point dropped).
     """
 
     spline: BSpline
@@ -68,6 +74,8 @@ class ToleranceFit:
     metrics: dict[str, float]
     fitpack: dict[str, float]
     stages: list[str] = field(default_factory=list)
+    closed: bool = False
+    points: np.ndarray | None = None
 
     @property
     def knots(self) -> np.ndarray:
@@ -76,7 +84,10 @@ class ToleranceFit:
 
     @property
     def control_points(self) -> np.ndarray:
-        return np.asarray(self.spline.c)
+        """The distinct control points (a closed curve's spline repeats its first p at the
+        end of ``spline.c``)."""
+        c = np.asarray(self.spline.c)
+        return c[: len(c) - self.degree] if self.closed else c
 
     @property
     def degree(self) -> int:
@@ -104,10 +115,16 @@ def _pad(rows: list[np.ndarray]) -> np.ndarray:
     return out
 
 
-def _fitpack_errors(u: np.ndarray, q: np.ndarray, p: int, s: float) -> tuple[np.ndarray, ...]:
-    """FITPACK's smoothing spline at ``s``: (t, c, max deviation, rmse), or None."""
+def _fitpack_errors(u: np.ndarray, q: np.ndarray, p: int, s: float,
+                    closed: bool = False) -> tuple[np.ndarray, ...]:
+    """FITPACK's smoothing spline at ``s``: (t, c, max deviation, rmse), or None. Closed
+    outlines get FITPACK's periodic spline (``per=1``, the first point repeated at u = 1)."""
     try:
-        (t, c, k), _ = splprep(q.T, u=u, k=p, s=s, full_output=1, quiet=1)[0]
+        if closed:
+            (t, c, k), _ = splprep(np.vstack((q, q[:1])).T, u=np.append(u, 1.0), k=p, s=s,
+                                   per=1, full_output=1, quiet=1)[0]
+        else:
+            (t, c, k), _ = splprep(q.T, u=u, k=p, s=s, full_output=1, quiet=1)[0]
     except Exception:  # FITPACK refuses some s
         return None
     distance = np.linalg.norm(q - np.column_stack(splev(u, (t, c, k))), axis=1)
@@ -116,7 +133,7 @@ def _fitpack_errors(u: np.ndarray, q: np.ndarray, p: int, s: float) -> tuple[np.
 
 
 def fitpack_answer(u: np.ndarray, q: np.ndarray, p: int, tol: float,
-                   metric: Metric) -> dict[str, Any]:
+                   metric: Metric, closed: bool = False) -> dict[str, Any]:
     """The fewest control points FITPACK's own smoothing spline needs to stay within ``tol``
     (a scan over s, then bisection on log s between the last fit within and the first beyond)."""
     start = time.perf_counter()
@@ -126,7 +143,7 @@ def fitpack_answer(u: np.ndarray, q: np.ndarray, p: int, tol: float,
     log_s = np.linspace(np.log(total * 1e-14), np.log(total), 60)
     within, beyond = None, None
     for x in log_s:
-        found = _fitpack_errors(u, q, p, float(np.exp(x)))
+        found = _fitpack_errors(u, q, p, float(np.exp(x)), closed)
         if found is None:
             continue
         if found[index] <= tol:
@@ -135,14 +152,14 @@ def fitpack_answer(u: np.ndarray, q: np.ndarray, p: int, tol: float,
         elif within is not None and beyond is None:
             beyond = x
     if best is None:  # interpolation (s = 0)
-        best, within = _fitpack_errors(u, q, p, 0.0), None
+        best, within = _fitpack_errors(u, q, p, 0.0, closed), None
         if best is None or best[index] > tol:
             raise ValueError("FITPACK finds no spline within the tolerance")
     elif beyond is not None:
         lo, hi = within, beyond
         for _ in range(25):
             mid = 0.5 * (lo + hi)
-            found = _fitpack_errors(u, q, p, float(np.exp(mid)))
+            found = _fitpack_errors(u, q, p, float(np.exp(mid)), closed)
             if found is not None and found[index] <= tol:
                 lo = mid
                 if len(found[0]) <= len(best[0]):
@@ -150,7 +167,8 @@ def fitpack_answer(u: np.ndarray, q: np.ndarray, p: int, tol: float,
             else:
                 hi = mid
     t, c, max_dev, rmse = best
-    return {"spline": BSpline(t, c, p), "n_control_points": len(t) - p - 1,
+    count = len(t) - p - 1 - (p if closed else 0)  # periodic: the last p repeat the first p
+    return {"spline": BSpline(t, c, p), "n_control_points": count,
             "max_deviation": max_dev, "rmse": rmse,
             "s": float(np.exp(within)) if within is not None else 0.0,
             "seconds": time.perf_counter() - start}
@@ -160,13 +178,18 @@ class _Search:
     """Knot removal with nudging, on the compiled batched evaluator."""
 
     def __init__(self, u: np.ndarray, q: np.ndarray, p: int, tol: float, metric: Metric,
-                 nudge_grid: int = 9, nudge_window: int = 3, nudge_tries: int = 3) -> None:
+                 nudge_grid: int = 9, nudge_window: int = 3, nudge_tries: int = 3,
+                 closed: bool = False) -> None:
         self.u, self.q, self.p, self.tol, self.metric = u, q, p, tol, metric
+        self.closed = closed
+        self.bounds = (0.0, 1.0) if closed else (u[0], u[-1])
         self.grid, self.window, self.tries = nudge_grid, nudge_window, nudge_tries
         self.evaluations = 0
 
     def errors(self, rows: list[np.ndarray]) -> np.ndarray:
         self.evaluations += len(rows)
+        if self.closed:
+            return periodic_errors(self.u, self.q, rows, self.p, self.metric)
         return _errors(self.u, self.q, _pad(rows), self.p, self.metric)
 
     def nudge(self, knots: np.ndarray, around: int, sweeps: int = 2) -> tuple[np.ndarray, float]:
@@ -174,7 +197,7 @@ class _Search:
         their neighbours) that lowers the error most."""
         knots = knots.copy()
         (err,) = self.errors([knots])
-        lo_u, hi_u = self.u[0], self.u[-1]
+        lo_u, hi_u = self.bounds
         for _ in range(sweeps):
             moved = False
             for j in range(max(0, around - self.window), min(len(knots), around + self.window)):
@@ -217,8 +240,14 @@ class _Search:
 
     def fewest_averaging(self, upper: int) -> np.ndarray | None:
         """Averaging knots at the fewest count (up to ``upper``) whose fit is within tol."""
-        counts = list(range(0, min(upper, len(self.u) - self.p - 1) + 1))
-        rows = [averaging_knots(self.u, k, self.p) for k in counts]
+        if self.closed:  # breakpoints at evenly spaced data points (0 is always one)
+            counts = range(self.p - 1, min(upper, len(self.u) - 1) + 1)
+            rows = [self.u[np.unique(np.linspace(0, len(self.u), k + 2)[1:-1].astype(int))]
+                    for k in counts]
+            rows = [r[r > 0] for r in rows]
+        else:
+            counts = list(range(0, min(upper, len(self.u) - self.p - 1) + 1))
+            rows = [averaging_knots(self.u, k, self.p) for k in counts]
         errs = self.errors(rows)
         ok = np.flatnonzero(errs <= self.tol)
         return rows[ok[0]] if ok.size else None
@@ -260,7 +289,7 @@ def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
 def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         metric: Metric = "max_deviation", function: bool = False,
         params: ArrayLike | None = None, degree: int = 3,
-        parameterization: str = "centripetal") -> ToleranceFit:
+        parameterization: str = "centripetal", closed: bool | None = None) -> ToleranceFit:
     """The fewest control points whose clamped B-spline stays within ``tol`` of the points.
 
     Parameters
@@ -279,6 +308,10 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         Spline degree, 1..5.
     parameterization
         ``"uniform"``, ``"chord"`` or ``"centripetal"`` (ignored with explicit parameters).
+    closed
+        ``True``: a closed outline, fitted by a periodic spline (no seam); ``False``: an open
+        curve, clamped at its ends; ``None`` (default): closed if the first and last points
+        coincide within the tolerance (the repeated last point is then dropped).
 
     Returns
     -------
@@ -301,18 +334,30 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         raise ValueError(f"the tolerance must be a number > 0; got {tol!r}")
     diagonal = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
     tol_abs = float(tol) * (diagonal if relative else 1.0)
-    u = np.asarray(params, dtype=np.float64) if params is not None else \
-        parameterize(q, parameterization, degree=p)
-    search = _Search(u, q, p, tol_abs, metric)
-    interpolant = make_interp_spline(u, q, k=p)
-    distance = np.linalg.norm(q - interpolant(u), axis=1)
+    ends_meet = bool(np.linalg.norm(q[-1] - q[0]) <= tol_abs)
+    if closed is None:
+        closed = ends_meet and not function and params is None and len(q) > p + 2
+    if closed:
+        if function or params is not None:
+            raise ValueError("closed curves take their own parameters: --closed does not apply "
+                             "to function data or explicit parameters")
+        if ends_meet:  # the outline repeats its first point at the end: drop the repeat
+            q = q[:-1]
+        u = closed_parameterize(q, parameterization)
+        interpolant = fit_periodic(u, q, u[1:], p)
+        distance = interpolant.distances()
+    else:
+        u = np.asarray(params, dtype=np.float64) if params is not None else \
+            parameterize(q, parameterization, degree=p)
+        distance = np.linalg.norm(q - make_interp_spline(u, q, k=p)(u), axis=1)
+    search = _Search(u, q, p, tol_abs, metric, closed=closed)
     floor = float(distance.max() if metric == "max_deviation" else
                   np.sqrt(np.mean(distance**2)))
     if tol_abs < floor:
         raise ValueError(f"the tolerance {tol_abs:.3g} is below what interpolation reaches "
                          f"({floor:.3g}); raise it")
-    stages = []
-    reference = fitpack_answer(u, q, p, tol_abs, metric)
+    stages = [f"{'closed (periodic)' if closed else 'open (clamped)'} curve of {len(q)} points"]
+    reference = fitpack_answer(u, q, p, tol_abs, metric, closed)
     stages.append(f"FITPACK: {reference['n_control_points']} control points (s = "
                   f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
     t_fp = reference["spline"].t
@@ -330,8 +375,9 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
             best = reduced
     stages.append(f"knot removal: {search.evaluations:,} fits")
     seconds = time.perf_counter() - start
-    if best is not None and len(best) + p + 1 < reference["n_control_points"]:
-        solution = fit_spline(u, q, best, p)
+    extra = 1 if closed else p + 1  # control points beyond the interior knots
+    if best is not None and len(best) + extra < reference["n_control_points"]:
+        solution = fit_periodic(u, q, best, p) if closed else fit_spline(u, q, best, p)
         spline, method = solution.spline, "knot removal"
         metrics = {"n_control_points": solution.n_control_points,
                    "max_deviation": solution.max_deviation, "rmse": solution.rmse}
@@ -341,4 +387,5 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     metrics["seconds"] = seconds
     fitpack = {k: v for k, v in reference.items() if k != "spline"}
     return ToleranceFit(spline=spline, params=u, tolerance=tol_abs, metric=metric,
-                        method=method, metrics=metrics, fitpack=fitpack, stages=stages)
+                        method=method, metrics=metrics, fitpack=fitpack, stages=stages,
+                        closed=closed, points=q)

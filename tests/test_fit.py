@@ -28,7 +28,7 @@ def max_deviation(spline, u, points) -> float:
 @pytest.mark.parametrize("curve", ["archimedean", "vivaldi"])
 def test_fit_is_within_tolerance_and_beats_fitpack(curve: str) -> None:
     points = get_curve(curve).points
-    result = mk.fit(points, 1e-3, relative=True)
+    result = mk.fit(points, 1e-3, relative=True, closed=False)  # the Vivaldi curve is closed
     diagonal = np.linalg.norm(points.max(axis=0) - points.min(axis=0))
     assert result.tolerance == pytest.approx(1e-3 * diagonal)
     u = parameterize(points, "centripetal")
@@ -48,7 +48,7 @@ def test_fit_is_within_tolerance_and_beats_fitpack(curve: str) -> None:
 
 def test_the_spline_is_the_least_squares_fit_on_its_knots() -> None:
     points = get_curve("vivaldi").points
-    result = mk.fit(points, 2e-3, relative=True)
+    result = mk.fit(points, 2e-3, relative=True, closed=False)
     reference = make_lsq_spline(result.params, points, result.knots, k=3)
     np.testing.assert_allclose(result.control_points, reference.c, rtol=1e-9, atol=1e-12)
 
@@ -69,7 +69,7 @@ def test_no_single_knot_can_be_removed() -> None:
 
 def test_rmse_metric() -> None:
     points = get_curve("vivaldi").points
-    result = mk.fit(points, 5e-4, relative=True, metric="rmse")
+    result = mk.fit(points, 5e-4, relative=True, metric="rmse", closed=False)
     u = result.params
     rmse = np.sqrt(np.mean(np.sum((points - result.spline(u)) ** 2, axis=1)))
     assert rmse <= result.tolerance and result.metric == "rmse"
@@ -122,7 +122,7 @@ def test_command_writes_every_file(tmp_path) -> None:
 
     points = get_curve("vivaldi").points
     np.savetxt(tmp_path / "curve.csv", points, delimiter=",")
-    done = run_fit("curve.csv", "--tol", "1e-3", "--relative", cwd=tmp_path)
+    done = run_fit("curve.csv", "--tol", "1e-3", "--relative", "--open", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "FITPACK:" in done.stdout and "result:" in done.stdout
     out = tmp_path / "curve-fit"
@@ -143,7 +143,7 @@ def test_command_writes_every_file(tmp_path) -> None:
     np.testing.assert_allclose(list(entity.knots), summary["knots"])
     assert entity.dxf.degree == 3
     # a second run into the same folder overwrites nothing
-    again = run_fit("curve.csv", "--tol", "1e-3", "--relative", cwd=tmp_path)
+    again = run_fit("curve.csv", "--tol", "1e-3", "--relative", "--open", cwd=tmp_path)
     assert again.returncode == 2 and "already holds" in again.stderr
 
 
@@ -188,3 +188,68 @@ def test_bad_files_are_one_line_errors_and_leave_nothing(tmp_path, content, args
 def test_a_missing_file_is_named(tmp_path) -> None:
     done = run_fit("nothing.csv", "--tol", "0.01", cwd=tmp_path)
     assert done.returncode == 2 and "nothing.csv: no such file" in done.stderr
+
+
+def star(n: int = 240) -> np.ndarray:
+    angle = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    radius = 1.0 + 0.25 * np.cos(5 * angle) ** 3
+    return np.column_stack((radius * np.cos(angle), radius * np.sin(angle)))
+
+
+def test_a_closed_outline_gets_a_periodic_spline_without_a_seam() -> None:
+    points = star()
+    result = mk.fit(np.vstack((points, points[:1])), 2e-3, relative=True)  # auto: closed
+    assert result.closed and len(result.points) == len(points)  # the repeat is dropped
+    u, t, k = result.params, result.knots, result.degree
+    assert max_deviation(result.spline, u, points) <= result.tolerance
+    # the spline is FITPACK's periodic least-squares spline on the same knots
+    (t_ref, c_ref, _), _ = splprep(np.vstack((points, points[:1])).T, u=np.append(u, 1.0),
+                                   k=k, task=-1, t=t, per=1, quiet=1)
+    np.testing.assert_array_equal(t_ref, t)
+    np.testing.assert_allclose(result.spline.c, np.array(c_ref).T, atol=1e-9)
+    for order in range(k):
+        derivative = result.spline.derivative(order) if order else result.spline
+        np.testing.assert_allclose(derivative(0.0), derivative(1.0), atol=1e-7)
+    assert result.n_control_points == len(result.spline.c) - k
+    assert result.n_control_points < result.fitpack["n_control_points"]
+    # FITPACK's answer is its periodic spline too, within the tolerance at the reported s
+    (t_fp, c_fp, _), _ = splprep(np.vstack((points, points[:1])).T, u=np.append(u, 1.0), k=k,
+                                 s=result.fitpack["s"], per=1, full_output=1, quiet=1)[0]
+    assert len(t_fp) - 2 * k - 1 == result.fitpack["n_control_points"]
+    fitted = np.column_stack(splev(u, (t_fp, c_fp, k)))
+    assert np.linalg.norm(points - fitted, axis=1).max() <= result.tolerance
+
+
+def test_open_unless_the_ends_meet_or_asked() -> None:
+    points = star(120)
+    assert not mk.fit(points, 2e-3, relative=True).closed  # last point is not the first
+    forced = mk.fit(points, 2e-3, relative=True, closed=True)
+    assert forced.closed and len(forced.points) == 120
+    assert not mk.fit(np.vstack((points, points[:1])), 2e-3, relative=True, closed=False).closed
+    with pytest.raises(ValueError, match="does not apply to function data"):
+        mk.fit(PEAK, 1e-3, function=True, closed=True)
+
+
+def test_closed_outline_in_dxf_and_csv(tmp_path) -> None:
+    import ezdxf
+
+    points = star(150)
+    np.savetxt(tmp_path / "star.csv", np.vstack((points, points[:1])), delimiter=",")
+    done = run_fit("star.csv", "--tol", "3e-3", "--relative", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "closed (periodic) curve of 150 points" in done.stdout
+    out = tmp_path / "star-fit"
+    summary = json.loads((out / "fit.json").read_text())
+    assert summary["closed"] is True
+    control = np.loadtxt(out / "control_points.csv", delimiter=",", skiprows=1)
+    assert len(control) == summary["metrics"]["n_control_points"]
+    (entity,) = ezdxf.readfile(out / "fit.dxf").modelspace().query("SPLINE")
+    assert entity.closed
+    knots = np.array(list(entity.knots))
+    stored = np.array(entity.control_points)[:, :2]
+    np.testing.assert_allclose(knots, summary["knots"])
+    np.testing.assert_allclose(stored[: len(control)], control)
+    np.testing.assert_allclose(stored[len(control):], control[:3])  # the first p repeated
+    done = run_fit("star.csv", "--tol", "3e-3", "--relative", "--open", "--out", "o",
+                   cwd=tmp_path)
+    assert "open (clamped) curve of 151 points" in done.stdout
