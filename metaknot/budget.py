@@ -126,6 +126,8 @@ class Evaluator:
             F = np.where(np.isnan(F), np.inf, F)
         self.n_evaluations += len(F)
         scalar = F if self.front is None else self.front.add(X, F, metrics)
+        if self.front is not None and not len(self.front):
+            scalar = np.full(len(F), np.inf)  # nothing feasible yet: no front, no incumbent
         best = int(np.argmin(scalar))
         if scalar[best] < self.best_f:
             self.best_f = float(scalar[best])

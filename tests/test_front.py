@@ -284,3 +284,14 @@ def test_report_draws_each_method_s_front(tmp_path) -> None:
     stored = mk.minimize(problem, "averaging", budget=300, seed=0).front  # deterministic
     np.testing.assert_allclose(averaging[:, 0], stored["n_control_points"])
     np.testing.assert_allclose(averaging[:, 1], stored["rmse"])
+
+
+def test_a_batch_with_nothing_feasible_leaves_no_front_and_no_incumbent() -> None:
+    problem = KnotIndices(DATA, n_knots=4, objective="pareto")
+    evaluator = mk.Evaluator(problem, budget=10)
+    F = evaluator(np.array([[5, 5, 6, 7], [9, 9, 9, 9]]))  # coincident knots: infeasible
+    assert np.isinf(F).all() and len(evaluator.front) == 0
+    assert evaluator.best_x is None and evaluator.best_f == np.inf
+    evaluator(np.array([[5, 15, 25, 35]]))
+    assert len(evaluator.front) == 1 and evaluator.best_x is not None
+    assert evaluator.best_f == pytest.approx(evaluator.front.gap)
