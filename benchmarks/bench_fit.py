@@ -51,6 +51,8 @@ def cases() -> list[tuple[str, np.ndarray, bool, bool | None]]:
 
 def main() -> None:
     mk.fit(get_curve("archimedean", n_points=40).points, 1e-2, relative=True)  # compile
+    ring = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    mk.fit(np.column_stack((np.cos(ring), np.sin(ring))), 1e-2, relative=True, closed=True)
     ratios, slowest = [], 0.0
     print(f"{'case':<28} {'N':>4} {'FITPACK CP':>10} {'s':>7} {'metaknot CP':>11} {'ratio':>6} "
           f"{'s':>7}  method")

@@ -87,3 +87,54 @@ def test_impossible_knots_are_refused_or_infinite() -> None:
         fit_periodic(u, points, np.sort(empty_span), 3)
     errors = periodic_errors(u, points, [np.linspace(0, 1, 12)[1:-1], np.sort(empty_span)])
     assert np.isfinite(errors[0]) and errors[1] == np.inf
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("dim", [1, 2, 3])
+@pytest.mark.parametrize("method", ["uniform", "chord", "centripetal"])
+def test_compiled_batch_matches_the_reference(degree: int, dim: int, method: str) -> None:
+    from metaknot.bspline.periodic import evaluate_periodic
+
+    points = outline(120, dim=dim, seed=degree)
+    u = closed_parameterize(points, method)
+    rng = np.random.default_rng(100 * degree + dim)
+    rows = np.full((12, 40), np.nan)
+    for i in range(12):
+        count = int(rng.integers(max(degree - 1, 1), 40))
+        rows[i, :count] = rng.choice(u[1:], count, replace=False)
+    batch = evaluate_periodic(u, points, rows, degree)
+    for i, row in enumerate(rows):
+        interior = np.sort(row[~np.isnan(row)])
+        try:
+            reference = fit_periodic(u, points, interior, degree)
+        except ValueError:
+            assert not batch.feasible[i]
+            continue
+        assert batch.feasible[i]
+        sse = float((reference.distances() ** 2).sum())
+        assert batch.sse[i] == pytest.approx(sse, rel=1e-10)
+        assert batch.max_deviation[i] == pytest.approx(reference.max_deviation, rel=1e-10)
+        assert batch.n_control_points[i] == reference.n_control_points
+
+
+def test_compiled_batch_names_what_cannot_be_fitted() -> None:
+    from metaknot.bspline import Infeasibility
+    from metaknot.bspline.periodic import evaluate_periodic
+
+    points = outline(40)
+    u = closed_parameterize(points)
+    crowded = u[20] + (u[21] - u[20]) * np.linspace(0.1, 0.9, 8)
+    rows = np.full((5, 9), np.nan)
+    rows[0, :3] = [0.2, 0.5, 0.8]                   # fine
+    rows[1, :3] = [0.2, 0.5, 1.2]                   # outside (0, 1)
+    rows[2, :3] = [0.2, 0.5, 0.5]                   # coincident
+    rows[3, :9] = np.sort(np.append(crowded, 0.7))  # spans without data
+    rows[4, :1] = [0.5]                             # too few breakpoints for degree 3
+    batch = evaluate_periodic(u, points, rows, 3)
+    assert list(batch.reason) == [Infeasibility.FEASIBLE, Infeasibility.KNOT_OUT_OF_RANGE,
+                                  Infeasibility.COINCIDENT_KNOTS, Infeasibility.SINGULAR,
+                                  Infeasibility.SINGULAR]
+    assert np.isfinite(batch.sse[0]) and np.isinf(batch.sse[1:]).all()
+    too_many = np.sort(np.concatenate((u[1:], (u[1:3] + u[2:4]) / 2)))[None, :]
+    assert evaluate_periodic(u, points, too_many, 3).reason[0] == \
+        Infeasibility.TOO_MANY_CONTROL_POINTS

@@ -7,8 +7,11 @@ breakpoints extended by p periodic copies on each side (``m + 2p + 1`` knots, FI
 ``splprep(per=1)`` layout) and its ``m + p`` coefficients repeat the first p at the end, so the
 curve and its first p - 1 derivatives are continuous across the seam.
 
-This module is the reference implementation (dense least squares on the wrapped design matrix,
-checked against FITPACK's periodic least-squares spline, ``splprep(per=1, task=-1)``).
+:func:`fit_periodic` is the reference (dense least squares on the wrapped design matrix,
+checked against FITPACK's periodic least-squares spline, ``splprep(per=1, task=-1)``);
+:func:`evaluate_periodic` fits a whole batch of knot vectors in compiled code (Givens rotations
+on the band-plus-corner structure, :mod:`metaknot.bspline._periodic_kernel`), checked against
+it.
 """
 
 from __future__ import annotations
@@ -19,10 +22,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
+from . import _periodic_kernel
+from .fit import BatchFit, Infeasibility
 from .parameterize import check_degree
 
-__all__ = ["PeriodicFit", "closed_parameterize", "fit_periodic", "periodic_errors",
-           "periodic_knot_vector"]
+__all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
+           "periodic_errors", "periodic_knot_vector"]
 
 EXPONENTS = {"uniform": 0.0, "chord": 1.0, "centripetal": 0.5}
 
@@ -134,15 +139,59 @@ def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
     return PeriodicFit(BSpline(t, c, p), u, q)
 
 
+def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
+                      degree: int = 3, *, max_deviation: bool = True,
+                      nan_is_absent: bool = True) -> BatchFit:
+    """Fit a ``(B, K)`` batch of interior knot positions in (0, 1) as periodic splines.
+
+    Like :func:`~metaknot.bspline.evaluate_positions` for open curves: positions are sorted per
+    row; NaN means "no knot" (``nan_is_absent``); knots outside (0, 1), coincident knots and
+    rank-deficient systems come back infeasible with their reason, never raised.
+    """
+    p = check_degree(degree)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    q = np.asarray(points, dtype=np.float64)
+    q = np.ascontiguousarray(q[:, None] if q.ndim == 1 else q)
+    if u.shape != (q.shape[0],) or not np.isfinite(u).all() or (np.diff(u) <= 0).any() \
+            or u[0] < 0 or u[-1] >= 1:
+        raise ValueError("parameter values must be finite, strictly increasing and in [0, 1)")
+    pos = np.sort(np.atleast_2d(np.asarray(positions, dtype=np.float64)), axis=1)
+    present = ~np.isnan(pos) if nan_is_absent else np.ones(pos.shape, dtype=bool)
+    counts = present.sum(axis=1)
+    knots = np.ascontiguousarray(pos[present])
+    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    b = pos.shape[0]
+    fit = BatchFit(sse=np.empty(b), max_deviation=np.empty(b if max_deviation else 0),
+                   n_control_points=np.empty(b, dtype=np.int64),
+                   reason=np.empty(b, dtype=np.int8))
+    safe = knots.copy()
+    bad_range = ~((safe > 0.0) & (safe < 1.0))  # NaN included
+    safe[bad_range] = 0.5
+    _periodic_kernel.evaluate_batch(u, q, p, safe, offsets, max_deviation, fit.sse,
+                                    fit.max_deviation, fit.n_control_points, fit.reason)
+    for row in range(b):  # reasons the kernel does not check itself
+        part = knots[offsets[row] : offsets[row + 1]]
+        code = None
+        if bad_range[offsets[row] : offsets[row + 1]].any():
+            code = Infeasibility.KNOT_OUT_OF_RANGE
+        elif (np.diff(part) <= 0).any():
+            code = Infeasibility.COINCIDENT_KNOTS
+        if code is not None:
+            fit.sse[row], fit.reason[row] = np.inf, code
+            if max_deviation:
+                fit.max_deviation[row] = np.inf
+    return fit if max_deviation else BatchFit(fit.sse, None, fit.n_control_points, fit.reason)
+
+
 def periodic_errors(u: ArrayLike, points: ArrayLike, knot_sets: list[np.ndarray],
                     degree: int = 3, metric: str = "max_deviation") -> np.ndarray:
     """Error (max deviation or RMSE) of the periodic fit for each interior-knot set;
-    ``inf`` where it cannot be fitted."""
-    out = np.full(len(knot_sets), np.inf)
+    ``inf`` where it cannot be fitted (the compiled batch evaluator)."""
+    width = max((len(k) for k in knot_sets), default=0)
+    rows = np.full((len(knot_sets), max(width, 1)), np.nan)
     for i, knots in enumerate(knot_sets):
-        try:
-            fitted = fit_periodic(u, points, knots, degree)
-        except ValueError:
-            continue
-        out[i] = fitted.max_deviation if metric == "max_deviation" else fitted.rmse
-    return out
+        rows[i, : len(knots)] = knots
+    fit = evaluate_periodic(u, points, rows, degree, max_deviation=metric == "max_deviation")
+    err = fit.max_deviation if metric == "max_deviation" else \
+        np.sqrt(fit.sse / len(np.asarray(u)))
+    return np.where(fit.feasible, err, np.inf)

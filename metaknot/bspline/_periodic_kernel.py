@@ -1,0 +1,202 @@
+"""Compiled least squares for periodic B-splines (closed outlines), a batch at a time.
+
+The m unknowns are ordered c_p .. c_{m-1}, c_0 .. c_{p-1}: every data row then has its p + 1
+nonzeros in a band of the first m - p columns plus some of the last p columns (the wrap around
+the seam). Givens rotations row by row keep R as a band (p + 1 wide) plus a dense block of the
+last p columns and a p x p triangle at the end: O(N p^2) per candidate, like the open kernel.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from ._kernel import FEASIBLE, SINGULAR, TOO_MANY_CONTROL_POINTS
+
+
+@numba.njit(cache=True)
+def _basis(t: np.ndarray, span: int, x: float, p: int, out: np.ndarray,
+           left: np.ndarray, right: np.ndarray) -> None:
+    """The p + 1 nonzero B-splines at x in knot span ``span`` (NURBS Book A2.2)."""
+    out[0] = 1.0
+    for j in range(1, p + 1):
+        left[j] = x - t[span + 1 - j]
+        right[j] = t[span + j] - x
+        saved = 0.0
+        for r in range(j):
+            temp = out[r] / (right[r + 1] + left[j - r])
+            out[r] = saved + right[r + 1] * temp
+            saved = left[j - r] * temp
+        out[j] = saved
+
+
+@numba.njit(cache=True)
+def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray) -> tuple:
+    """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots).
+    Writes the m distinct coefficients into ``coef[:m]`` and returns (sse, reason)."""
+    n, d = q.shape
+    m = t.size - 2 * p - 1
+    if m > n:
+        return np.inf, TOO_MANY_CONTROL_POINTS
+    nb = m - p  # band columns
+    band = np.zeros((max(nb, 1), p + 1))  # band[r, k]: column r + k (if < nb)
+    tail = np.zeros((m, p))  # tail[r, k]: column nb + k, for every row r of R
+    rhs = np.zeros((m, d))
+    row = np.zeros(m)
+    row_rhs = np.zeros(d)
+    values = np.empty(p + 1)
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    sse = 0.0
+    j = 0
+    for i in range(n):
+        x = u[i]
+        while j < m - 1 and x >= t[p + j + 1]:
+            j += 1
+        _basis(t, p + j, x, p, values, left, right)
+        first = nb  # smallest band column touched
+        for k in range(p + 1):
+            ci = (j + k) % m
+            col = ci - p if ci >= p else nb + ci
+            row[col] += values[k]
+            if col < first:
+                first = col
+        for c in range(d):
+            row_rhs[c] = q[i, c]
+        # eliminate the band columns, left to right
+        for col in range(first, nb):
+            w = row[col]
+            if w == 0.0:
+                continue
+            r0 = band[col, 0]
+            h = np.hypot(r0, w)
+            cs, sn = r0 / h, w / h
+            band[col, 0] = h
+            row[col] = 0.0
+            for k in range(1, p + 1):
+                if col + k < nb:
+                    a, b = band[col, k], row[col + k]
+                    band[col, k] = cs * a + sn * b
+                    row[col + k] = -sn * a + cs * b
+            for k in range(p):
+                a, b = tail[col, k], row[nb + k]
+                tail[col, k] = cs * a + sn * b
+                row[nb + k] = -sn * a + cs * b
+            for c in range(d):
+                a, b = rhs[col, c], row_rhs[c]
+                rhs[col, c] = cs * a + sn * b
+                row_rhs[c] = -sn * a + cs * b
+        # then the last p columns against the final triangle
+        for k in range(p):
+            w = row[nb + k]
+            if w == 0.0:
+                continue
+            r = nb + k
+            r0 = tail[r, k]
+            h = np.hypot(r0, w)
+            cs, sn = r0 / h, w / h
+            tail[r, k] = h
+            row[nb + k] = 0.0
+            for kk in range(k + 1, p):
+                a, b = tail[r, kk], row[nb + kk]
+                tail[r, kk] = cs * a + sn * b
+                row[nb + kk] = -sn * a + cs * b
+            for c in range(d):
+                a, b = rhs[r, c], row_rhs[c]
+                rhs[r, c] = cs * a + sn * b
+                row_rhs[c] = -sn * a + cs * b
+        for c in range(d):
+            sse += row_rhs[c] * row_rhs[c]
+    # conditioning: a pivot far below the largest one means a rank-deficient system
+    largest = 0.0
+    for r in range(nb):
+        largest = max(largest, abs(band[r, 0]))
+    for k in range(p):
+        largest = max(largest, abs(tail[nb + k, k]))
+    for r in range(nb):
+        if abs(band[r, 0]) <= 1e-11 * largest:
+            return np.inf, SINGULAR
+    for k in range(p):
+        if abs(tail[nb + k, k]) <= 1e-11 * largest:
+            return np.inf, SINGULAR
+    # back substitution: the triangle, then the band rows
+    x_tail = np.zeros((p, d))
+    for k in range(p - 1, -1, -1):
+        r = nb + k
+        for c in range(d):
+            s = rhs[r, c]
+            for kk in range(k + 1, p):
+                s -= tail[r, kk] * x_tail[kk, c]
+            x_tail[k, c] = s / tail[r, k]
+    x_band = np.zeros((max(nb, 1), d))
+    for r in range(nb - 1, -1, -1):
+        for c in range(d):
+            s = rhs[r, c]
+            for k in range(1, p + 1):
+                if r + k < nb:
+                    s -= band[r, k] * x_band[r + k, c]
+            for k in range(p):
+                s -= tail[r, k] * x_tail[k, c]
+            x_band[r, c] = s / band[r, 0]
+    for ci in range(m):  # back to the natural order c_0 .. c_{m-1}
+        for c in range(d):
+            coef[ci, c] = x_band[ci - p, c] if ci >= p else x_tail[ci, c]
+    return sse, FEASIBLE
+
+
+@numba.njit(cache=True)
+def max_deviation(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int,
+                  coef: np.ndarray) -> float:
+    """Largest distance of a data point to the periodic spline with coefficients ``coef``."""
+    n, d = q.shape
+    m = t.size - 2 * p - 1
+    values = np.empty(p + 1)
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    worst = 0.0
+    j = 0
+    for i in range(n):
+        x = u[i]
+        while j < m - 1 and x >= t[p + j + 1]:
+            j += 1
+        _basis(t, p + j, x, p, values, left, right)
+        dist2 = 0.0
+        for c in range(d):
+            s = 0.0
+            for k in range(p + 1):
+                s += values[k] * coef[(j + k) % m, c]
+            dist2 += (q[i, c] - s) ** 2
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@numba.njit(cache=True, parallel=True)
+def evaluate_batch(u: np.ndarray, q: np.ndarray, p: int, knots: np.ndarray,
+                   offsets: np.ndarray, want_max: bool, sse: np.ndarray,
+                   max_dev: np.ndarray, n_control: np.ndarray, reason: np.ndarray) -> None:
+    """Fit every candidate: ``knots[offsets[b]:offsets[b+1]]`` are candidate b's interior
+    knots in (0, 1), sorted and distinct."""
+    d = q.shape[1]
+    for b in numba.prange(offsets.size - 1):
+        interior = knots[offsets[b] : offsets[b + 1]]
+        m = interior.size + 1
+        n_control[b] = m
+        if m < p:
+            sse[b], reason[b] = np.inf, SINGULAR
+            if want_max:
+                max_dev[b] = np.inf
+            continue
+        breaks = np.empty(m)
+        breaks[0] = 0.0
+        breaks[1:] = interior
+        t = np.empty(m + 2 * p + 1)
+        for k in range(p):
+            t[k] = breaks[m - p + k] - 1.0
+        t[p : p + m] = breaks
+        for k in range(p + 1):
+            t[p + m + k] = (breaks[k] if k < m else breaks[k - m] + 1.0) + 1.0
+        coef = np.zeros((m, d))
+        value, code = fit_one(u, q, t, p, coef)
+        sse[b], reason[b] = value, code
+        if want_max:
+            max_dev[b] = max_deviation(u, q, t, p, coef) if code == FEASIBLE else np.inf
