@@ -89,13 +89,14 @@ def knots_to_candidate(problem: Problem, knots: np.ndarray) -> np.ndarray:
     if encoding.kind == "continuous":
         return problem.pad(knots) if getattr(problem, "variable_count", False) else np.sort(knots)
     u = problem.params
+    last = u.size - 1 if getattr(problem, "closed", False) else u.size - 2
     j = np.clip(np.searchsorted(u, knots), 1, u.size - 1)
-    idx = np.clip(j - (knots - u[j - 1] <= u[j] - knots), 1, u.size - 2)
+    idx = np.clip(j - (knots - u[j - 1] <= u[j] - knots), 1, last)
     if encoding.kind == "integer":
         return encoding.repair(idx[None, :])[0]
     mask = np.zeros(encoding.n_var, dtype=np.int64)
     if idx.size:
-        sets = Encoding.integer(idx.size, 1, u.size - 2, distinct_sorted=True)
+        sets = Encoding.integer(idx.size, 1, last, distinct_sorted=True)
         mask[sets.repair(idx[None, :])[0] - 1] = 1
     return mask
 

@@ -32,6 +32,7 @@ from metaknot.bspline import (
     interior_from_mask,
     parameterize,
 )
+from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
 
@@ -89,18 +90,30 @@ class KnotProblem(Problem):
         ``"paper"``, ``"bic"``, ``"error_bounded"`` or an :class:`Objective` instance.
     objective_options
         Keyword options of the objective (for example ``{"tolerance": 1e-3}``).
+    closed
+        A closed outline (the last point is not a repeat of the first): a periodic spline, its
+        parameters over [0, 1) with the closing chord, point 0 always at a breakpoint; the
+        other points (1..N-1) are the candidate knots.
     """
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
                  parameterization: str = "centripetal", objective: str | Objective = "paper",
-                 objective_options: dict[str, Any] | None = None) -> None:
+                 objective_options: dict[str, Any] | None = None, closed: bool = False) -> None:
         self.data = _as_point_set(points)
         self.degree = check_degree(degree)
-        method = self.data.params if self.data.params is not None else parameterization
-        self.params = parameterize(self.data.points, method, degree=self.degree)
+        self.closed = bool(closed)
+        if self.closed:
+            if self.data.params is not None:
+                raise ValueError("a closed curve takes its own parameters (closing chord "
+                                 "included); explicit parameters do not apply")
+            self.params = closed_parameterize(self.data.points, parameterization)
+        else:
+            method = self.data.params if self.data.params is not None else parameterization
+            self.params = parameterize(self.data.points, method, degree=self.degree)
         self.parameterization = "explicit" if self.data.params is not None else parameterization
         self.objective = get_objective(objective, **(objective_options or {}))
-        self.info = DataInfo(self.data.n_points, self.data.dim, self.data.scale, self.degree)
+        self.info = DataInfo(self.data.n_points, self.data.dim, self.data.scale, self.degree,
+                             self.closed)
 
     @property
     def points(self) -> np.ndarray:
@@ -155,14 +168,28 @@ class KnotProblem(Problem):
         x = self.encoding.check(x)[0]
         value = self.evaluate_details(x[None, :])[0][0]
         value = float(value) if np.ndim(value) == 0 else value
-        fit = fit_spline(self.params, self.points, self._interior_knots(x), self.degree)
+        if self.closed:
+            fit = fit_periodic(self.params, self.points, self._interior_knots(x), self.degree)
+        else:
+            fit = fit_spline(self.params, self.points, self._interior_knots(x), self.degree)
         return KnotSolution(x=x, objective_value=value, fit=fit)
 
     def describe(self) -> dict[str, Any]:
         """Problem name, encoding and every setting: the data (name, fingerprint, size, noise),
         degree, parameterization, the objective's name and options (``objective.<option>``)."""
         return {**super().describe(), **self.data.describe(), "degree": self.degree,
-                "parameterization": self.parameterization, **self.objective.describe()}
+                "parameterization": self.parameterization, "closed": self.closed,
+                **self.objective.describe()}
+
+    def _fit_closed(self, rows: np.ndarray) -> BatchFit:
+        """Periodic fits of NaN-padded interior-knot rows (closed curves)."""
+        return evaluate_periodic(self.params, self.points, rows, self.degree,
+                                 max_deviation=self.objective.needs_max_deviation)
+
+    @property
+    def last_candidate_point(self) -> int:
+        """The highest data index a knot can sit at: N - 2 (open), N - 1 (closed)."""
+        return self.data.n_points - (1 if self.closed else 2)
 
 
 @register("knot_selection")
@@ -178,28 +205,34 @@ class KnotSelection(KnotProblem):
         if not 0.0 <= density <= 1.0:
             raise ValueError(f"density must lie in [0, 1]; got {density}")
         self.density = float(density)
-        self.encoding = Encoding.binary(self.data.n_points - 2)
+        self.encoding = Encoding.binary(self.last_candidate_point)
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         return (rng.random((n, self.encoding.n_var)) < self.density).astype(np.int64)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        if self.closed:
+            rows = np.where(X.astype(bool), self.params[1:][None, :], np.nan)
+            return self._fit_closed(rows)
         return evaluate_masks(self.params, self.points, X.astype(bool), self.degree,
                               max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
+        if self.closed:
+            return self.params[1:][np.asarray(x).astype(bool)]
         return interior_from_mask(self.params, x)
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "density": self.density}
 
 
-def _check_n_knots(n_knots: int, n_points: int, degree: int) -> int:
-    upper = n_points - degree - 1
+def _check_n_knots(n_knots: int, n_points: int, degree: int, closed: bool = False) -> int:
+    upper = n_points - 1 if closed else n_points - degree - 1
+    rule = "N - 1, closed" if closed else "N - degree - 1"
     if isinstance(n_knots, bool) or not isinstance(n_knots, int | np.integer) \
             or not 1 <= n_knots <= upper:
         raise ValueError(
-            f"n_knots must be an integer in 1..{upper} (N - degree - 1) for {n_points} points "
+            f"n_knots must be an integer in 1..{upper} ({rule}) for {n_points} points "
             f"of degree {degree}; got {n_knots!r}"
         )
     return int(n_knots)
@@ -216,11 +249,13 @@ class KnotIndices(KnotProblem):
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
                  n_knots: int = 20, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
-        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree)
-        self.encoding = Encoding.integer(self.n_knots, 1, self.data.n_points - 2,
+        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree, self.closed)
+        self.encoding = Encoding.integer(self.n_knots, 1, self.last_candidate_point,
                                          distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        if self.closed:  # a repeated index gives coincident knots: reported infeasible
+            return self._fit_closed(self.params[np.sort(X, axis=1)])
         return evaluate_indices(self.params, self.points, X, self.degree,
                                 max_deviation=self.objective.needs_max_deviation)
 
@@ -246,12 +281,17 @@ class FreeKnots(KnotProblem):
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
                  n_knots: int = 20, variable_count: bool = False, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
-        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree)
+        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree, self.closed)
         self.variable_count = bool(variable_count)
-        self.encoding = Encoding.continuous(self.n_knots, self.params[0], self.params[-1],
+        upper = 1.0 if self.closed else self.params[-1]
+        self.encoding = Encoding.continuous(self.n_knots, self.params[0], upper,
                                             distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        if self.closed:
+            rows = np.where(np.isnan(X), np.nan, X) if self.variable_count else \
+                np.where(np.isnan(X), -1.0, X)  # NaN without variable_count: out of range
+            return self._fit_closed(rows)
         return evaluate_positions(self.params, self.points, X, self.degree,
                                   max_deviation=self.objective.needs_max_deviation,
                                   nan_is_absent=self.variable_count)

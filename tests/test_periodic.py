@@ -138,3 +138,93 @@ def test_compiled_batch_names_what_cannot_be_fitted() -> None:
     too_many = np.sort(np.concatenate((u[1:], (u[1:3] + u[2:4]) / 2)))[None, :]
     assert evaluate_periodic(u, points, too_many, 3).reason[0] == \
         Infeasibility.TOO_MANY_CONTROL_POINTS
+
+
+# --- the knot problems on closed outlines ----------------------------------------------------
+
+def closed_problems(objective: str = "paper"):
+    from metaknot.problems import FreeKnots, KnotIndices, KnotSelection
+
+    points = outline(60)
+    return [KnotSelection(points, closed=True, objective=objective),
+            KnotIndices(points, n_knots=9, closed=True, objective=objective),
+            FreeKnots(points, n_knots=9, closed=True, objective=objective)]
+
+
+def interior_of(problem, x: np.ndarray) -> np.ndarray:
+    kind = problem.encoding.kind
+    if kind == "binary":
+        return problem.params[1:][x.astype(bool)]
+    if kind == "integer":
+        return problem.params[np.sort(x)]
+    return np.sort(x)
+
+
+@pytest.mark.parametrize("index", [0, 1, 2], ids=["mask", "indices", "free"])
+def test_closed_problems_score_the_periodic_fit(index: int) -> None:
+    problem = closed_problems("error_bounded")[index]
+    assert problem.describe()["closed"] is True and problem.n_objectives == 1
+    n = problem.data.n_points
+    if problem.encoding.kind == "binary":
+        assert problem.encoding.n_var == n - 1  # every point but the first (always a knot)
+    elif problem.encoding.kind == "integer":
+        assert int(problem.encoding.upper.max()) == n - 1
+    X = problem.sample(np.random.default_rng(index), 15)
+    values, metrics = problem.evaluate_with_metrics(X)
+    tol = problem.objective.bound(problem.info)
+    for x, value, cp in zip(X, values, metrics["n_control_points"], strict=True):
+        interior = interior_of(problem, x)
+        try:
+            reference = fit_periodic(problem.params, problem.points, interior, 3)
+        except ValueError:
+            assert value == np.inf
+            continue
+        ratio = reference.max_deviation / tol
+        expected = reference.n_control_points + ratio if ratio <= 1 else n + 2 + ratio
+        assert value == pytest.approx(expected, rel=1e-9)
+        assert cp == reference.n_control_points == len(interior) + 1
+    best = X[np.argmin(values)]
+    solution = problem.decode(best)
+    assert solution.metrics()["max_deviation"] == pytest.approx(
+        fit_periodic(problem.params, problem.points, interior_of(problem, best),
+                     3).max_deviation, rel=1e-12)
+
+
+def test_bic_counts_a_closed_curve_s_parameters() -> None:
+    from metaknot.problems import KnotSelection
+
+    points = outline(60)
+    problem = KnotSelection(points, closed=True, objective="bic")
+    mask = np.zeros(59, dtype=np.int64)
+    mask[[9, 19, 29, 39, 49]] = 1
+    value = problem.evaluate(mask[None, :])[0]
+    fitted = fit_periodic(problem.params, points, problem.params[1:][mask.astype(bool)], 3)
+    n, cp = 60 * 2, 6
+    k = 2 * cp + (cp - 1)  # d x control points + interior knots (cp - 1 on a closed curve)
+    assert value == pytest.approx(n * np.log(fitted.sse / n) + np.log(n) * k, rel=1e-9)
+
+
+@pytest.mark.parametrize("index", [0, 1, 2], ids=["mask", "indices", "free"])
+def test_every_optimizer_runs_on_closed_problems(index: int) -> None:
+    import metaknot as mk
+
+    problem = closed_problems()[index]
+    for name in mk.available_optimizers():
+        optimizer = mk.get_optimizer(name)
+        if problem.encoding.kind not in optimizer.encodings:
+            continue
+        result = mk.minimize(problem, name, budget=60, seed=1)
+        assert result.n_evaluations <= 60
+        if result.best_x is not None:
+            assert result.best_f == pytest.approx(
+                float(problem.evaluate(result.best_x[None, :])[0]))
+            assert result.metrics()["n_control_points"] == \
+                len(interior_of(problem, result.best_x)) + 1
+
+
+def test_a_closed_problem_refuses_explicit_parameters() -> None:
+    from metaknot.problems import KnotSelection, PointSet
+
+    points = outline(30)
+    with pytest.raises(ValueError, match="explicit parameters do not apply"):
+        KnotSelection(PointSet(points, params=np.linspace(0, 1, 30)), closed=True)

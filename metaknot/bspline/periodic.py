@@ -104,6 +104,25 @@ class PeriodicFit:
     def max_deviation(self) -> float:
         return float(self.distances().max())
 
+    @property
+    def sse(self) -> float:
+        return float(np.sum(self.distances() ** 2))
+
+    @property
+    def knots(self) -> np.ndarray:
+        return np.asarray(self.spline.t)
+
+    @property
+    def degree(self) -> int:
+        return int(self.spline.k)
+
+    def metrics(self) -> dict[str, float]:
+        """Control points, SSE, RMSE, Euclidean distance (sqrt SSE) and max deviation."""
+        sse = self.sse
+        return {"n_control_points": self.n_control_points, "sse": sse, "rmse": self.rmse,
+                "euclidean_distance": float(np.sqrt(sse)),
+                "max_deviation": self.max_deviation}
+
 
 def _wrapped_design(u: np.ndarray, t: np.ndarray, p: int) -> np.ndarray:
     m = t.size - 2 * p - 1
