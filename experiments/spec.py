@@ -338,7 +338,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     problem = _section(cfg, "problem")
     _unknown("problem", problem, {"name", "curve", "points", "params_column", "n_points",
                                   "noise", "noise_seed", "degree", "parameterization",
-                                  "fingerprint"})
+                                  "fingerprint", "closed"})
     from metaknot.problems import CURVES
 
     curve, points = problem.get("curve"), problem.get("points")
@@ -376,6 +376,11 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
                                     problem.get("parameterization", "centripetal"),
                                     PARAMETERIZATIONS),
     }
+    closed = problem.get("closed", False)
+    if not isinstance(closed, bool):
+        raise ConfigError(f"problem.closed: true or false, got {closed!r}")
+    if closed:  # only when set, so the run ids of open problems stay as they were
+        problem_out["closed"] = True
 
     encoding = _section(cfg, "encoding")
     kind = _choice("encoding.kind", encoding.get("kind"), tuple(ENCODINGS))
@@ -528,7 +533,7 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"objective ({name}): {exc}") from None
     common = {"degree": problem["degree"], "parameterization": problem["parameterization"],
-              "objective": objective}
+              "objective": objective, "closed": problem.get("closed", False)}
     kind = encoding["kind"]
     try:
         if kind == "mask":

@@ -91,9 +91,10 @@ class KnotProblem(Problem):
     objective_options
         Keyword options of the objective (for example ``{"tolerance": 1e-3}``).
     closed
-        A closed outline (the last point is not a repeat of the first): a periodic spline, its
-        parameters over [0, 1) with the closing chord, point 0 always at a breakpoint; the
-        other points (1..N-1) are the candidate knots.
+        A closed outline: a periodic spline, its parameters over [0, 1) with the closing
+        chord, point 0 always at a breakpoint; the other points (1..N-1) are the candidate
+        knots. A last point that repeats the first (as the seed's epitrochoid and Vivaldi
+        curves do) is dropped.
     """
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
@@ -103,6 +104,10 @@ class KnotProblem(Problem):
         self.degree = check_degree(degree)
         self.closed = bool(closed)
         if self.closed:
+            q = self.data.points
+            if len(q) > 3 and np.linalg.norm(q[-1] - q[0]) <= 1e-12 * self.data.scale:
+                self.data = PointSet(q[:-1], name=self.data.name, noise=self.data.noise,
+                                     noise_seed=self.data.noise_seed)  # a repeated first point
             if self.data.params is not None:
                 raise ValueError("a closed curve takes its own parameters (closing chord "
                                  "included); explicit parameters do not apply")

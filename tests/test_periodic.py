@@ -228,3 +228,21 @@ def test_a_closed_problem_refuses_explicit_parameters() -> None:
     points = outline(30)
     with pytest.raises(ValueError, match="explicit parameters do not apply"):
         KnotSelection(PointSet(points, params=np.linspace(0, 1, 30)), closed=True)
+
+
+def test_a_closed_study_from_the_command_line(tmp_path) -> None:
+    import subprocess
+    import sys
+
+    from metaknot.experiments.store import load_study
+
+    done = subprocess.run(
+        [sys.executable, "-m", "metaknot.cli", "run", "-m", "problem=epitrochoid",
+         "problem.closed=true,false", "algorithm=averaging", "budget=400", "seed=0",
+         f"results_dir={tmp_path}", "study=closed"],
+        capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    runs = load_study(tmp_path / "closed").runs.set_index("closed")
+    # the seed's epitrochoid repeats its first point: a closed problem drops it
+    assert runs.loc[True, "n_points"] == runs.loc[False, "n_points"] - 1 == 360
+    assert runs.loc[True, "best_f"] < runs.loc[False, "best_f"]  # no seam to pay for
