@@ -246,3 +246,12 @@ def test_a_closed_study_from_the_command_line(tmp_path) -> None:
     # the seed's epitrochoid repeats its first point: a closed problem drops it
     assert runs.loc[True, "n_points"] == runs.loc[False, "n_points"] - 1 == 360
     assert runs.loc[True, "best_f"] < runs.loc[False, "best_f"]  # no seam to pay for
+    # the report draws the closed fit over the whole period
+    from metaknot.experiments.report import figures as f
+    from metaknot.experiments.report.data import prepare
+
+    comparison = prepare(tmp_path / "closed")
+    figure = f.fitted_curves_figure(comparison, comparison.instances[0])
+    lines = [line for ax in figure.axes for line in ax.get_lines() if line.get_label() == "fit"]
+    closed_curves = [line.get_xydata() for line in lines]
+    assert any(np.allclose(xy[0], xy[-1], atol=1e-9) for xy in closed_curves)

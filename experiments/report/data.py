@@ -29,9 +29,9 @@ METRICS = {
 }
 #: Settings that make a problem instance (those that vary within a study name it).
 INSTANCE_SETTINGS = ("data", "n_points", "noise", "degree", "parameterization", "objective",
-                     "n_knots")
+                     "n_knots", "closed")
 SHORT = {"n_points": "N", "noise": "σ", "degree": "p", "parameterization": "", "objective": "",
-         "n_knots": "K"}
+         "n_knots": "K", "closed": "closed"}
 
 
 class ReportError(ValueError):

@@ -113,6 +113,12 @@ class PeriodicFit:
         return np.asarray(self.spline.t)
 
     @property
+    def interior_knots(self) -> np.ndarray:
+        """The chosen breakpoints in (0, 1) (0 is always a breakpoint too)."""
+        p, m = self.degree, self.n_control_points
+        return np.asarray(self.spline.t[p + 1 : p + m])
+
+    @property
     def degree(self) -> int:
         return int(self.spline.k)
 
