@@ -265,6 +265,8 @@ class KnotIndices(KnotProblem):
                                 max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
+        if self.closed:  # indices 1..N-1 (the encoding has checked them)
+            return np.sort(self.params[np.asarray(x, dtype=np.int64)])
         return interior_from_indices(self.params, x)
 
     def describe(self) -> dict[str, Any]:

@@ -255,3 +255,14 @@ def test_a_closed_study_from_the_command_line(tmp_path) -> None:
     lines = [line for ax in figure.axes for line in ax.get_lines() if line.get_label() == "fit"]
     closed_curves = [line.get_xydata() for line in lines]
     assert any(np.allclose(xy[0], xy[-1], atol=1e-9) for xy in closed_curves)
+
+
+def test_a_closed_index_set_may_use_the_last_point() -> None:
+    from metaknot.problems import KnotIndices
+
+    points = outline(50)
+    problem = KnotIndices(points, n_knots=6, closed=True)
+    x = np.array([8, 16, 24, 32, 40, 49])  # 49 = N - 1: next to point 0 across the seam
+    solution = problem.decode(x)
+    reference = fit_periodic(problem.params, points, problem.params[x], 3)
+    assert solution.metrics()["sse"] == pytest.approx(reference.sse, rel=1e-12)
