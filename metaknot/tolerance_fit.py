@@ -12,7 +12,10 @@ Open curves and function data get a clamped spline of degree p; closed outlines 
    (the compiled evaluator); the best is taken while it stays within the tolerance. When none
    does, the knots next to the most promising removals are nudged, a knot at a time, over a
    grid between their neighbours, and the removal is tried again.
-4. The result never has more control points than FITPACK's answer: if the search does not beat
+4. **Fewer still** — one knot fewer at a time, knots at data points are searched by the
+   ``local_search`` optimizer (removal, insertion and shifts from the averaging knots) under the
+   ``error_bounded`` objective at the same tolerance, while a count within it is found.
+5. The result never has more control points than FITPACK's answer: if the search does not beat
    it, FITPACK's own spline is returned, and ``method`` says which one it is.
 """
 
@@ -54,8 +57,8 @@ class ToleranceFit:
     tolerance, metric
         The absolute tolerance and the error it bounds.
     method
-        ``"knot removal"`` (metaknot's search) or ``"fitpack"`` (FITPACK's answer was not
-        beaten).
+        ``"knot removal"`` or ``"knot removal + local search"`` (metaknot's search), or
+        ``"fitpack"`` (FITPACK's answer was not beaten).
     metrics
         ``n_control_points``, ``max_deviation``, ``rmse``, ``seconds``.
     fitpack
@@ -253,6 +256,31 @@ class _Search:
         return rows[ok[0]] if ok.size else None
 
 
+def _fewer_by_local_search(u: np.ndarray, q: np.ndarray, p: int, tol: float, metric: Metric,
+                           closed: bool, parameterization: str, count: int,
+                           budget: int = 5000) -> tuple[np.ndarray | None, int]:
+    """Knots at data points, one fewer at a time than ``count``, each count searched by the
+    ``local_search`` optimizer (best-improvement removal, insertion and shifts from the
+    averaging knots) under ``error_bounded`` at the same tolerance; the last count within the
+    tolerance, or None, and the fits used."""
+    from metaknot.problems import KnotIndices, PointSet
+    from metaknot.runner import minimize
+
+    data = PointSet(q) if closed else PointSet(q, params=u)
+    extra = 1 if closed else p + 1
+    found, fits = None, 0
+    for k in range(count - 1, 0, -1):
+        problem = KnotIndices(data, n_knots=k, degree=p, closed=closed,
+                              parameterization=parameterization, objective="error_bounded",
+                              objective_options={"tolerance": tol, "metric": metric})
+        result = minimize(problem, "local_search", budget=budget, seed=0)
+        fits += result.n_evaluations
+        if result.best_x is None or result.best_f > k + extra + 1:
+            break
+        found = np.sort(problem.params[np.asarray(result.best_x, dtype=np.int64)])
+    return found, fits
+
+
 def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
                   function: bool) -> tuple[np.ndarray, np.ndarray | None]:
     q = np.asarray(points, dtype=np.float64)
@@ -374,11 +402,20 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         if best is None or len(reduced) < len(best):
             best = reduced
     stages.append(f"knot removal: {search.evaluations:,} fits")
-    seconds = time.perf_counter() - start
+    method_name = "knot removal"
     extra = 1 if closed else p + 1  # control points beyond the interior knots
+    if best is not None:
+        fewer, fits = _fewer_by_local_search(u, q, p, tol_abs, metric, closed, parameterization,
+                                             len(best))
+        stages.append(f"local search at fixed counts: {fits:,} fits, "
+                      f"{len(best) - (len(fewer) if fewer is not None else len(best))} "
+                      "knots fewer")
+        if fewer is not None:  # and knot removal once more from there
+            best, method_name = search.remove(fewer), "knot removal + local search"
+    seconds = time.perf_counter() - start
     if best is not None and len(best) + extra < reference["n_control_points"]:
         solution = fit_periodic(u, q, best, p) if closed else fit_spline(u, q, best, p)
-        spline, method = solution.spline, "knot removal"
+        spline, method = solution.spline, method_name
         metrics = {"n_control_points": solution.n_control_points,
                    "max_deviation": solution.max_deviation, "rmse": solution.rmse}
     else:
