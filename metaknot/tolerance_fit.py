@@ -12,9 +12,10 @@ Open curves and function data get a clamped spline of degree p; closed outlines 
    (the compiled evaluator); the best is taken while it stays within the tolerance. When none
    does, the knots next to the most promising removals are nudged, a knot at a time, over a
    grid between their neighbours, and the removal is tried again.
-4. **Fewer still** — one knot fewer at a time, knots at data points are searched by the
-   ``local_search`` optimizer (removal, insertion and shifts from the averaging knots) under the
-   ``error_bounded`` objective at the same tolerance, while a count within it is found.
+4. **Fewer still** — one knot fewer at a time, knots at data points are searched under the
+   ``error_bounded`` objective at the same tolerance by the ``local_search`` optimizer
+   (removal, insertion and shifts from the averaging knots) and, failing that, the GA, while
+   a count within the tolerance is found; then knot removal once more.
 5. The result never has more control points than FITPACK's answer: if the search does not beat
    it, FITPACK's own spline is returned, and ``method`` says which one it is.
 """
@@ -57,7 +58,7 @@ class ToleranceFit:
     tolerance, metric
         The absolute tolerance and the error it bounds.
     method
-        ``"knot removal"`` or ``"knot removal + local search"`` (metaknot's search), or
+        ``"knot removal"`` or ``"knot removal + fixed-count search"`` (metaknot's search), or
         ``"fitpack"`` (FITPACK's answer was not beaten).
     metrics
         ``n_control_points``, ``max_deviation``, ``rmse``, ``seconds``.
@@ -256,13 +257,18 @@ class _Search:
         return rows[ok[0]] if ok.size else None
 
 
-def _fewer_by_local_search(u: np.ndarray, q: np.ndarray, p: int, tol: float, metric: Metric,
-                           closed: bool, parameterization: str, count: int,
-                           budget: int = 5000) -> tuple[np.ndarray | None, int]:
-    """Knots at data points, one fewer at a time than ``count``, each count searched by the
-    ``local_search`` optimizer (best-improvement removal, insertion and shifts from the
-    averaging knots) under ``error_bounded`` at the same tolerance; the last count within the
-    tolerance, or None, and the fits used."""
+#: The searches tried at each knot count: local search, then a GA (name, options, budget).
+FIXED_COUNT_SEARCHES = (("local_search", {}, 5000), ("ga", {"population": 100}, 20000))
+
+
+def _fewer_at_fixed_counts(u: np.ndarray, q: np.ndarray, p: int, tol: float, metric: Metric,
+                           closed: bool, parameterization: str,
+                           count: int) -> tuple[np.ndarray | None, int]:
+    """Knots at data points, one fewer at a time than ``count``: each count is searched under
+    ``error_bounded`` at the same tolerance by the local search (best-improvement removal,
+    insertion and shifts from the averaging knots), then, if that stays beyond the tolerance,
+    by the GA (``FIXED_COUNT_SEARCHES``, seed 0). Returns the knots of the last count found
+    within the tolerance (or None) and the fits used."""
     from metaknot.problems import KnotIndices, PointSet
     from metaknot.runner import minimize
 
@@ -273,11 +279,16 @@ def _fewer_by_local_search(u: np.ndarray, q: np.ndarray, p: int, tol: float, met
         problem = KnotIndices(data, n_knots=k, degree=p, closed=closed,
                               parameterization=parameterization, objective="error_bounded",
                               objective_options={"tolerance": tol, "metric": metric})
-        result = minimize(problem, "local_search", budget=budget, seed=0)
-        fits += result.n_evaluations
-        if result.best_x is None or result.best_f > k + extra + 1:
+        within = None
+        for name, options, budget in FIXED_COUNT_SEARCHES:
+            result = minimize(problem, name, budget=budget, seed=0, optimizer_kwargs=options)
+            fits += result.n_evaluations
+            if result.best_x is not None and result.best_f <= k + extra + 1:
+                within = result.best_x
+                break
+        if within is None:
             break
-        found = np.sort(problem.params[np.asarray(result.best_x, dtype=np.int64)])
+        found = np.sort(problem.params[np.asarray(within, dtype=np.int64)])
     return found, fits
 
 
@@ -405,13 +416,13 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     method_name = "knot removal"
     extra = 1 if closed else p + 1  # control points beyond the interior knots
     if best is not None:
-        fewer, fits = _fewer_by_local_search(u, q, p, tol_abs, metric, closed, parameterization,
+        fewer, fits = _fewer_at_fixed_counts(u, q, p, tol_abs, metric, closed, parameterization,
                                              len(best))
-        stages.append(f"local search at fixed counts: {fits:,} fits, "
+        stages.append(f"search at fixed counts: {fits:,} fits, "
                       f"{len(best) - (len(fewer) if fewer is not None else len(best))} "
                       "knots fewer")
         if fewer is not None:  # and knot removal once more from there
-            best, method_name = search.remove(fewer), "knot removal + local search"
+            best, method_name = search.remove(fewer), "knot removal + fixed-count search"
     seconds = time.perf_counter() - start
     if best is not None and len(best) + extra < reference["n_control_points"]:
         solution = fit_periodic(u, q, best, p) if closed else fit_spline(u, q, best, p)

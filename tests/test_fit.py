@@ -88,7 +88,7 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
 
     monkeypatch.setattr(tolerance_fit._Search, "remove", lambda self, knots: knots)
     monkeypatch.setattr(tolerance_fit._Search, "fewest_averaging", lambda self, upper: None)
-    monkeypatch.setattr(tolerance_fit, "_fewer_by_local_search", lambda *a, **k: (None, 0))
+    monkeypatch.setattr(tolerance_fit, "_fewer_at_fixed_counts", lambda *a, **k: (None, 0))
     points = get_curve("archimedean").points
     result = mk.fit(points, 1e-3, relative=True)
     assert result.method == "fitpack"
@@ -256,15 +256,15 @@ def test_closed_outline_in_dxf_and_csv(tmp_path) -> None:
     assert "open (clamped) curve of 151 points" in done.stdout
 
 
-def test_local_search_at_fixed_counts_finds_fewer_knots(monkeypatch) -> None:
+def test_the_fixed_count_search_finds_fewer_knots(monkeypatch) -> None:
     from metaknot import tolerance_fit
 
     points = get_curve("vivaldi").points  # closed: its last point repeats the first
     with_search = mk.fit(points, 1e-3, relative=True)
-    assert with_search.method == "knot removal + local search"
+    assert with_search.method == "knot removal + fixed-count search"
     u = with_search.params
     assert max_deviation(with_search.spline, u, with_search.points) <= with_search.tolerance
-    monkeypatch.setattr(tolerance_fit, "_fewer_by_local_search", lambda *a, **k: (None, 0))
+    monkeypatch.setattr(tolerance_fit, "_fewer_at_fixed_counts", lambda *a, **k: (None, 0))
     without = mk.fit(points, 1e-3, relative=True)
     assert without.method == "knot removal"
     assert with_search.n_control_points < without.n_control_points
