@@ -91,6 +91,12 @@ def build_parser() -> argparse.ArgumentParser:
     shape.add_argument("--auto-closed", dest="closed", action="store_const", const=None,
                        help="closed if the first and last points coincide within the "
                             "tolerance (the default)")
+    fit.add_argument("--method", choices=["auto", "removal", "fitpack"], default="auto",
+                     help="auto: knot removal then a search at fixed counts (the default); "
+                          "removal: knot removal only; fitpack: FITPACK's answer")
+    fit.add_argument("--budget", type=int, default=20000,
+                     help="evaluations of the GA at each count of the fixed-count search")
+    fit.add_argument("--seed", type=int, default=0, help="seed of the searches")
     fit.add_argument("--out", default=None, help="output folder (default: <points>-fit)")
     fit.set_defaults(func=_fit)
     report = sub.add_parser("report", help="statistical comparison report of a stored study",
@@ -184,7 +190,8 @@ def _fit(args: argparse.Namespace) -> int:
           f"{args.points}", flush=True)
     result = fit(points, args.tol, relative=args.relative, metric=args.metric,
                  function=args.function, degree=args.degree,
-                 parameterization=args.parameterization, closed=args.closed)
+                 parameterization=args.parameterization, closed=args.closed,
+                 method=args.method, budget=args.budget, seed=args.seed, progress=True)
     for stage in result.stages:
         print(stage, flush=True)
     out = Path(args.out) if args.out else Path(args.points).with_name(

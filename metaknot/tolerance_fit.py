@@ -262,8 +262,9 @@ FIXED_COUNT_SEARCHES = (("local_search", {}, 5000), ("ga", {"population": 100}, 
 
 
 def _fewer_at_fixed_counts(u: np.ndarray, q: np.ndarray, p: int, tol: float, metric: Metric,
-                           closed: bool, parameterization: str,
-                           count: int) -> tuple[np.ndarray | None, int]:
+                           closed: bool, parameterization: str, count: int,
+                           searches: tuple = FIXED_COUNT_SEARCHES, seed: int = 0,
+                           progress: bool = False) -> tuple[np.ndarray | None, int]:
     """Knots at data points, one fewer at a time than ``count``: each count is searched under
     ``error_bounded`` at the same tolerance by the local search (best-improvement removal,
     insertion and shifts from the averaging knots), then, if that stays beyond the tolerance,
@@ -280,8 +281,9 @@ def _fewer_at_fixed_counts(u: np.ndarray, q: np.ndarray, p: int, tol: float, met
                               parameterization=parameterization, objective="error_bounded",
                               objective_options={"tolerance": tol, "metric": metric})
         within = None
-        for name, options, budget in FIXED_COUNT_SEARCHES:
-            result = minimize(problem, name, budget=budget, seed=0, optimizer_kwargs=options)
+        for name, options, budget in searches:
+            result = minimize(problem, name, budget=budget, seed=seed,
+                              optimizer_kwargs=options, progress=progress)
             fits += result.n_evaluations
             if result.best_x is not None and result.best_f <= k + extra + 1:
                 within = result.best_x
@@ -328,7 +330,9 @@ def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
 def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         metric: Metric = "max_deviation", function: bool = False,
         params: ArrayLike | None = None, degree: int = 3,
-        parameterization: str = "centripetal", closed: bool | None = None) -> ToleranceFit:
+        parameterization: str = "centripetal", closed: bool | None = None,
+        method: str = "auto", budget: int = 20000, seed: int = 0,
+        progress: bool = False) -> ToleranceFit:
     """The fewest control points whose clamped B-spline stays within ``tol`` of the points.
 
     Parameters
@@ -351,6 +355,15 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         ``True``: a closed outline, fitted by a periodic spline (no seam); ``False``: an open
         curve, clamped at its ends; ``None`` (default): closed if the first and last points
         coincide within the tolerance (the repeated last point is then dropped).
+    method
+        ``"auto"`` (knot removal, then the fixed-count search: the best in
+        ``benchmarks/bench_fit.py``), ``"removal"`` (knot removal only, fastest) or
+        ``"fitpack"`` (FITPACK's answer).
+    budget, seed
+        Evaluations of the GA at each count of the fixed-count search (the local search gets
+        a quarter) and the seed of both.
+    progress
+        Show a progress bar over each search's evaluations.
 
     Returns
     -------
@@ -366,6 +379,10 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     """
     start = time.perf_counter()
     p = check_degree(degree)
+    if method not in ("auto", "removal", "fitpack"):
+        raise ValueError(f"method must be 'auto', 'removal' or 'fitpack'; got {method!r}")
+    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
+        raise ValueError(f"budget must be a positive integer; got {budget!r}")
     if metric not in ("max_deviation", "rmse"):
         raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
     q, params = _check_points(points, params, p, function)
@@ -405,7 +422,7 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     if averaging is not None:
         starts.append(averaging)
     best = None
-    for knots in starts:
+    for knots in starts if method != "fitpack" else []:
         (err,) = search.errors([knots])
         if err > tol_abs:
             continue
@@ -415,9 +432,11 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     stages.append(f"knot removal: {search.evaluations:,} fits")
     method_name = "knot removal"
     extra = 1 if closed else p + 1  # control points beyond the interior knots
-    if best is not None:
+    if best is not None and method == "auto":
+        searches = ((FIXED_COUNT_SEARCHES[0][0], {}, max(1, budget // 4)),
+                    (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], budget))
         fewer, fits = _fewer_at_fixed_counts(u, q, p, tol_abs, metric, closed, parameterization,
-                                             len(best))
+                                             len(best), searches, seed, progress)
         stages.append(f"search at fixed counts: {fits:,} fits, "
                       f"{len(best) - (len(fewer) if fewer is not None else len(best))} "
                       "knots fewer")

@@ -268,3 +268,20 @@ def test_the_fixed_count_search_finds_fewer_knots(monkeypatch) -> None:
     without = mk.fit(points, 1e-3, relative=True)
     assert without.method == "knot removal"
     assert with_search.n_control_points < without.n_control_points
+
+
+def test_methods_budget_and_seed() -> None:
+    points = get_curve("vivaldi").points
+    fitpack = mk.fit(points, 1e-3, relative=True, method="fitpack")
+    removal = mk.fit(points, 1e-3, relative=True, method="removal")
+    auto = mk.fit(points, 1e-3, relative=True)
+    assert fitpack.method == "fitpack" and removal.method == "knot removal"
+    assert auto.n_control_points < removal.n_control_points < fitpack.n_control_points
+    assert mk.fit(points, 1e-3, relative=True, budget=50).n_control_points >= \
+        auto.n_control_points
+    again = mk.fit(points, 1e-3, relative=True)
+    np.testing.assert_array_equal(again.knots, auto.knots)  # same seed, same fit
+    with pytest.raises(ValueError, match="method"):
+        mk.fit(points, 1e-3, method="ga")
+    with pytest.raises(ValueError, match="budget"):
+        mk.fit(points, 1e-3, budget=0)
