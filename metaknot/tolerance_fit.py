@@ -282,8 +282,11 @@ def _fewer_at_fixed_counts(u: np.ndarray, q: np.ndarray, p: int, tol: float, met
                               objective_options={"tolerance": tol, "metric": metric})
         within = None
         for name, options, budget in searches:
-            result = minimize(problem, name, budget=budget, seed=seed,
-                              optimizer_kwargs=options, progress=progress)
+            try:
+                result = minimize(problem, name, budget=budget, seed=seed,
+                                  optimizer_kwargs=options, progress=progress)
+            except ValueError:  # a search that cannot start here (no averaging knots for k)
+                continue
             fits += result.n_evaluations
             if result.best_x is not None and result.best_f <= k + extra + 1:
                 within = result.best_x
@@ -389,6 +392,9 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     if not (isinstance(tol, int | float) and np.isfinite(tol) and tol > 0):
         raise ValueError(f"the tolerance must be a number > 0; got {tol!r}")
     diagonal = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
+    if relative and diagonal == 0:
+        raise ValueError("a relative tolerance needs points that are not all equal (their "
+                         "bounding box has zero size); give an absolute tolerance")
     tol_abs = float(tol) * (diagonal if relative else 1.0)
     ends_meet = bool(np.linalg.norm(q[-1] - q[0]) <= tol_abs)
     if closed is None:

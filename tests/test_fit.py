@@ -106,6 +106,8 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
     (PEAK[::-1], {"function": True}, "x must increase strictly"),
     (PEAK[:, :1], {"function": True}, "at least two columns"),
     (PEAK, {"metric": "mean"}, "metric"),
+    (np.column_stack((PEAK_X, np.ones(300))), {"function": True, "relative": True},
+     "bounding box has zero size"),
 ])
 def test_bad_input_is_named(points, kwargs, message) -> None:
     kwargs = {"tol": 1e-3, **kwargs}
@@ -285,3 +287,15 @@ def test_methods_budget_and_seed() -> None:
         mk.fit(points, 1e-3, method="ga")
     with pytest.raises(ValueError, match="budget"):
         mk.fit(points, 1e-3, budget=0)
+
+
+@pytest.mark.parametrize("n", [5, 6, 8])
+def test_few_points_open_and_closed(n: int) -> None:
+    angle = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    points = np.column_stack((np.cos(angle), np.sin(angle)))
+    for closed in (False, True):
+        result = mk.fit(points, 1e-3, relative=True, closed=closed)
+        assert result.closed == closed
+        u = result.params
+        assert max_deviation(result.spline, u, result.points) <= result.tolerance
+        assert result.n_control_points <= result.fitpack["n_control_points"]
