@@ -194,7 +194,6 @@ def _check_single_run(overrides: list[str]) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep) to Hydra."""
-    import hydra
 
     from metaknot.environment import git_commit
 
@@ -206,7 +205,16 @@ def main(argv: list[str] | None = None) -> int:
         if error:
             print(f"metaknot run: error: {error}", file=sys.stderr)
             return 2
-    hydra_main = hydra.main(version_base="1.3", config_path="conf", config_name="config")(task)
+    return launch(task, "config", args)
+
+
+def launch(task_function: Any, config_name: str, args: list[str]) -> int:
+    """Run ``task_function`` as a Hydra app on the configuration ``config_name`` of
+    ``experiments/conf`` with ``args`` as its command line (Hydra reads ``sys.argv``)."""
+    import hydra
+
+    hydra_main = hydra.main(version_base="1.3", config_path=str(CONFIG_DIR),
+                            config_name=config_name)(task_function)
     old = sys.argv
     sys.argv = [old[0] if old else "metaknot", *args]
     try:

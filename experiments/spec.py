@@ -93,7 +93,8 @@ def _section(cfg: Mapping[str, Any], key: str) -> dict[str, Any]:
 def _unknown(key: str, given: Mapping[str, Any], known: set[str]) -> None:
     extra = sorted(set(given) - known)
     if extra:
-        raise ConfigError(f"{key}.{extra[0]}: unknown setting (known: {', '.join(sorted(known))})")
+        name = f"{key}.{extra[0]}" if key else extra[0]
+        raise ConfigError(f"{name}: unknown setting (known: {', '.join(sorted(known))})")
 
 
 # --------------------------------------------------------------------------------------------
@@ -303,6 +304,18 @@ class RunSpec:
             raise ConfigError(f"algorithm ({self.algorithm}): {exc}") from None
 
 
+def check_study(cfg: Mapping[str, Any]) -> tuple[str, str]:
+    """The configuration's ``study`` name and ``results_dir``, checked."""
+    study = cfg.get("study")
+    if not isinstance(study, str) or not STUDY_NAME.match(study):
+        raise ConfigError(f"study: a name of letters, digits and _.=,+- (no slashes), "
+                          f"got {study!r}")
+    results_dir = cfg.get("results_dir")
+    if not isinstance(results_dir, str) or not results_dir:
+        raise ConfigError(f"results_dir: a directory path, got {results_dir!r}")
+    return study, results_dir
+
+
 def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     """Validate a run configuration and return its :class:`RunSpec`.
 
@@ -321,13 +334,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         Naming the first key whose value cannot work.
     """
     cfg = plain_config(cfg)
-    study = cfg.get("study")
-    if not isinstance(study, str) or not STUDY_NAME.match(study):
-        raise ConfigError(f"study: a name of letters, digits and _.=,+- (no slashes), "
-                          f"got {study!r}")
-    results_dir = cfg.get("results_dir")
-    if not isinstance(results_dir, str) or not results_dir:
-        raise ConfigError(f"results_dir: a directory path, got {results_dir!r}")
+    study, results_dir = check_study(cfg)
     threads = cfg.get("threads", "auto")
     if threads != "auto":
         threads = _int("threads", threads, low=1)

@@ -186,10 +186,11 @@ class KnotProblem(Problem):
                 "parameterization": self.parameterization, "closed": self.closed,
                 **self.objective.describe()}
 
-    def _fit_closed(self, rows: np.ndarray) -> BatchFit:
+    def _fit_closed(self, rows: np.ndarray, nan_is_absent: bool = True) -> BatchFit:
         """Periodic fits of NaN-padded interior-knot rows (closed curves)."""
         return evaluate_periodic(self.params, self.points, rows, self.degree,
-                                 max_deviation=self.objective.needs_max_deviation)
+                                 max_deviation=self.objective.needs_max_deviation,
+                                 nan_is_absent=nan_is_absent)
 
     @property
     def last_candidate_point(self) -> int:
@@ -295,10 +296,8 @@ class FreeKnots(KnotProblem):
                                             distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        if self.closed:
-            rows = np.where(np.isnan(X), np.nan, X) if self.variable_count else \
-                np.where(np.isnan(X), -1.0, X)  # NaN without variable_count: out of range
-            return self._fit_closed(rows)
+        if self.closed:  # NaN: no knot with variable_count, else out of range
+            return self._fit_closed(X, nan_is_absent=self.variable_count)
         return evaluate_positions(self.params, self.points, X, self.degree,
                                   max_deviation=self.objective.needs_max_deviation,
                                   nan_is_absent=self.variable_count)

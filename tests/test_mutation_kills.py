@@ -36,23 +36,9 @@ from metaknot.algorithms.local_search import index_neighbours, mask_neighbours
 from metaknot.algorithms.one_plus_one import step_at_least_one
 from metaknot.bspline import averaging_knots, fit_spline
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
+from tests.test_local_methods import OneMax
 
 SPIRAL = get_curve("archimedean", n_points=40)
-
-
-class OneMax(mk.Problem):
-    """Number of zeros of a 0/1 vector (lower is better)."""
-
-    name = "test_onemax"
-
-    def __init__(self, n_var: int = 20) -> None:
-        self.encoding = mk.Encoding.binary(n_var)
-
-    def evaluate(self, X):
-        return (np.asarray(X) == 0).sum(axis=1).astype(float)
-
-    def decode(self, x):
-        return np.asarray(x)
 
 
 class NegativeSum(mk.Problem):

@@ -11,15 +11,14 @@ Re-running the same command resumes the study (it stops once ``n_trials`` trials
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 from typing import Any
 
+from ..app import CONFIG_DIR, launch
 from ..spec import ConfigError
 from .spec import TuneSpec, tune_spec
 
 __all__ = ["main", "tune"]
 
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
 
 
 def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
@@ -71,7 +70,6 @@ def task(cfg: Any) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Hand ``argv`` (Hydra overrides) to the ``tuning`` configuration; a bad configuration is
     a one-line error before any trial starts."""
-    import hydra
     from hydra import compose, initialize_config_dir
     from hydra.errors import HydraException
 
@@ -94,12 +92,4 @@ def main(argv: list[str] | None = None) -> int:
             print(f"metaknot tune: error: {exc}", file=sys.stderr)
             return 2
         return 0
-    hydra_main = hydra.main(version_base="1.3", config_path="../conf",
-                            config_name="tuning")(task)
-    old = sys.argv
-    sys.argv = [old[0] if old else "metaknot", *args]
-    try:
-        hydra_main()
-    finally:
-        sys.argv = old
-    return 0
+    return launch(task, "tuning", args)

@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import Any
 
 from ..spec import (
-    STUDY_NAME,
     ConfigError,
     _choice,
     _float,
@@ -17,6 +16,7 @@ from ..spec import (
     _optimizer_class,
     _section,
     _unknown,
+    check_study,
     run_spec,
 )
 from .space import SearchSpace
@@ -163,13 +163,7 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
 
     raw = plain_config(cfg)
     _unknown("", raw, KEYS)
-    study = raw.get("study")
-    if not isinstance(study, str) or not STUDY_NAME.match(study):
-        raise ConfigError(f"study: a name of letters, digits and _.=,+- (no slashes), "
-                          f"got {study!r}")
-    results_dir = raw.get("results_dir")
-    if not isinstance(results_dir, str) or not results_dir:
-        raise ConfigError(f"results_dir: a directory path, got {results_dir!r}")
+    study, results_dir = check_study(raw)
     tune = _section(raw, "tune")
     _unknown("tune", tune, {"algorithm", "encoding", "fixed", "space"})
     algorithm = tune.get("algorithm")

@@ -194,17 +194,19 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     safe[bad_range] = 0.5
     _periodic_kernel.evaluate_batch(u, q, p, safe, offsets, max_deviation, fit.sse,
                                     fit.max_deviation, fit.n_control_points, fit.reason)
-    for row in range(b):  # reasons the kernel does not check itself
-        part = knots[offsets[row] : offsets[row + 1]]
-        code = None
-        if bad_range[offsets[row] : offsets[row + 1]].any():
-            code = Infeasibility.KNOT_OUT_OF_RANGE
-        elif (np.diff(part) <= 0).any():
-            code = Infeasibility.COINCIDENT_KNOTS
-        if code is not None:
-            fit.sse[row], fit.reason[row] = np.inf, code
-            if max_deviation:
-                fit.max_deviation[row] = np.inf
+    # the reasons the kernel does not check itself, per row
+    row_of = np.repeat(np.arange(b), counts)
+    same_row = row_of[1:] == row_of[:-1]
+    coincident = np.zeros(b, dtype=bool)
+    coincident[row_of[1:][same_row & (np.diff(knots) <= 0)]] = True
+    out_of_range = np.zeros(b, dtype=bool)
+    out_of_range[row_of[bad_range]] = True
+    fit.reason[coincident] = Infeasibility.COINCIDENT_KNOTS
+    fit.reason[out_of_range] = Infeasibility.KNOT_OUT_OF_RANGE  # takes precedence
+    refused = coincident | out_of_range
+    fit.sse[refused] = np.inf
+    if max_deviation:
+        fit.max_deviation[refused] = np.inf
     return fit if max_deviation else BatchFit(fit.sse, None, fit.n_control_points, fit.reason)
 
 
