@@ -1,0 +1,297 @@
+"""Delta evaluation of local knot moves against the full batched evaluator.
+
+Every candidate scored by a :class:`MoveEvaluator` must come back exactly as
+:func:`evaluate_knots` scores it: the same reason code, the same control-point count and the
+same SSE to 1e-10 relative. The tests also check that the delta path did the work (a test in
+which every move fell back to the full fit would prove nothing).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from metaknot.bspline import Infeasibility, evaluate_knots, parameterize
+from metaknot.bspline.knots import stack_masks
+from metaknot.bspline.moves import PATH_CHECKS, PATH_DELTA, PATH_FULL, MoveEvaluator
+from metaknot.problems import get_curve
+
+
+def curve(n_points: int, dim: int, seed: int = 0) -> np.ndarray:
+    """A smooth curve with a little noise, in ``dim`` dimensions."""
+    rng = np.random.default_rng(seed)
+    s = np.linspace(0.0, 1.0, n_points)
+    columns = [np.sin(2 * np.pi * (k + 1) * s + k) + 0.3 * s ** (k + 1) for k in range(dim)]
+    return np.column_stack(columns) + 1e-3 * rng.standard_normal((n_points, dim))
+
+
+def params_for(points: np.ndarray, how: str, degree: int, seed: int = 0) -> np.ndarray:
+    if how == "explicit":
+        rng = np.random.default_rng(seed)
+        return np.sort(np.concatenate(([0.0, 1.0], rng.random(len(points) - 2))))
+    return parameterize(points, how, degree=degree)
+
+
+def stack(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    offsets = np.concatenate(([0], np.cumsum([len(r) for r in rows]))).astype(np.int64)
+    knots = np.concatenate(rows) if rows else np.empty(0)
+    return knots.astype(np.float64), offsets
+
+
+def assert_same(me: MoveEvaluator, knots: np.ndarray, offsets: np.ndarray,
+                max_deviation: bool = False) -> np.ndarray:
+    """Scores of the move evaluator equal the full evaluator's; returns the paths."""
+    fit, path = me.evaluate(knots, offsets, max_deviation=max_deviation)
+    ref = evaluate_knots(me.u, me.q, knots, offsets, me.degree, max_deviation=max_deviation)
+    np.testing.assert_array_equal(fit.reason, ref.reason)
+    np.testing.assert_array_equal(fit.n_control_points, ref.n_control_points)
+    ok = ref.feasible
+    scale = float(np.sum(me.q ** 2))
+    np.testing.assert_allclose(fit.sse[ok], ref.sse[ok], rtol=1e-10, atol=1e-22 * scale)
+    assert np.all(np.isinf(fit.sse[~ok]))
+    if max_deviation:
+        np.testing.assert_allclose(fit.max_deviation[ok], ref.max_deviation[ok], rtol=1e-9,
+                                   atol=1e-11 * np.sqrt(scale))
+    else:
+        assert fit.max_deviation is None
+    assert set(np.unique(path)) <= {PATH_DELTA, PATH_CHECKS, PATH_FULL}
+    return path
+
+
+def random_mask(rng: np.random.Generator, n_var: int, density: float) -> np.ndarray:
+    return rng.random(n_var) < density
+
+
+def feasible_mask(u, q, degree, rng, density) -> np.ndarray:
+    """A random mask whose fit is feasible (re-drawn until it is)."""
+    for _ in range(200):
+        mask = random_mask(rng, u.size - 2, density)
+        knots, offsets = stack_masks(u, mask[None, :])
+        if evaluate_knots(u, q, knots, offsets, degree, max_deviation=False).feasible[0]:
+            return mask
+    raise AssertionError("no feasible mask found")
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("dim", [1, 2, 3])
+@pytest.mark.parametrize("how", ["uniform", "chord", "centripetal", "explicit"])
+def test_every_bit_flip_matches_the_full_fit(degree, dim, how):
+    q = curve(70, dim, seed=degree + 10 * dim)
+    u = params_for(q, how, degree, seed=dim)
+    rng = np.random.default_rng(degree * 100 + dim)
+    for density in (0.15, 0.5):
+        mask = feasible_mask(u, q, degree, rng, density)
+        me = MoveEvaluator(u, q, u[1:-1][mask], degree)
+        flips = np.repeat(mask[None], u.size - 2, axis=0) ^ np.eye(u.size - 2, dtype=bool)
+        path = assert_same(me, *stack_masks(u, flips))
+        if degree <= 3 or density < 0.3:
+            # dense knots of degree 4-5 are too badly conditioned to certify: full fits
+            assert np.mean(path == PATH_DELTA) > 0.5, np.bincount(path)
+
+
+@pytest.mark.parametrize("degree", [1, 3, 5])
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_index_moves_and_shifts_match(degree, dim):
+    q = curve(80, dim, seed=dim)
+    u = params_for(q, "centripetal", degree)
+    rng = np.random.default_rng(7 + degree)
+    k = 12
+    while True:
+        idx = np.sort(rng.choice(np.arange(1, u.size - 1), size=k, replace=False))
+        try:
+            me = MoveEvaluator(u, q, u[idx], degree)
+            break
+        except ValueError:
+            continue
+    rows = []
+    for _ in range(300):
+        moved = idx.copy()
+        moved[rng.integers(k)] = rng.integers(1, u.size - 1)  # knot k to index k'
+        rows.append(u[np.sort(moved)])
+    for i in range(k):  # every knot to its neighbouring data points
+        for step in (-2, -1, 1, 2):
+            moved = idx.copy()
+            moved[i] += step
+            if 1 <= moved[i] <= u.size - 2:
+                rows.append(u[np.sort(moved)])
+    path = assert_same(me, *stack(rows))
+    assert np.mean(path == PATH_DELTA) > 0.3, np.bincount(path)
+    assert (path == PATH_CHECKS).any()  # some moves made coincident knots
+
+
+@pytest.mark.parametrize("degree", [2, 3, 4])
+@pytest.mark.parametrize("dim", [1, 2])
+def test_free_knot_shift_insert_remove_match(degree, dim):
+    q = curve(90, dim, seed=3 * dim)
+    u = params_for(q, "chord", degree)
+    rng = np.random.default_rng(degree)
+    interior = np.sort(rng.uniform(0.05, 0.95, 10))
+    me = MoveEvaluator(u, q, interior, degree)
+    rows = []
+    for _ in range(200):
+        kind = rng.integers(3)
+        x = rng.uniform(u[0], u[-1])
+        if kind == 0:  # shift one knot to x
+            moved = interior.copy()
+            moved[rng.integers(interior.size)] = x
+            rows.append(np.sort(moved))
+        elif kind == 1:  # insert x
+            rows.append(np.sort(np.append(interior, x)))
+        else:  # remove one
+            rows.append(np.delete(interior, rng.integers(interior.size)))
+    for i in range(interior.size):  # small shifts, staying between the neighbours
+        moved = interior.copy()
+        moved[i] += 1e-3
+        rows.append(moved)
+    path = assert_same(me, *stack(rows))
+    assert np.mean(path == PATH_DELTA) > 0.8, np.bincount(path)
+
+
+def test_infeasible_moves_get_the_full_kernels_reason():
+    q = curve(60, 2)
+    u = parameterize(q, "centripetal")
+    interior = u[5:-5:6].copy()
+    me = MoveEvaluator(u, q, interior, 3)
+    gap = (u[20] + u[21]) / 2
+    rows = [
+        np.sort(np.append(interior, interior[2])),  # coincident with a knot
+        np.sort(np.append(interior, u[-1])),  # on the range end
+        np.sort(np.append(interior, -0.5)),  # outside
+        np.append(interior[:-1], np.nan),  # not a number
+        np.sort(np.concatenate((interior, gap + 1e-9 * np.arange(6)))),  # no data inside
+        np.concatenate((interior, u[1:-1])),  # more control points than points (unsorted)
+        u[1:-1].copy(),  # interpolation plus: too many
+    ]
+    fit, path = me.evaluate(*stack(rows))
+    ref = evaluate_knots(u, q, *stack(rows), 3, max_deviation=False)
+    np.testing.assert_array_equal(fit.reason, ref.reason)
+    expected = {Infeasibility.COINCIDENT_KNOTS, Infeasibility.KNOT_OUT_OF_RANGE,
+                Infeasibility.SCHOENBERG_WHITNEY, Infeasibility.TOO_MANY_CONTROL_POINTS}
+    assert expected <= {Infeasibility(r) for r in fit.reason}
+    assert np.all(path[~ref.feasible] != PATH_DELTA)
+
+
+@pytest.mark.parametrize("degree", [3, 4, 5])
+def test_near_singular_moves_get_the_full_kernels_verdict(degree):
+    # dense knots (80-90 % of the points) make some moves numerically singular: those must
+    # come back SINGULAR, as from the full kernel, and never as a delta-path fit
+    q = np.asarray(get_curve("epitrochoid", n_points=100).points)
+    u = parameterize(q, "centripetal")
+    rng = np.random.default_rng(degree)
+    singular = 0
+    paths = []
+    for density in (0.8, 0.9) * 3:
+        mask = random_mask(rng, u.size - 2, density)
+        try:
+            me = MoveEvaluator(u, q, u[1:-1][mask], degree)
+        except ValueError:
+            continue
+        n_var = u.size - 2
+        ones = np.repeat(mask[None], n_var, axis=0) ^ np.eye(n_var, dtype=bool)
+        twos = np.repeat(mask[None], n_var - 1, axis=0)
+        twos[np.arange(n_var - 1), np.arange(n_var - 1)] ^= True
+        twos[np.arange(n_var - 1), np.arange(1, n_var)] ^= True  # neighbouring bits
+        children = np.vstack((ones, twos))
+        path = assert_same(me, *stack_masks(u, children))
+        ref = evaluate_knots(u, q, *stack_masks(u, children), degree, max_deviation=False)
+        singular += int(np.sum(ref.reason == Infeasibility.SINGULAR))
+        assert np.all(path[ref.reason == Infeasibility.SINGULAR] == PATH_FULL)
+        paths.append(path)
+    paths = np.concatenate(paths)
+    assert singular > 0
+    assert (paths == PATH_FULL).any()
+    if degree == 3:  # dense knots of degree 4-5 are beyond what the delta path certifies
+        assert (paths == PATH_DELTA).sum() > 50
+
+
+def test_dense_incumbent_near_interpolation():
+    q = curve(50, 2)
+    u = parameterize(q, "chord")
+    mask = np.ones(u.size - 2, dtype=bool)
+    mask[::7] = False
+    me = MoveEvaluator(u, q, u[1:-1][mask], 3)
+    flips = np.repeat(mask[None], u.size - 2, axis=0) ^ np.eye(u.size - 2, dtype=bool)
+    assert_same(me, *stack_masks(u, flips))
+
+
+def test_max_deviation_matches_and_is_computed_in_full():
+    q = curve(70, 2)
+    u = parameterize(q, "centripetal")
+    rng = np.random.default_rng(3)
+    mask = feasible_mask(u, q, 3, rng, 0.4)
+    me = MoveEvaluator(u, q, u[1:-1][mask], 3)
+    flips = np.repeat(mask[None], u.size - 2, axis=0) ^ np.eye(u.size - 2, dtype=bool)
+    path = assert_same(me, *stack_masks(u, flips), max_deviation=True)
+    assert not (path == PATH_DELTA).any()
+
+
+def test_rebind_moves_the_incumbent_and_the_incumbent_scores_itself():
+    q = curve(60, 3)
+    u = parameterize(q, "centripetal")
+    rng = np.random.default_rng(5)
+    mask = feasible_mask(u, q, 3, rng, 0.3)
+    me = MoveEvaluator(u, q, u[1:-1][mask], 3)
+    for _ in range(20):  # a random walk of accepted flips
+        flips = np.repeat(mask[None], u.size - 2, axis=0) ^ np.eye(u.size - 2, dtype=bool)
+        fit, _ = me.evaluate(*stack_masks(u, flips))
+        ok = np.flatnonzero(fit.feasible)
+        mask = flips[rng.choice(ok)]
+        me.rebind(u[1:-1][mask])
+        fit, path = me.evaluate(*stack_masks(u, mask[None]))
+        ref = evaluate_knots(u, q, *stack_masks(u, mask[None]), 3, max_deviation=False)
+        assert path[0] == PATH_DELTA
+        np.testing.assert_allclose(fit.sse, ref.sse, rtol=1e-10)
+        np.testing.assert_allclose(me.sse, ref.sse[0], rtol=1e-10)
+    assert_same(me, *stack_masks(u, flips))
+
+
+def test_an_infeasible_incumbent_is_refused():
+    q = curve(30, 2)
+    u = parameterize(q, "uniform")
+    with pytest.raises(ValueError, match="incumbent cannot be fitted"):
+        MoveEvaluator(u, q, np.array([0.5, 0.5]), 3)
+    with pytest.raises(ValueError, match="1-D"):
+        MoveEvaluator(u, q, np.ones((2, 2)) * 0.5, 3)
+
+
+def test_wide_changes_fall_back_to_the_full_fit():
+    q = curve(80, 2)
+    u = parameterize(q, "uniform")
+    interior = u[4:-4:5].copy()
+    me = MoveEvaluator(u, q, interior, 3, max_window_rows=40)
+    far = interior.copy()
+    far[0] += 1e-3
+    far[-1] -= 1e-3  # two changes at the ends: the window spans almost every row
+    near = interior.copy()
+    near[5] += 1e-3
+    path = assert_same(me, *stack([far, near]))
+    assert list(path) == [PATH_FULL, PATH_DELTA]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(degree=st.integers(1, 5), dim=st.integers(1, 3), n_points=st.integers(12, 60),
+       density=st.floats(0.05, 0.95), seed=st.integers(0, 2**32 - 1),
+       how=st.sampled_from(["uniform", "chord", "centripetal", "explicit"]))
+def test_random_moves_match_the_full_fit(degree, dim, n_points, density, seed, how):
+    q = curve(n_points, dim, seed=seed % 1000)
+    u = params_for(q, how, degree, seed=seed)
+    rng = np.random.default_rng(seed)
+    try:
+        mask = feasible_mask(u, q, degree, rng, density)
+    except AssertionError:
+        return  # too few points for this degree and density
+    me = MoveEvaluator(u, q, u[1:-1][mask], degree)
+    n_var = u.size - 2
+    children = np.repeat(mask[None], 40, axis=0)
+    for child in children:
+        flips = rng.integers(1, 4)
+        if rng.random() < 0.5:  # neighbouring bits
+            start = rng.integers(n_var)
+            child[start:start + flips] ^= True
+        else:
+            child[rng.choice(n_var, size=min(flips, n_var), replace=False)] ^= True
+    assert_same(me, *stack_masks(u, children))
+    free = [np.sort(np.append(u[1:-1][mask], rng.uniform(u[0], u[-1]))) for _ in range(10)]
+    assert_same(me, *stack(free))
