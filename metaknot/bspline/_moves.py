@@ -301,6 +301,35 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
 
 
 @njit(cache=True)
+def _merged_coefficients(rbm, zm, size, rb_f, z_f, rb_b, z_b, n, p, c_left, c_right, delta,
+                         coef):
+    """Control points of a merged candidate (columns counted in the candidate): the merged
+    block ``rbm``, ``zm`` (columns ``c_left - p ..``) first, then the incumbent's final forward
+    rows leftwards and its final backward rows rightwards (unit triangular, square-root-free)."""
+    d = zm.shape[1]
+    base = c_left - p
+    for i in range(size - 1, -1, -1):
+        for k in range(d):
+            acc = zm[i, k]
+            for a in range(min(p, size - 1 - i), 0, -1):
+                acc -= rbm[i, a] * coef[base + i + a, k]
+            coef[base + i, k] = acc
+    for col in range(base - 1, -1, -1):
+        for k in range(d):
+            acc = z_f[col, k]
+            for a in range(p, 0, -1):
+                acc -= rb_f[col, a] * coef[col + a, k]
+            coef[col, k] = acc
+    for oc in range(c_right, n):  # incumbent's column oc is the candidate's oc + delta
+        rc = n - 1 - oc
+        for k in range(d):
+            acc = z_b[rc, k]
+            for a in range(min(p, oc), 0, -1):
+                acc -= rb_b[rc, a] * coef[oc - a + delta, k]
+            coef[oc + delta, k] = acc
+
+
+@njit(cache=True)
 def _candidate_knots(u, t, interior, p, t2):
     """Fill ``t2`` with the candidate's clamped knot vector; return (reason, e, f): ``e`` the
     first index where it differs from the incumbent's ``t``, ``f`` the length of their common
@@ -336,13 +365,17 @@ def _candidate_knots(u, t, interior, p, t2):
 @njit(cache=True)
 def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse, Gh, Gbw, Gz,
                    Gsse, Fcol, Gcol, col_before, col_from, base_sse, inverse_left, inverse_right,
-                   gram_norm, knots, offsets, max_window_rows,
+                   gram_norm, rb_f, z_f, rb_b, z_b, basis, knots, offsets, max_window_rows,
                    want_max_dev, sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
     """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``) by merging the
     incumbent's cached states; fall back to the full fit where the cheap path cannot decide.
 
-    Outputs per candidate: SSE, maximum deviation (when ``want_max_dev``; such candidates are
-    fitted in full), control points, reason code and the path that decided it.
+    Outputs per candidate: SSE, maximum deviation (when ``want_max_dev``), control points,
+    reason code and the path that decided it. The maximum deviation of a merged candidate
+    comes from its control points, solved from the final rows of the incumbent's forward
+    factor (``rb_f``, ``z_f``: columns left of the merged block), the merged block and the
+    final rows of the backward factor (``rb_b``, ``z_b``: columns right of it), and the
+    incumbent's basis values for the rows outside the window.
     """
     m, d = q.shape
     n_cand = offsets.size - 1
@@ -363,6 +396,8 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
     left = np.empty(p + 1)
     right = np.empty(p + 1)
     colsum = np.empty(rows_max)
+    window_basis = np.empty((m if want_max_dev else 0, p + 1))
+    window_span = np.empty(m if want_max_dev else 0, dtype=np.int64)
     for b in range(n_cand):
         interior = knots[offsets[b]:offsets[b + 1]]
         n2 = interior.size + p + 1
@@ -389,12 +424,17 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
         c_right = min(t.size - f + p - 1, n)
         c_right2 = c_right + delta
         window_rows = row_start[c_right] - row_start[c_left]
-        use_delta = not want_max_dev and window_rows <= max_window_rows
-        if use_delta and e == t.size and n2 == n:  # the incumbent itself
-            reason_out[b] = FEASIBLE
-            sse_out[b] = base_sse
-            path_out[b] = PATH_DELTA
-            continue
+        use_delta = window_rows <= max_window_rows
+        if e == t.size and n2 == n:  # the incumbent itself
+            if not want_max_dev:
+                reason_out[b] = FEASIBLE
+                sse_out[b] = base_sse
+                path_out[b] = PATH_DELTA
+                continue
+            c_left = n - p  # merge the last spans again (their rows are unchanged)
+            c_right = n
+            c_right2 = n
+            window_rows = row_start[c_right] - row_start[c_left]
         if use_delta:
             size = c_right2 - c_left + p
             for i in range(size):
@@ -419,6 +459,10 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
                 while span2 < n2 - 1 and tb[span2 + 1] <= x:
                     span2 += 1
                 basis_values(tb, p, span2, x, h, left, right)
+                if want_max_dev:
+                    window_span[j] = span2
+                    for k in range(p + 1):
+                        window_basis[j, k] = h[k]
                 for k in range(p + 1):
                     colsum[span2 - c_left + k] += h[k]
                 for k in range(d):
@@ -452,6 +496,27 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
                 reason_out[b] = FEASIBLE
                 sse_out[b] = Fsse[c_left] + Gsse[c_right] + res
                 path_out[b] = PATH_DELTA
+                if want_max_dev:
+                    c = coef[:n2]
+                    _merged_coefficients(rbm, zm, size, rb_f, z_f, rb_b, z_b, n, p, c_left,
+                                         c_right, delta, c)
+                    worst = 0.0
+                    for j in range(m):
+                        if j < row_start[c_left] or j >= row_start[c_right]:
+                            first = spans[j] - p + (0 if j < row_start[c_left] else delta)
+                            hj = basis[j]
+                        else:
+                            first = window_span[j] - p
+                            hj = window_basis[j]
+                        dist2 = 0.0
+                        for k in range(d):
+                            acc = 0.0
+                            for i in range(p + 1):
+                                acc += hj[i] * c[first + i, k]
+                            diff = q[j, k] - acc
+                            dist2 += diff * diff
+                        worst = max(worst, dist2)
+                    max_dev_out[b] = math.sqrt(worst)
                 continue
         # the full fit decides
         path_out[b] = PATH_FULL

@@ -11,17 +11,26 @@ states: the SSE is exact (it is the same least-squares problem, orthogonally tra
 an approximation.
 
 Any candidate can be passed: the changed block is found by comparing knot vectors, so moves
-of several neighbouring knots work too. The full fit decides where the cheap path cannot:
+of several neighbouring knots work too. Infeasible knots (out of range, coincident, too many,
+Schoenberg-Whitney) are rejected by the same checks as the full kernel, the Schoenberg-Whitney
+matching resumed from the incumbent's. A merged candidate is reported feasible only with a
+certificate: ``[left final rows; merged rows; right final rows]`` is a square factor of the
+candidate's normal matrix, block triangular around the merged block, its outer blocks parts of
+the incumbent's factors; bounding the inverse of each block bounds the candidate's condition
+number, and the full kernel's numerical-singularity tests (condition number above
+``COND_LIMIT``) cannot fail below half that bound. The full fit decides:
 
-* a change spanning more than ``max_window_rows`` data rows (far-apart knots, for instance);
-* a merged factor with a pivot below ``PIVOT_TRUST`` of the incumbent's largest (the full
-  kernel's conditioning tests then decide whether the candidate is numerically singular);
-* an incumbent whose conditioning bound exceeds ``INCUMBENT_COND_TRUST`` (no move is trusted);
-* the maximum deviation, which needs the control points everywhere.
+* a candidate whose bound is not below half the limit (dense knots of degree 4-5 often are not;
+  the kernel's own tests then decide whether it is numerically singular);
+* a change spanning more than ``max_window_rows`` data rows.
 
-Infeasible knots (out of range, coincident, too many, Schoenberg-Whitney) are rejected by the
-same checks as the full kernel, before any fit. The result is a :class:`BatchFit` identical to
-the batched evaluator's (SSE to rounding) plus, per candidate, the path that decided it.
+The maximum deviation needs the control points everywhere: they are solved from the merged
+block outwards through the incumbent's final forward rows (left) and backward rows (right),
+O(n p) without any rotation, and every point's deviation follows from its cached basis values
+(recomputed only in the window).
+
+The result is a :class:`BatchFit` identical to the batched evaluator's (SSE to rounding) plus,
+per candidate, the path that decided it.
 """
 
 from __future__ import annotations
@@ -106,14 +115,16 @@ class MoveEvaluator:
         z = np.empty((n, d))
         _moves.forward_states(q, p, n, self.spans, self.basis, self._Frb, self._Fdinv, self._Fz,
                               self._Fsse, self._Fcol, rb, dinv, z)
+        self._rb_f, self._z_f = rb, z
         self.sse = float(self._Fsse[n])
-        # bounds for the conditioning certificate: ||R^-1||_2 <= sqrt(n) ||R^-1||_inf for the
-        # forward and the backward factor, ||B||_2 <= sqrt(largest column sum) (entries >= 0,
-        # rows summing to 1)
-        self._inverse_left = float(np.sqrt(n) * _moves.inverse_norm_bound(rb, dinv, n, p))
+        # bounds for the conditioning certificate: ||R^-1||_2 of the forward and the backward
+        # factor, ||B||_2 <= sqrt(largest column sum) (entries >= 0, rows summing to 1)
+        self._inverse_left = float(_moves.inverse_norm_bound(rb, dinv, n, p))
+        rb, dinv, z = np.empty((n, p + 1)), np.empty(n), np.empty((n, d))
         _moves.backward_states(q, p, n, self.spans, self.basis, self._Gh, self._Gbw, self._Gz,
                                self._Gsse, self._Gcol, rb, dinv, z)
-        self._inverse_right = float(np.sqrt(n) * _moves.inverse_norm_bound(rb, dinv, n, p))
+        self._rb_b, self._z_b = rb, z
+        self._inverse_right = float(_moves.inverse_norm_bound(rb, dinv, n, p))
         column_sums = np.zeros(n)
         np.add.at(column_sums, self.spans[:, None] - p + np.arange(p + 1), self.basis)
         self._gram_norm = float(np.sqrt(column_sums.max()))
@@ -144,7 +155,8 @@ class MoveEvaluator:
             self.u, self.q, self.degree, self.t, self.n, self.spans, self.row_start, self.match,
             self._Frb, self._Fdinv, self._Fz, self._Fsse, self._Gh, self._Gbw, self._Gz,
             self._Gsse, self._Fcol, self._Gcol, self._col_before, self._col_from, self.sse,
-            self._inverse_left, self._inverse_right, self._gram_norm, knots, offsets,
+            self._inverse_left, self._inverse_right, self._gram_norm, self._rb_f, self._z_f,
+            self._rb_b, self._z_b, self.basis, knots, offsets,
             self.max_window_rows,
             max_deviation, out.sse, out.max_deviation, out.n_control_points, out.reason, path)
         if not max_deviation:
