@@ -128,6 +128,11 @@ class LocalSearch(Optimizer):
             self._stuck = True
         return moves
 
+    def move_origin(self) -> np.ndarray | None:
+        """The incumbent, once the start's scan is over: every neighbour is one move from it
+        (delta evaluation)."""
+        return None if self._scanning else self.incumbent
+
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         best = int(np.argmin(F))
         if F[best] < self.incumbent_f:

@@ -90,6 +90,10 @@ class OnePlusOneEA(Optimizer):
                                      self.rng)
         return encoding.repair(children)
 
+    def move_origin(self) -> np.ndarray | None:
+        """The parent: children differ from it by a few flips or steps (delta evaluation)."""
+        return self.parent
+
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         """Keep the best child if it is no worse than the parent."""
         best = int(np.argmin(F))

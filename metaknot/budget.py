@@ -62,6 +62,9 @@ class Evaluator:
         candidates; else ``None``.
     external_fits
         Fits the optimizer reported making on its own (:meth:`Task.count_fits`).
+    delta_evaluations
+        Evaluations the problem decided by exact delta evaluation (batches passed with
+        ``near``; see :meth:`__call__`).
     """
 
     def __init__(self, problem: Problem, budget: int,
@@ -73,6 +76,7 @@ class Evaluator:
         self.best_x: np.ndarray | None = None
         self.best_f = np.inf
         self.external_fits = 0
+        self.delta_evaluations = 0
         self.stop_requested = False
         n_objectives = getattr(problem, "n_objectives", 1)
         if n_objectives not in (1, 2):
@@ -92,12 +96,17 @@ class Evaluator:
         """True once the budget is spent or a callback asked to stop."""
         return self.remaining <= 0 or self.stop_requested
 
-    def __call__(self, X: np.ndarray) -> np.ndarray:
+    def __call__(self, X: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
         """Evaluate ``X`` (shape ``(B, n_var)``) or the leading part that fits the budget.
 
         Returns the objective values of the evaluated rows: possibly fewer than ``B``. Only the
         first ``len(result)`` rows of ``X`` were evaluated. With two objectives the values have
         shape ``(len, 2)``, and callbacks see the hypervolume gap after each candidate.
+
+        ``near`` is a candidate the rows of ``X`` were made from by local moves (the parent of
+        a (1+1) EA, the incumbent of a local search). A problem with ``evaluate_near`` (the
+        knot problems) then scores them by exact delta evaluation where it can: the values are
+        the same, each row still counts as one evaluation.
 
         Raises
         ------
@@ -110,7 +119,12 @@ class Evaluator:
         X = X[: self.remaining]
         if X.shape[0] == 0:
             return np.empty(0)
-        F, metrics = self.problem.evaluate_with_metrics(X)
+        evaluate_near = getattr(self.problem, "evaluate_near", None)
+        if near is not None and evaluate_near is not None:
+            F, metrics, n_delta = evaluate_near(X, np.asarray(near))
+            self.delta_evaluations += int(n_delta)
+        else:
+            F, metrics = self.problem.evaluate_with_metrics(X)
         F = np.asarray(F, dtype=np.float64)
         expected = (X.shape[0],) if self.front is None else (X.shape[0], 2)
         if F.shape != expected:

@@ -220,14 +220,21 @@ class TraceRecorder(Callback):
 
     def on_start(self, run: RunStart) -> None:
         self._reset()
-        self._grid = checkpoint_grid(run.budget, self.per_decade)
+        self._set_grid(run.budget)
+
+    def _set_grid(self, budget: int) -> None:
+        self._grid = checkpoint_grid(budget, self.per_decade)
+        self._grid_set = frozenset(self._grid.tolist())
 
     def on_batch(self, progress: Progress) -> None:
         if self._grid is None:  # used without on_start (directly on an Evaluator)
-            self._grid = checkpoint_grid(progress.budget, self.per_decade)
+            self._set_grid(progress.budget)
         F = np.asarray(progress.batch_f, dtype=np.float64)
         first = progress.n_evaluations - F.size  # evaluations before this batch
         if F.size == 0:
+            return
+        if F.size == 1:
+            self._one(float(F[0]), progress)
             return
         running = np.minimum.accumulate(np.concatenate(([self._best_f], F)))
         improved = running[1:] < running[:-1]
@@ -255,6 +262,28 @@ class TraceRecorder(Callback):
         self._improved.append(improved[rows])
         self._best_f = float(running[-1])
         self._n = progress.n_evaluations
+
+    def _one(self, value: float, progress: Progress) -> None:
+        """:meth:`on_batch` for a batch of one candidate (a (1+1) EA's): the same rows, without
+        array arithmetic."""
+        n = progress.n_evaluations
+        improved = value < self._best_f
+        if improved or n in self._grid_set:
+            for name in set(self._metrics) | set(progress.batch_metrics):
+                values = progress.batch_metrics.get(name)
+                current = np.nan if values is None else float(values[0])
+                if name not in self._metrics:  # first seen now: earlier rows get NaN
+                    self._metrics[name] = [np.full(len(r), np.nan) for r in self._evals]
+                self._metrics[name].append(np.array(
+                    [current if improved else self._incumbent.get(name, np.nan)]))
+                if improved:
+                    self._incumbent[name] = current
+            self._evals.append(np.array([n], dtype=np.int64))
+            self._best.append(np.array([min(value, self._best_f)]))
+            self._improved.append(np.array([improved]))
+        if improved:
+            self._best_f = value
+        self._n = n
 
     def trace(self) -> Trace:
         """The trace so far; the last evaluation is always a checkpoint row."""

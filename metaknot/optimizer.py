@@ -102,6 +102,15 @@ class Optimizer(ABC):
         the run)."""
         return False
 
+    def move_origin(self) -> np.ndarray | None:
+        """The candidate the last batch from :meth:`ask` was made from by local moves (one
+        knot flipped, shifted, inserted or removed), or ``None`` (the default).
+
+        :meth:`run` passes it to the evaluator, which lets a knot problem score the batch by
+        exact delta evaluation: same values, same budget, less work per candidate.
+        """
+        return None
+
     def count_fits(self, n: int = 1) -> None:
         """Report ``n`` fits made outside the evaluator (recorded as ``external_fits``)."""
         count = getattr(self.problem, "count_fits", None)
@@ -128,7 +137,7 @@ class Optimizer(ABC):
                     "left to try"
                 )
             try:
-                F = evaluator(X)
+                F = evaluator(X, near=self.move_origin())
             except BudgetExhausted:
                 return
             self.tell(X[: F.size], F)

@@ -41,6 +41,9 @@ class RunResult:
         ``optimize_seconds`` and ``decode_seconds``.
     external_fits
         Fits the optimizer made on its own, outside the evaluation budget (a FITPACK scan).
+    delta_evaluations
+        Evaluations decided by exact delta evaluation of local moves (the rest were full fits
+        or knot checks); every one counts against the budget like a full fit.
     status, error
         ``"ok"``, or ``"failed"`` with the error (a partial result of a crashed run).
     front
@@ -67,6 +70,7 @@ class RunResult:
     seed_spawn_key: tuple[int, ...] = ()
     timings: dict[str, float] = field(default_factory=dict)
     external_fits: int = 0
+    delta_evaluations: int = 0
     status: str = "ok"
     error: str | None = None
     front: dict[str, list[float]] | None = None
@@ -109,7 +113,8 @@ class RunResult:
         ``degree``, ``parameterization``, ``encoding``, ``n_knots``, ...), ``objective`` (its
         name) with ``objective.<option>``, ``algorithm`` with ``algorithm.<hyperparameter>``,
         the seed (``seed``, ``seed_spawn_key``), budget and evaluations used, ``best_f`` and the
-        fit metrics, the timings, ``external_fits``, ``status`` / ``error``. A two-objective
+        fit metrics, the timings, ``external_fits``, ``delta_evaluations``, ``status`` /
+        ``error``. A two-objective
         run adds ``hypervolume`` (``1 - best_f``), ``front_size`` and ``front``, the front's
         columns as JSON (``metaknot.experiments.Study.fronts`` makes a long table of them).
         The study layer adds the run id, study name, versions and time stamp.
@@ -134,6 +139,7 @@ class RunResult:
             "elapsed_seconds": float(self.elapsed),
             **{k: float(v) for k, v in self.timings.items()},
             "external_fits": int(self.external_fits),
+            "delta_evaluations": int(self.delta_evaluations),
             "status": self.status,
             "error": self.error,
             **front,

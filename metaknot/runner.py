@@ -164,6 +164,7 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         seed_spawn_key=spawn_key,
         timings=timings,
         external_fits=evaluator.external_fits,
+        delta_evaluations=evaluator.delta_evaluations,
         status="ok" if error is None else "failed",
         error=error,
         front=None if evaluator.front is None else evaluator.front.table(),

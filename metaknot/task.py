@@ -21,7 +21,8 @@ if TYPE_CHECKING:
 __all__ = ["Task", "problem_type"]
 
 #: Problem members an optimizer may not reach through a task.
-HIDDEN = frozenset({"evaluate", "evaluate_details", "evaluate_with_metrics", "decode"})
+HIDDEN = frozenset({"evaluate", "evaluate_details", "evaluate_with_metrics", "evaluate_near",
+                    "decode"})
 
 
 class Task:

@@ -32,6 +32,9 @@ from metaknot.bspline import (
     interior_from_mask,
     parameterize,
 )
+from metaknot.bspline._moves import masks_to_knots_serial
+from metaknot.bspline.knots import stack_indices, stack_positions
+from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
@@ -77,6 +80,10 @@ def _as_point_set(points: PointSet | str | ArrayLike) -> PointSet:
 class KnotProblem(Problem):
     """Common machinery: data, parameterization, degree, objective.
 
+    Candidates made from one incumbent by local moves are scored by exact delta evaluation
+    (:meth:`evaluate_near`, :mod:`metaknot.bspline.moves`) on open curves; set
+    ``delta_evaluation`` to False to fit every candidate in full (the values are the same).
+
     Parameters
     ----------
     points
@@ -119,6 +126,9 @@ class KnotProblem(Problem):
         self.objective = get_objective(objective, **(objective_options or {}))
         self.info = DataInfo(self.data.n_points, self.data.dim, self.data.scale, self.degree,
                              self.closed)
+        self.delta_evaluation = True
+        self._moves: MoveEvaluator | None = None
+        self._moves_key: bytes | None = None
 
     @property
     def points(self) -> np.ndarray:
@@ -153,6 +163,53 @@ class KnotProblem(Problem):
         if type(self).evaluate is not KnotProblem.evaluate:
             return self.evaluate(X), {}
         values, fit = self.evaluate_details(X)
+        return values, self._metrics(fit)
+
+    def evaluate_near(self, X: np.ndarray, near: np.ndarray
+                      ) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
+        """:meth:`evaluate_with_metrics` for candidates made from ``near`` by local moves.
+
+        On open curves the candidates are scored by a :class:`MoveEvaluator` bound to
+        ``near`` (kept between calls, moved when ``near`` changes): the same values as a full
+        evaluation, each candidate decided by delta evaluation where it can be. Returns the
+        values, the metrics and how many candidates the delta path decided.
+        """
+        moves = self._move_evaluator(near) if self.delta_evaluation \
+            and type(self).evaluate is KnotProblem.evaluate else None
+        if moves is None:
+            return (*self.evaluate_with_metrics(X), 0)
+        X = self.encoding.check(X)
+        fit, path = moves.evaluate(*self._stack(X),
+                                   max_deviation=self.objective.needs_max_deviation)
+        return self.objective(fit, self.info), self._metrics(fit), \
+            int(np.count_nonzero(path == PATH_DELTA))
+
+    def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
+        """The move evaluator bound to ``near`` (None on closed curves, or if ``near`` cannot
+        be fitted)."""
+        if self.closed:
+            return None
+        near = np.asarray(near)
+        key = near.dtype.str.encode() + near.tobytes()
+        if key != self._moves_key:
+            self._moves_key = key
+            near = self.encoding.check(near)[0]
+            interior = np.ascontiguousarray(self._interior_knots(near), dtype=np.float64)
+            try:
+                if self._moves is None:
+                    self._moves = MoveEvaluator(self.params, self.points, interior,
+                                                self.degree)
+                else:
+                    self._moves.rebind(interior)
+            except ValueError:  # an infeasible incumbent: every candidate is fitted in full
+                self._moves = None
+        return self._moves
+
+    def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Candidates as flattened interior knots and row offsets (open curves)."""
+        raise NotImplementedError
+
+    def _metrics(self, fit: BatchFit) -> dict[str, np.ndarray]:
         ok = fit.feasible
         metrics = {
             "rmse": np.where(ok, np.sqrt(fit.sse / self.data.n_points), np.nan),
@@ -160,7 +217,7 @@ class KnotProblem(Problem):
         }
         if fit.max_deviation is not None:
             metrics["max_deviation"] = np.where(ok, fit.max_deviation, np.nan)
-        return values, metrics
+        return metrics
 
     def decode(self, x: ArrayLike) -> KnotSolution:
         """Fit the spline for candidate ``x``.
@@ -228,6 +285,9 @@ class KnotSelection(KnotProblem):
             return self.params[1:][np.asarray(x).astype(bool)]
         return interior_from_mask(self.params, x)
 
+    def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return masks_to_knots_serial(self.params, X.astype(bool))
+
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "density": self.density}
 
@@ -270,6 +330,9 @@ class KnotIndices(KnotProblem):
             return np.sort(self.params[np.asarray(x, dtype=np.int64)])
         return interior_from_indices(self.params, x)
 
+    def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return stack_indices(self.params, X)
+
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "n_knots": self.n_knots}
 
@@ -305,6 +368,9 @@ class FreeKnots(KnotProblem):
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
         x = np.sort(x)
         return x[~np.isnan(x)] if self.variable_count else x
+
+    def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return stack_positions(X, nan_is_absent=self.variable_count)
 
     def pad(self, positions: ArrayLike) -> np.ndarray:
         """A candidate from fewer than ``n_knots`` positions (NaN-padded; ``variable_count``)."""

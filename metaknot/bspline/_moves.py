@@ -525,3 +525,23 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
             max_dev_out[b] = _max_deviation(q, p, coef[:n2], basis_ws, spans_ws)
+
+
+@njit(cache=True)
+def masks_to_knots_serial(u, masks):
+    """``_kernel.masks_to_knots`` on one thread (no thread-pool start: for batches of a few)."""
+    n_cand, n_var = masks.shape
+    total = 0
+    for b in range(n_cand):
+        for i in range(n_var):
+            total += masks[b, i]
+    knots = np.empty(total)
+    offsets = np.zeros(n_cand + 1, dtype=np.int64)
+    pos = 0
+    for b in range(n_cand):
+        for i in range(n_var):
+            if masks[b, i]:
+                knots[pos] = u[i + 1]
+                pos += 1
+        offsets[b + 1] = pos
+    return knots, offsets

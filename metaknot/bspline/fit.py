@@ -83,7 +83,7 @@ class BatchFit:
     @property
     def feasible(self) -> np.ndarray:
         """Boolean array: True where the candidate could be fitted."""
-        return self.reason == Infeasibility.FEASIBLE
+        return self.reason == 0  # Infeasibility.FEASIBLE (a plain int compares faster)
 
     def __len__(self) -> int:
         return self.sse.size

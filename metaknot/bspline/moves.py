@@ -144,21 +144,21 @@ class MoveEvaluator:
         Returns the :class:`BatchFit` the batched evaluator would give and, per candidate, the
         path that decided it (``PATH_DELTA``, ``PATH_CHECKS`` or ``PATH_FULL``).
         """
-        knots = np.ascontiguousarray(knots, dtype=np.float64)
-        offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+        if knots.dtype != np.float64 or not knots.flags.c_contiguous:
+            knots = np.ascontiguousarray(knots, dtype=np.float64)
+        if offsets.dtype != np.int64 or not offsets.flags.c_contiguous:
+            offsets = np.ascontiguousarray(offsets, dtype=np.int64)
         b = offsets.size - 1
-        out = BatchFit(sse=np.empty(b), max_deviation=np.empty(b if max_deviation else 0),
-                       n_control_points=np.empty(b, dtype=np.int64),
-                       reason=np.empty(b, dtype=np.int8))
+        sse = np.empty(b)
+        max_dev = np.empty(b if max_deviation else 0)
+        n_ctrl = np.empty(b, dtype=np.int64)
+        reason = np.empty(b, dtype=np.int8)
         path = np.empty(b, dtype=np.int8)
         _moves.evaluate_moves(
             self.u, self.q, self.degree, self.t, self.n, self.spans, self.row_start, self.match,
             self._Frb, self._Fdinv, self._Fz, self._Fsse, self._Gh, self._Gbw, self._Gz,
             self._Gsse, self._Fcol, self._Gcol, self._col_before, self._col_from, self.sse,
             self._inverse_left, self._inverse_right, self._gram_norm, self._rb_f, self._z_f,
-            self._rb_b, self._z_b, self.basis, knots, offsets,
-            self.max_window_rows,
-            max_deviation, out.sse, out.max_deviation, out.n_control_points, out.reason, path)
-        if not max_deviation:
-            out = BatchFit(out.sse, None, out.n_control_points, out.reason)
-        return out, path
+            self._rb_b, self._z_b, self.basis, knots, offsets, self.max_window_rows,
+            max_deviation, sse, max_dev, n_ctrl, reason, path)
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason), path
