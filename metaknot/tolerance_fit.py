@@ -8,8 +8,9 @@ Open curves and function data get a clamped spline of degree p; closed outlines 
    on log s, keeping the fewest control points whose error is within the tolerance.
 2. **Starts** — FITPACK's knots and the averaging knots (NURBS Book) at the fewest knots whose
    least-squares fit is within the tolerance, both refitted by least squares.
-3. **Knot removal** — from each start, every "remove one knot" candidate is fitted in one batch
-   (the compiled evaluator); the best is taken while it stays within the tolerance. When none
+3. **Knot removal** — from each start, every "remove one knot" candidate is scored in one batch
+   (by exact delta evaluation from the current knots, :mod:`metaknot.bspline.moves`); the best
+   is taken while it stays within the tolerance. When none
    does, the knots next to the most promising removals are nudged, a knot at a time, over a
    grid between their neighbours, and the removal is tried again.
 4. **Fewer still** — one knot fewer at a time, knots at data points are searched under the
@@ -37,6 +38,7 @@ from .bspline import (
     fit_spline,
     parameterize,
 )
+from .bspline.moves import PATH_DELTA, MoveEvaluator
 from .bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
 
 __all__ = ["ToleranceFit", "fit"]
@@ -189,12 +191,39 @@ class _Search:
         self.bounds = (0.0, 1.0) if closed else (u[0], u[-1])
         self.grid, self.window, self.tries = nudge_grid, nudge_window, nudge_tries
         self.evaluations = 0
+        self.delta_evaluations = 0
+        self._moves: MoveEvaluator | None = None
 
-    def errors(self, rows: list[np.ndarray]) -> np.ndarray:
+    def errors(self, rows: list[np.ndarray], near: np.ndarray | None = None) -> np.ndarray:
+        """Error of each row of sorted interior knots (``inf`` if it cannot be fitted); rows
+        one move from the knots ``near`` are scored by delta evaluation (open curves)."""
         self.evaluations += len(rows)
         if self.closed:
             return periodic_errors(self.u, self.q, rows, self.p, self.metric)
-        return _errors(self.u, self.q, _pad(rows), self.p, self.metric)
+        moves = None if near is None else self._move_evaluator(near)
+        if moves is None:
+            return _errors(self.u, self.q, _pad(rows), self.p, self.metric)
+        offsets = np.zeros(len(rows) + 1, dtype=np.int64)
+        np.cumsum([len(r) for r in rows], out=offsets[1:])
+        knots = np.concatenate(rows) if rows else np.empty(0)
+        want_max_dev = self.metric == "max_deviation"
+        batch, path = moves.evaluate(knots, offsets, max_deviation=want_max_dev)
+        self.delta_evaluations += int(np.count_nonzero(path == PATH_DELTA))
+        err = batch.max_deviation if want_max_dev else np.sqrt(batch.sse / len(self.u))
+        return np.where(batch.feasible, err, np.inf)
+
+    def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
+        """The move evaluator bound to the knots ``near`` (None if they cannot be fitted)."""
+        if self._moves is not None and np.array_equal(self._moves.interior, near):
+            return self._moves
+        try:
+            if self._moves is None:
+                self._moves = MoveEvaluator(self.u, self.q, near, self.p)
+            else:
+                self._moves.rebind(near)
+        except ValueError:
+            self._moves = None
+        return self._moves
 
     def nudge(self, knots: np.ndarray, around: int, sweeps: int = 2) -> tuple[np.ndarray, float]:
         """Move the knots near index ``around`` one at a time to the grid position (between
@@ -213,7 +242,7 @@ class _Search:
                     row = knots.copy()
                     row[j] = x
                     rows.append(row)
-                errs = self.errors(rows)
+                errs = self.errors(rows, near=knots)
                 best = int(np.argmin(errs))
                 if errs[best] < err:
                     knots, err, moved = rows[best], float(errs[best]), True
@@ -226,7 +255,7 @@ class _Search:
         knots = np.sort(np.asarray(knots, dtype=np.float64))
         while len(knots):
             rows = [np.delete(knots, j) for j in range(len(knots))]
-            errs = self.errors(rows)
+            errs = self.errors(rows, near=knots)
             order = np.argsort(errs)
             if errs[order[0]] <= self.tol:
                 knots = rows[order[0]]

@@ -151,9 +151,9 @@ def inverse_norm_bound(rb, dinv, size, p):
 
 
 @njit(cache=True)
-def incumbent_rows(u, t, p, n, spans, basis, row_start):
+def incumbent_rows(u, t, p, n, spans, basis, row_start, column_sums):
     """Spans and basis values of every data row under ``t``; ``row_start[c]`` is the first row
-    of a span ``>= c`` (``c = 0 .. n``)."""
+    of a span ``>= c`` (``c = 0 .. n``); ``column_sums`` of the collocation matrix."""
     m = u.size
     left = np.empty(p + 1)
     right = np.empty(p + 1)
@@ -164,6 +164,8 @@ def incumbent_rows(u, t, p, n, spans, basis, row_start):
             span += 1
         spans[j] = span
         basis_values(t, p, span, x, basis[j], left, right)
+        for i in range(p + 1):
+            column_sums[span - p + i] += basis[j, i]
     j = 0
     for c in range(n + 1):
         while j < m and spans[j] < c:

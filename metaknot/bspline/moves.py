@@ -97,7 +97,8 @@ class MoveEvaluator:
         self.spans = np.empty(m, dtype=np.int64)
         self.basis = np.empty((m, p + 1))
         self.row_start = np.empty(n + 1, dtype=np.int64)
-        _moves.incumbent_rows(u, t, p, n, self.spans, self.basis, self.row_start)
+        column_sums = np.zeros(n)
+        _moves.incumbent_rows(u, t, p, n, self.spans, self.basis, self.row_start, column_sums)
         self.match = np.empty(n, dtype=np.int64)
         _moves.sw_matching(u, t, p, n, self.match)
         self._Frb = np.zeros((n + 1, p, p))
@@ -125,8 +126,6 @@ class MoveEvaluator:
                                self._Gsse, self._Gcol, rb, dinv, z)
         self._rb_b, self._z_b = rb, z
         self._inverse_right = float(_moves.inverse_norm_bound(rb, dinv, n, p))
-        column_sums = np.zeros(n)
-        np.add.at(column_sums, self.spans[:, None] - p + np.arange(p + 1), self.basis)
         self._gram_norm = float(np.sqrt(column_sums.max()))
         # largest column sum of the columns before c, and from c on (c = 0 .. n)
         self._col_before = np.concatenate(([0.0], np.maximum.accumulate(column_sums)))

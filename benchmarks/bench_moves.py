@@ -1,0 +1,98 @@
+"""Delta evaluation of one-bit moves against the batched kernel, side by side in one run.
+
+On the seed paper's epitrochoid (361 points, centripetal, cubic) at mask densities 0.5 and 0.2:
+for several random incumbents, every one-bit flip (insertions and removals of one knot) is
+scored by a :class:`~metaknot.bspline.moves.MoveEvaluator` bound to the incumbent and by the
+batched kernel (:func:`~metaknot.bspline.evaluate_knots`, the evaluator every full evaluation
+goes through), both on one thread, best of ``--repeats``. Printed per density: the time per
+move of each, their ratio, the share of moves the delta path decided, the largest relative SSE
+difference, the time of one call with a single move (what a (1+1) EA pays per step), and the
+cost of moving the incumbent (``rebind``: one forward and one backward sweep) in full fits.
+Last line ``move_speedup_vs_batched: <ratio at density 0.5>``.
+
+Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numba
+import numpy as np
+
+from metaknot.bspline import evaluate_knots, parameterize
+from metaknot.bspline.knots import stack_masks
+from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
+from metaknot.problems import get_curve
+
+
+def best_time(func, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        func()
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--incumbents", type=int, default=5)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--degree", type=int, default=3)
+    args = parser.parse_args()
+    numba.set_num_threads(1)
+
+    points = get_curve("epitrochoid").points
+    u = parameterize(points, "centripetal")
+    p = args.degree
+    rng = np.random.default_rng(20130301)
+    ratios = {}
+    print(f"epitrochoid, {u.size} points, degree {p}, one thread; every one-bit flip of "
+          f"{args.incumbents} random incumbents per density")
+    for density in (0.5, 0.2):
+        t_delta = t_full = t_single = t_rebind = 0.0
+        moves = delta_share = 0
+        worst = 0.0
+        for _ in range(args.incumbents):
+            mask = rng.random(u.size - 2) < density
+            evaluator = MoveEvaluator(u, points, u[1:-1][mask], p)
+            flips = np.repeat(mask[None], u.size - 2, axis=0) ^ np.eye(u.size - 2, dtype=bool)
+            knots, offsets = stack_masks(u, flips)
+            fit, path = evaluator.evaluate(knots, offsets)  # compile outside the timing
+            ref = evaluate_knots(u, points, knots, offsets, p, max_deviation=False)
+            if not np.array_equal(fit.reason, ref.reason):
+                raise SystemExit("delta and full evaluation disagree on feasibility")
+            ok = ref.feasible
+            worst = max(worst, float(np.max(np.abs(fit.sse[ok] - ref.sse[ok]) / ref.sse[ok])))
+            moves += len(flips)
+            delta_share += int(np.count_nonzero(path == PATH_DELTA))
+            t_delta += best_time(lambda e=evaluator, k=knots, o=offsets: e.evaluate(k, o),
+                                 args.repeats)
+            t_full += best_time(lambda k=knots, o=offsets: evaluate_knots(
+                u, points, k, o, p, max_deviation=False), args.repeats)
+            one_k, one_o = stack_masks(u, flips[:1])
+            t_single += best_time(lambda e=evaluator, k=one_k, o=one_o: [
+                e.evaluate(k, o) for _ in range(100)], args.repeats) / 100
+            t_rebind += best_time(lambda e=evaluator, m=mask: e.rebind(u[1:-1][m]),
+                                  args.repeats)
+        per_delta = t_delta / moves * 1e6
+        per_full = t_full / moves * 1e6
+        ratios[density] = per_full / per_delta
+        print(f"\ndensity {density}:")
+        print(f"  batched kernel:   {per_full:8.2f} us/move")
+        print(f"  delta evaluation: {per_delta:8.2f} us/move  (speedup {ratios[density]:.1f}x; "
+              f"{delta_share / moves:.1%} decided by the delta path)")
+        print(f"  one move per call: {t_single / args.incumbents * 1e6:7.2f} us/call")
+        print(f"  rebind (forward + backward sweeps): "
+              f"{t_rebind / args.incumbents / (per_full * 1e-6):.1f} full fits")
+        print(f"  max relative SSE difference: {worst:.1e}")
+        if worst > 1e-10:
+            raise SystemExit("delta evaluation is not exact")
+    print(f"move_speedup_vs_batched_density_0.2: {ratios[0.2]:.1f}")
+    print(f"move_speedup_vs_batched: {ratios[0.5]:.1f}")
+
+
+if __name__ == "__main__":
+    main()
