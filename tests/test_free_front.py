@@ -102,3 +102,21 @@ def test_refuses_closed_curves_and_bad_settings() -> None:
     with pytest.raises(ValueError, match="min_gap"):
         mk.minimize(front_problem(), "free_front", budget=50, seed=0,
                     optimizer_kwargs={"min_gap": 0.2})
+
+
+def test_the_density_start_puts_knots_where_the_curve_bends() -> None:
+    x = np.linspace(0.0, 1.0, 200)
+    points = np.column_stack([x, np.exp(-(((x - 0.7) / 0.05) ** 2))])
+    problem = FreeKnots(points, n_knots=40, variable_count=True, objective="pareto",
+                        parameterization="uniform")
+    optimizer = mk.get_optimizer("free_front")
+    evaluator = mk.Evaluator(problem, 10)
+    optimizer.setup(evaluator.task, np.random.default_rng(0))
+    knots = optimizer.density_knots(12)
+    assert knots.size == 12 and np.all(np.diff(knots) > 0)
+    assert 0.0 < knots[0] and knots[-1] < 1.0
+    bump = (knots > 0.55) & (knots < 0.85)  # 30 % of the range
+    assert bump.sum() >= 8, knots
+    off = mk.get_optimizer("free_front", density_exponent=0.0)
+    off.setup(mk.Evaluator(problem, 10).task, np.random.default_rng(0))
+    assert off.density_knots(12) is None
