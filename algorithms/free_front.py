@@ -12,7 +12,8 @@ error at each K. The run
    degree p + 2 on about N / 2 averaging knots, one fit outside the budget, reported as an
    external fit; p: the degree). Asymptotically the best least-squares knots follow this
    density with e = 2 / (2p + 3) (de Boor, "Good approximation by splines with variable
-   knots"); on the seed curves a slightly larger e, 0.3, starts better at most counts;
+   knots"); on the seed curves a slightly larger e, 0.3, starts better at most counts (on a
+   closed outline the pilot is an open spline over its parameters, without the closing chord);
 2. refines the counts in increasing order with a local nlopt algorithm (BOBYQA by default) on
    the K knot positions, started from that count's better scanned knots, in the ``"sorted"``
    unit box of a :class:`~metaknot.algorithms.knot_map.KnotMap` (every span at least
@@ -90,9 +91,6 @@ class FreeKnotFront(Optimizer):
         if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots", "pad")):
             raise ValueError(f"optimizer {self.name!r} needs a FreeKnots problem (continuous "
                              f"knot positions); got {problem.name!r}")
-        if getattr(problem, "closed", False):
-            raise ValueError(f"optimizer {self.name!r} places the knots of open curves; "
-                             "problem is closed")
         if (problem.n_knots + 1) * self.min_gap >= 1:
             raise ValueError(f"min_gap={self.min_gap} leaves no room for {problem.n_knots} knots; "
                              f"it must be < 1 / {problem.n_knots + 1}")

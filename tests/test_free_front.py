@@ -92,11 +92,16 @@ def test_refuses_data_point_encodings(problem) -> None:
         mk.minimize(problem, "free_front", budget=50, seed=0)
 
 
-def test_refuses_closed_curves_and_bad_settings() -> None:
-    closed = FreeKnots(get_curve("epitrochoid", n_points=60), n_knots=10, closed=True,
+def test_a_closed_outline_gets_a_front_of_periodic_fits() -> None:
+    closed = FreeKnots(get_curve("epitrochoid", n_points=60), n_knots=30, closed=True,
                        variable_count=True, objective="pareto")
-    with pytest.raises(ValueError, match="open curves"):
-        mk.minimize(closed, "free_front", budget=50, seed=0)
+    result = mk.minimize(closed, "free_front", budget=600, seed=0)
+    scan = mk.minimize(closed, "averaging", budget=600, seed=0)
+    assert result.n_evaluations == 600 and len(result.front["rmse"]) >= 5
+    assert result.best_f < scan.best_f
+
+
+def test_refuses_bad_settings() -> None:
     with pytest.raises(ValueError, match="local_algorithm"):
         mk.get_optimizer("free_front", local_algorithm="GN_CRS2_LM")
     with pytest.raises(ValueError, match="min_gap"):
