@@ -12,6 +12,7 @@ name               method
 ``random_search``  independent random candidates
 ``one_plus_one``   (1+1) EA (or (1+λ)), 1/n bit flips or index steps
 ``local_search``   best-improvement knot removal/insertion/shifts from averaging knots
+``free_front``     a front on free knots: averaging knots at every count, each refined
 ``cmaes``          CMA-ES on free knots (the ``cmaes`` package)
 ``nevergrad``      any nevergrad optimizer (``nevergrad:NGOpt``, ``nevergrad:CMA``, ...)
 ``pymoo``          pymoo's GA, DE or BRKGA (``pymoo:GA``, ``pymoo:DE``, ``pymoo:BRKGA``)
@@ -21,6 +22,7 @@ name               method
 from .baselines import AveragingKnots, FitpackKnots, UniformKnots
 from .cmaes_adapter import CMAESKnots
 from .dolphin import DolphinEcholocation
+from .free_front import FreeKnotFront
 from .ga import GeneticAlgorithm
 from .local_search import LocalSearch
 from .nevergrad_adapter import NevergradOptimizer
@@ -34,6 +36,7 @@ __all__ = [
     "CMAESKnots",
     "DolphinEcholocation",
     "FitpackKnots",
+    "FreeKnotFront",
     "GeneticAlgorithm",
     "LocalSearch",
     "NevergradOptimizer",

@@ -9,26 +9,36 @@ from the results store:
   with K fixed it is K x Euclidean distance, so the RMSE decides), 20,000 evaluations, 10 seeds:
   the index methods on ordered data indices and the free-knot methods (nlopt, CMA-ES) on free
   knots;
-* ``baselines_front`` — the objective ``pareto`` (control points against RMSE): NSGA-II from
-  the averaging knots and the averaging scan, 20,000 evaluations, 10 seeds.
+* ``baselines_front`` — the objective ``pareto`` (control points against RMSE), 20,000
+  evaluations, 10 seeds: NSGA-II on 0/1 masks from the averaging knots (``nsga2``), the
+  averaging scan on masks (``averaging``), and the free-knot front (``method=front_free``,
+  label ``free-front``: the averaging knots at every count, each count refined by BOBYQA on
+  free knot positions).
 
 For the first two, each cell (curve, budget) lists every method's median and the p-value of a
 two-sided Wilcoxon signed-rank test, paired by seed, against the method with the lowest median
 (``best``; ``=`` where the two are identical on every seed). Ranks are of the medians within a
 cell (ties averaged). The last lines are
 
+    front_hv_ratio_vs_fitpack_unit_box: <the same ratio in the records' unit box>
+    front_hv_ratio_vs_fitpack: <geometric mean over curves of the free-knot front's
+                                (free-front) median hypervolume divided by FITPACK's>
     dolphin_rank_seed_setting: <Dolphin Echolocation's mean rank in the seed setting>
-    front_hv_ratio_vs_fitpack: <geometric mean over curves of NSGA-II's median hypervolume
-                                divided by FITPACK's>
+
+``front_hv_ratio_vs_fitpack`` is the ratio of the free-knot front (``FRONT_HEADLINE``); the
+lines before it give every front method's ratio (NSGA-II on masks and the averaging scan too),
+per curve and as the geometric mean over curves.
 
 The front ratio uses pymoo's hypervolume indicator on the scaled objectives of ``pareto``
 (control points / N, log relative error), normalised per curve by the ideal and nadir points of
-the union of all fronts compared there (FITPACK's, NSGA-II's, the averaging scan's), with the
+the union of all fronts compared there (FITPACK's and every method's in the study), with the
 reference point at 1.1 in each normalised objective: the region where the fronts differ.
 Every run's own record keeps the fixed unit-box hypervolume; its ratio is printed as well.
 
-Run: ``python benchmarks/bench_baselines.py [--seeds 10] [--workers 2] [--results DIR]``
-(about half an hour on two free cores; a study already in ``--results`` is resumed).
+Run: ``python benchmarks/bench_baselines.py [--seeds 10] [--workers 2] [--results DIR]
+[--only-front]`` (about half an hour on two free cores; a study already in ``--results`` is
+resumed). ``--only-front`` runs and reports the front study alone (a few minutes): its last
+lines are the two front ratios.
 """
 
 from __future__ import annotations
@@ -54,6 +64,9 @@ from metaknot.problems import KnotSelection, get_curve
 
 CURVES = "epitrochoid,archimedean,vivaldi"
 INDEX_ALGORITHMS = "dolphin,ga,random_search,one_plus_one,local_search,averaging,uniform,fitpack"
+
+#: The front method whose ratio is the last line's ``front_hv_ratio_vs_fitpack``.
+FRONT_HEADLINE = "free-front"
 
 #: (study, overrides) of every sweep; ``{seeds}`` is the replicate range.
 SWEEPS = [
@@ -82,13 +95,16 @@ SWEEPS = [
                          "objective.error_floor=0", "budget=20000", "algorithm=cmaes",
                          "label=cmaes-free"]),
     ("baselines_front", ["objective=pareto", "budget=20000", "method=nsga2_mask"]),
+    ("baselines_front", ["objective=pareto", "budget=20000", "method=front_free"]),
     ("baselines_front", ["objective=pareto", "budget=20000", "encoding=mask",
                          "algorithm=averaging"]),
 ]
 
 
-def run_sweeps(results: Path, seeds: int, workers: int) -> None:
+def run_sweeps(results: Path, seeds: int, workers: int, only: str | None = None) -> None:
     for study, overrides in SWEEPS:
+        if only is not None and study != only:
+            continue
         command = [sys.executable, "-m", "metaknot.cli", "run", "-m", f"study={study}",
                    f"problem={CURVES}", "problem.parameterization=centripetal",
                    f"seed=range(0,{seeds})", *overrides, f"results_dir={results}",
@@ -132,12 +148,14 @@ def compare(runs: pd.DataFrame, value: str, title: str) -> dict[str, list[float]
     return ranks
 
 
-def front_ratios(runs: pd.DataFrame) -> tuple[float, float]:
-    """Geometric means over curves of NSGA-II's median hypervolume / FITPACK's: normalised to
-    the union of the fronts (see the module notes), and in the records' unit box."""
+def front_ratios(runs: pd.DataFrame) -> dict[str, tuple[float, float]]:
+    """Every front method's geometric mean over curves of its median hypervolume / FITPACK's:
+    normalised to the union of the fronts (see the module notes), and in the records' unit
+    box; by label."""
     from pymoo.indicators.hv import HV
 
-    normalised, unit = [], []
+    normalised: dict[str, list[float]] = {}
+    unit: dict[str, list[float]] = {}
     print("\nfronts: control points against RMSE (objective pareto); hypervolume ratios to "
           "FITPACK's front, median over seeds")
     for curve, part in runs.groupby("data"):
@@ -162,12 +180,12 @@ def front_ratios(runs: pd.DataFrame) -> tuple[float, float]:
             ratios = [hv(F) / reference_hv for (lab, _), F in fronts.items() if lab == label]
             units = part[part.label == label].hypervolume / reference_unit
             line.append(f"{label} {np.median(ratios):.3f} (unit box {units.median():.3f})")
-            if label == "nsga2":
-                normalised.append(np.median(ratios))
-                unit.append(float(units.median()))
+            normalised.setdefault(label, []).append(float(np.median(ratios)))
+            unit.setdefault(label, []).append(float(units.median()))
         nadir_cp = nadir[0] * problem.info.n_points
         print(f"  {curve:<12} {'; '.join(line)}  [nadir at {nadir_cp:.0f} control points]")
-    return float(np.exp(np.mean(np.log(normalised)))), float(np.exp(np.mean(np.log(unit))))
+    return {label: (float(np.exp(np.mean(np.log(normalised[label])))),
+                    float(np.exp(np.mean(np.log(unit[label]))))) for label in normalised}
 
 
 def main() -> None:
@@ -175,22 +193,34 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--results", type=Path, default=None)
+    parser.add_argument("--only-front", action="store_true",
+                        help="run and report only the front study (baselines_front)")
     args = parser.parse_args()
+    names = ("baselines_front",) if args.only_front else \
+        ("baselines_seed", "baselines_index", "baselines_front")
 
     start = time.perf_counter()
     with tempfile.TemporaryDirectory() as scratch:
         results = args.results or Path(scratch)
-        run_sweeps(results, args.seeds, args.workers)
-        studies = {name: load_study(results / name).runs for name in
-                   ("baselines_seed", "baselines_index", "baselines_front")}
+        run_sweeps(results, args.seeds, args.workers,
+                   "baselines_front" if args.only_front else None)
+        studies = {name: load_study(results / name).runs for name in names}
     keep = {k: v[(v.status == "ok") & (v.seed < args.seeds)] for k, v in studies.items()}
-    seed_ranks = compare(keep["baselines_seed"], "best_f", "seed setting (masks, paper)")
-    compare(keep["baselines_index"], "rmse", "index setting (K = 20)")
-    hv_ratio, unit_ratio = front_ratios(keep["baselines_front"])
+    if not args.only_front:
+        seed_ranks = compare(keep["baselines_seed"], "best_f", "seed setting (masks, paper)")
+        compare(keep["baselines_index"], "rmse", "index setting (K = 20)")
+    ratios = front_ratios(keep["baselines_front"])
+    print("\nfronts: geometric mean over curves of the median hypervolume / FITPACK's "
+          "(normalised; unit box)")
+    for label, (normalised, unit) in sorted(ratios.items(), key=lambda kv: -kv[1][0]):
+        print(f"  {label:<30} {normalised:.3f}   unit box {unit:.3f}"
+              + ("   <- front_hv_ratio_vs_fitpack" if label == FRONT_HEADLINE else ""))
+    hv_ratio, unit_ratio = ratios[FRONT_HEADLINE]
     print(f"\n{time.perf_counter() - start:.0f} s")
     print(f"front_hv_ratio_vs_fitpack_unit_box: {unit_ratio:.3f}")
     print(f"front_hv_ratio_vs_fitpack: {hv_ratio:.3f}")
-    print(f"dolphin_rank_seed_setting: {np.mean(seed_ranks['dolphin']):.2f}")
+    if not args.only_front:
+        print(f"dolphin_rank_seed_setting: {np.mean(seed_ranks['dolphin']):.2f}")
 
 
 if __name__ == "__main__":

@@ -400,7 +400,9 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         known = {"kind", "n_knots"} | ({"variable_count"} if kind == "free" else set())
         _unknown("encoding", encoding, known)
         n_knots = encoding.get("n_knots", 20)
-        if isinstance(n_knots, str):
+        if n_knots == "max":
+            pass  # the most the data allow (N - degree - 1; N - 1 closed), set when built
+        elif isinstance(n_knots, str):
             match = FITPACK_COUNT.match(n_knots)
             factor = None
             if match:
@@ -409,8 +411,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
                 except ValueError:
                     factor = None
             if factor is None or not np.isfinite(factor) or factor <= 0:
-                raise ConfigError(f"encoding.n_knots: an integer or 'fitpack:<factor>' with a "
-                                  f"factor > 0, got {n_knots!r}")
+                raise ConfigError(f"encoding.n_knots: an integer, 'max' or 'fitpack:<factor>' "
+                                  f"with a factor > 0, got {n_knots!r}")
             n_knots = f"fitpack:{factor!r}"
         else:
             n_knots = _int("encoding.n_knots", n_knots, low=1)
@@ -546,7 +548,10 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
         if kind == "mask":
             return KnotSelection(data, density=encoding["density"], **common)
         n_knots = encoding["n_knots"]
-        if isinstance(n_knots, str):
+        if n_knots == "max":
+            n_knots = KnotSelection(data, **common).last_candidate_point - (
+                0 if common["closed"] else common["degree"] - 1)
+        elif isinstance(n_knots, str):
             n_knots = fitpack_count(data, float(n_knots.split(":", 1)[1]), common)
         if kind == "indices":
             return KnotIndices(data, n_knots=n_knots, **common)

@@ -634,7 +634,9 @@ def test_fitpack_front_preset():
     values = sweep_values(cfg.hydra.sweeper.params)
     assert values["problem"] == list(CURVES)
     assert values["encoding.n_knots"] == ["fitpack:1e-4", "fitpack:1e-6"]
-    single = {p.stem for p in (CONFIG_DIR / "method").glob("*.yaml")} - {"nsga2_mask"}  # a front
+    single = {p.stem for p in (CONFIG_DIR / "method").glob("*.yaml")  # not the fronts
+              if {"override /objective": "pareto"} not in yaml_of(p)["defaults"]}
+    assert {"nsga2_mask", "front_free"}.isdisjoint(single)
     assert set(values["method"]) == single
     assert values["seed"] == [str(s) for s in range(5)]
     spec = run_spec(compose_cfg("experiment=fitpack_front", "method=dolphin_indices",
@@ -674,6 +676,18 @@ def test_method_preset_composes_to_what_it_names(path):
     named = {spec.algorithm, spec.label, *spec.label.split("-"),
              str(spec.config["algorithm"].get("algorithm", "")).lower()}
     assert any(prefix in n for n in named), (prefix, named)
+
+
+def test_the_free_knot_front_preset_takes_every_count_the_data_allow():
+    spec = spec_of("method=front_free", "problem=archimedean", "problem.n_points=50")
+    assert spec.algorithm == "free_front" and spec.label == "free-front"
+    assert spec.config["encoding"] == {"kind": "free", "n_knots": "max", "variable_count": True}
+    problem = spec.build_problem()
+    assert problem.variable_count and problem.n_objectives == 2
+    assert problem.n_knots == 50 - 3 - 1  # N - degree - 1
+    closed = spec_of("encoding=free", "encoding.n_knots=max", "problem=epitrochoid",
+                     "problem.closed=true", "problem.n_points=60").build_problem()
+    assert closed.n_knots == closed.data.n_points - 1
 
 
 @pytest.mark.parametrize("path", sorted((CONFIG_DIR / "launcher").glob("*.yaml")),
