@@ -8,9 +8,14 @@ goes through), both on one thread, best of ``--repeats``. Printed per density: t
 move of each, their ratio, the share of moves the delta path decided, the largest relative SSE
 difference, the time of one call with a single move (what a (1+1) EA pays per step), and the
 cost of moving the incumbent (``rebind``: one forward and one backward sweep) in full fits.
-Last line ``move_speedup_vs_batched: <ratio at density 0.5>``.
 
-Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5]``
+Then the (1+1) EA in the seed's setting (the three seed curves, 0/1 masks, the guarded
+``paper`` objective) at a fixed wall-clock allowance per run (``--seconds``, seeds
+``0..--seeds-1``), with delta evaluation off (every child fitted in full) and on: evaluations
+reached and the median objective. Last line ``move_speedup_vs_batched: <ratio at density 0.5>``.
+
+Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5] [--seconds 5]
+[--seeds 5]`` (run it on a quiet machine: the wall-clock part is a race against the clock).
 """
 
 from __future__ import annotations
@@ -21,10 +26,36 @@ import time
 import numba
 import numpy as np
 
+import metaknot as mk
 from metaknot.bspline import evaluate_knots, parameterize
 from metaknot.bspline.knots import stack_masks
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
-from metaknot.problems import get_curve
+from metaknot.problems import KnotSelection, get_curve
+
+CURVES = ("epitrochoid", "archimedean", "vivaldi")
+
+
+def ea_at_fixed_wall_clock(seconds: float, seeds: int) -> None:
+    """The (1+1) EA for ``seconds`` per run, delta evaluation off and on."""
+    print(f"\n(1+1) EA, seed setting (masks, guarded paper), {seconds:g} s per run, "
+          f"seeds 0-{seeds - 1}: evaluations reached and median objective")
+    print(f"{'curve':12s} {'full fits':>22s} {'delta evaluation':>24s}  evaluations")
+    for name in CURVES:
+        cells = []
+        for delta in (False, True):
+            problem = KnotSelection(name, objective="paper")
+            problem.delta_evaluation = delta
+            mk.minimize(problem, "one_plus_one", budget=200, seed=0)  # compile first
+            evals, best = [], []
+            for seed in range(seeds):
+                result = mk.minimize(problem, "one_plus_one", budget=10**8, seed=seed,
+                                     callbacks=[lambda pr: pr.elapsed >= seconds])
+                evals.append(result.n_evaluations)
+                best.append(result.best_f)
+            cells.append((float(np.median(evals)), float(np.median(best))))
+        (e0, f0), (e1, f1) = cells
+        print(f"{name:12s} {e0:10.0f} evals {f0:9.4g} {e1:12.0f} evals {f1:9.4g}  "
+              f"x{e1 / e0:.2f}")
 
 
 def best_time(func, repeats: int) -> float:
@@ -41,6 +72,8 @@ def main() -> None:
     parser.add_argument("--incumbents", type=int, default=5)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--degree", type=int, default=3)
+    parser.add_argument("--seconds", type=float, default=5.0)
+    parser.add_argument("--seeds", type=int, default=5)
     args = parser.parse_args()
     numba.set_num_threads(1)
 
@@ -90,6 +123,8 @@ def main() -> None:
         print(f"  max relative SSE difference: {worst:.1e}")
         if worst > 1e-10:
             raise SystemExit("delta evaluation is not exact")
+    if args.seconds > 0:
+        ea_at_fixed_wall_clock(args.seconds, args.seeds)
     print(f"move_speedup_vs_batched_density_0.2: {ratios[0.2]:.1f}")
     print(f"move_speedup_vs_batched: {ratios[0.5]:.1f}")
 
