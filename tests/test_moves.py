@@ -305,3 +305,13 @@ def test_random_moves_match_the_full_fit(degree, dim, n_points, density, seed, h
     assert_same(me, *stack_masks(u, children), max_deviation=bool(seed % 2))
     free = [np.sort(np.append(u[1:-1][mask], rng.uniform(u[0], u[-1]))) for _ in range(10)]
     assert_same(me, *stack(free))
+
+
+def test_generated_move_loops_are_current():
+    """``_moves_rows.py`` must be what ``python -m metaknot.bspline._moves_codegen`` writes."""
+    from metaknot.bspline import _moves_codegen
+
+    assert _moves_codegen.TARGET.read_text() == _moves_codegen.render(), (
+        "metaknot/bspline/_moves_rows.py is stale: run "
+        "`python -m metaknot.bspline._moves_codegen`"
+    )

@@ -12,6 +12,13 @@ sides and the squared residual so far. *Backward state* ``c``: the same for the 
 ``>= c``, rotated from the right end with the columns counted from the right; its active rows
 are again columns ``c - p .. c - 1``.
 
+States are kept in the flat layout of the generated row loop (:mod:`._moves_codegen`):
+``W = 1 + p + d`` entries per column (reciprocal weight, the unit triangular row's ``p``
+off-diagonal entries, the right-hand sides), ``dinv = EMPTY`` for a column no row has reached.
+The backward sweep runs the same loop on the mirrored problem (parameters and knots negated and
+reversed, points reversed: column ``c`` is the mirror's ``n - 1 - c``), with the rows taken by
+index, so a point on a knot belongs to the same side in both sweeps.
+
 A move changes the knots between two unchanged ends. The rows of spans ``< cL`` keep their
 basis values and columns (counted from the left), those of spans ``>= cR`` keep theirs (counted
 from the right). The candidate's SSE is then exactly::
@@ -41,6 +48,7 @@ from ._kernel import (
     _fit_into,
     _max_deviation,
 )
+from ._moves_rows import EMPTY, window
 
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
@@ -54,204 +62,174 @@ PATH_FULL = 2  # fitted in full (too wide a change, an uncertain verdict, or max
 CERTIFY = 0.5
 
 
+# A column whose reciprocal weight is still above this was reached by no row (see EMPTY).
+UNREACHED = EMPTY * 1e-10
+
+
 @njit(cache=True)
-def basis_values(t, p, k, x, out, left, right):
-    """The ``p + 1`` nonzero B-spline values at ``x`` in span ``k`` (NURBS Book A2.2)."""
-    out[0] = 1.0
+def reciprocals(t, p, iv, lo_start, lo_stop):
+    """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` (0 where not positive) for
+    ``lo_start <= lo < lo_stop`` and ``j = 1..p``: the table of the generated basis loop."""
+    size = t.size
     for j in range(1, p + 1):
-        left[j] = x - t[k + 1 - j]
-        right[j] = t[k + j] - x
-        saved = 0.0
-        for r in range(j):
-            temp = out[r] / (right[r + 1] + left[j - r])
-            out[r] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        out[j] = saved
+        for lo in range(max(lo_start, 0), min(lo_stop, size - j)):
+            gap = t[lo + j] - t[lo]
+            iv[(j - 1) * size + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
 @njit(cache=True)
-def rotate_row(rb, dinv, z, first, h, rhs, width, big_w):
-    """Rotate the row ``h`` (columns ``first .. first + width - 1``) with right-hand side
-    ``rhs`` and weight ``1 / big_w`` into the factor ``rb``, ``dinv``, ``z``.
+def empty_state(st, columns, width):
+    """Mark ``columns`` columns of the flat factor ``st`` as reached by no row."""
+    for c in range(columns):
+        st[c * width] = EMPTY
+        for k in range(1, width):
+            st[c * width + k] = 0.0
 
-    The factor is kept as the full kernel keeps it (square-root-free Givens, Gentleman 1973):
-    row ``c`` stands for ``(rb[c] . coef - z[c])^2 / dinv[c]`` with a unit diagonal ``rb[c, 0]``
-    and ``rb[c, b]`` the entry at column ``c + b``; ``dinv[c] = inf`` marks a row no data
-    has reached yet, which takes the incoming row as it is. ``h`` and ``rhs`` are overwritten.
-    Returns the weighted squared residual the row leaves (0 if it was absorbed).
-    """
-    d = rhs.size
-    for a in range(width):
-        hv = h[a]
-        if hv == 0.0:
-            continue
-        col = first + a
-        di = dinv[col]
-        if di == np.inf:
-            ix = 1.0 / hv
-            dinv[col] = big_w * ix * ix
-            for k in range(d):
-                z[col, k] = rhs[k] * ix
-            for b in range(a + 1, width):
-                rb[col, b - a] = h[b] * ix
-            return 0.0
-        bw = big_w + hv * hv * di
+
+@njit(cache=True)
+def rotate_flat(st, p, d, first, h, y, width, big_w):
+    """Rotate the row ``h`` (``width`` entries from column ``first``) with right-hand side
+    ``y`` and reciprocal weight ``big_w`` into the flat factor ``st``; return what the rotations
+    leave of it (its weighted squared residual). ``h`` and ``y`` are overwritten."""
+    w = 1 + p + d
+    for i in range(width):
+        o = (first + i) * w
+        hi = h[i]
+        di = st[o]
+        hd = hi * di
+        bw = big_w + hi * hd
         inv = 1.0 / bw
         cb = big_w * inv
-        sb = hv * di * inv
-        dinv[col] = di * cb
+        sb = hd * inv
+        st[o] = di * cb
+        for a in range(i + 1, width):
+            ra = st[o + a - i]
+            st[o + a - i] = cb * ra + sb * h[a]
+            h[a] = h[a] - hi * ra
         for k in range(d):
-            zk = z[col, k]
-            yk = rhs[k]
-            z[col, k] = cb * zk + sb * yk
-            rhs[k] = yk - hv * zk
-        for b in range(a + 1, width):
-            ra = rb[col, b - a]
-            hb = h[b]
-            rb[col, b - a] = cb * ra + sb * hb
-            h[b] = hb - hv * ra
+            zk = st[o + p + 1 + k]
+            st[o + p + 1 + k] = cb * zk + sb * y[k]
+            y[k] = y[k] - hi * zk
         big_w = bw
     res = 0.0
     for k in range(d):
-        res += rhs[k] * rhs[k]
+        res += y[k] * y[k]
     return res / big_w
 
 
 @njit(cache=True)
-def inverse_norm_bound(rb, dinv, size, p):
-    """Upper bound of the 2-norm of ``R^-1`` for the factor's first ``size`` rows
-    (``R = diag(1 / sqrt(dinv)) rb``, ``inf`` if a row is missing).
+def inverse_norm_bound(st, p, d, size):
+    """Upper bound of the 2-norm of ``R^-1`` for the flat factor's first ``size`` columns
+    (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row).
 
     ``|rb^-1| <= M^-1`` elementwise for the comparison matrix ``M`` of the unit triangular
     ``rb``, so its infinity and 1-norms are at most the largest entries of ``M^-1 e`` and
     ``M^-T e``; ``||A||_2 <= sqrt(||A||_1 ||A||_inf)``, and the diagonal scaling adds at most
     ``max sqrt(dinv)``.
     """
+    w = 1 + p + d
     v = np.empty(size)
-    w = np.empty(size)
+    wv = np.empty(size)
     v_max = 0.0
     w_max = 0.0
     d_max = 0.0
     for i in range(size - 1, -1, -1):  # v = M^-1 e
-        if dinv[i] == np.inf:
+        di = st[i * w]
+        if di >= UNREACHED:
             return np.inf
-        d_max = max(d_max, dinv[i])
+        d_max = max(d_max, di)
         acc = 1.0
         for a in range(min(p, size - 1 - i), 0, -1):
-            acc += abs(rb[i, a]) * v[i + a]
+            acc += abs(st[i * w + a]) * v[i + a]
         v[i] = acc
         v_max = max(v_max, acc)
     for j in range(size):  # w = M^-T e
         acc = 1.0
         for a in range(min(p, j), 0, -1):
-            acc += abs(rb[j - a, a]) * w[j - a]
-        w[j] = acc
+            acc += abs(st[(j - a) * w + a]) * wv[j - a]
+        wv[j] = acc
         w_max = max(w_max, acc)
     return math.sqrt(v_max * w_max * d_max)
 
 
 @njit(cache=True)
-def incumbent_rows(u, t, p, n, spans, basis, row_start, column_sums):
-    """Spans and basis values of every data row under ``t``; ``row_start[c]`` is the first row
-    of a span ``>= c`` (``c = 0 .. n``); ``column_sums`` of the collocation matrix."""
-    m = u.size
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
-    span = p
-    for j in range(m):
-        x = u[j]
-        while span < n - 1 and t[span + 1] <= x:
-            span += 1
-        spans[j] = span
-        basis_values(t, p, span, x, basis[j], left, right)
-        for i in range(p + 1):
-            column_sums[span - p + i] += basis[j, i]
-    j = 0
-    for c in range(n + 1):
-        while j < m and spans[j] < c:
-            j += 1
-        row_start[c] = j
-
-
-@njit(cache=True)
-def forward_states(q, p, n, spans, basis, Frb, Fdinv, Fz, Fsse, Fcol, rb, dinv, z):
-    """Forward states ``c = p .. n``: row ``a`` of state ``c`` is the factor's row of column
-    ``c - p + a`` (``Frb[c, a, b]``: entry at column ``c - p + a + b``; ``Fdinv``, ``Fz``).
-    ``Fcol[c, a]`` is what those rows add to the column sum of column ``c - p + a``. The final
-    factor is left in ``rb``, ``dinv``, ``z``."""
-    m, d = q.shape
-    colsum = np.zeros(n)
-    rb[:, :] = 0.0
-    dinv[:] = np.inf
-    z[:, :] = 0.0
-    h = np.empty(p + 1)
-    rhs = np.empty(d)
+def forward_states(u, q, t, iv, p, n, row_start, F, Fsse, Fcol, st, colsum, basis, spans):
+    """Forward states ``c = p .. n``: ``F[c]`` holds the flat factor's columns ``c - p ..
+    c - 1`` after the rows of spans ``< c``, ``Fsse[c]`` their residual and ``Fcol[c, a]``
+    what they add to the sum of column ``c - p + a``. ``st`` is left with the final factor,
+    ``colsum`` with the column sums, ``basis`` and ``spans`` with every row's."""
+    d = q.shape[1]
+    w = 1 + p + d
+    empty_state(st, n, w)
+    colsum[:] = 0.0
     sse = 0.0
-    j = 0
     for c in range(p, n + 1):
-        for a in range(p):
-            col = c - p + a
-            for b in range(p):
-                Frb[c, a, b] = rb[col, b] if b < p - a else 0.0
-            Fdinv[c, a] = dinv[col]
-            Fcol[c, a] = colsum[col]
-            for k in range(d):
-                Fz[c, a, k] = z[col, k]
+        F[c, :] = st[(c - p) * w : c * w]
         Fsse[c] = sse
+        for a in range(p):
+            Fcol[c, a] = colsum[c - p + a]
         if c == n:
             break
-        while j < m and spans[j] == c:
-            for i in range(p + 1):
-                h[i] = basis[j, i]
-                colsum[c - p + i] += h[i]
-            for k in range(d):
-                rhs[k] = q[j, k]
-            sse += rotate_row(rb, dinv, z, c - p, h, rhs, p + 1, 1.0)
-            j += 1
+        res, _ = window(p, d, u, q, t, iv, row_start[c], row_start[c + 1], c, n - 1, 0, st,
+                        colsum, basis, spans)
+        sse += res
 
 
 @njit(cache=True)
-def backward_states(q, p, n, spans, basis, Gh, Gbw, Gz, Gsse, Gcol, rb, dinv, z):
-    """Backward states ``c = n .. p``, as rows to rotate into a forward factor: row ``a`` of
-    state ``c`` is ``Gh[c, a, :]`` over columns ``c - p .. c - 1`` (counted from the left) with
-    right-hand side ``Gz[c, a]`` and weight ``1 / Gbw[c, a]`` (``inf``: no row);
-    ``Gcol[c, a]`` is what the rows add to the column sum of column ``c - p + a``. ``rb``,
-    ``dinv``, ``z`` (columns counted from the right) are left with the final backward factor."""
-    m, d = q.shape
-    colsum = np.zeros(n)
-    rb[:, :] = 0.0
-    dinv[:] = np.inf
-    z[:, :] = 0.0
-    h = np.empty(p + 1)
-    rhs = np.empty(d)
+def backward_states(um, qm, tm, ivm, p, n, row_start, G, Gsse, Gcol, st, colsum):
+    """Backward states ``c = n .. p`` from the mirrored problem (``um``, ``qm``, ``tm``):
+    ``G[c]`` holds the mirror's columns ``n - c .. n - c + p - 1`` (the incumbent's
+    ``c - 1 .. c - p``) after the rows ``j >= row_start[c]``, ``Gsse[c]`` their residual and
+    ``Gcol[c, a]`` what they add to the sum of the incumbent's column ``c - p + a``. ``st`` is
+    left with the mirror's final factor."""
+    m, d = qm.shape
+    w = 1 + p + d
+    empty_state(st, n, w)
+    colsum[:] = 0.0
+    no_basis = np.empty((0, p + 1))
+    no_spans = np.empty(0, dtype=np.int64)
     sse = 0.0
-    j = m - 1
+    span = p
     for c in range(n, p - 1, -1):
-        for a in range(p):
-            oc = c - 1 - a  # column counted from the left
-            rc = n - 1 - oc  # the same column counted from the right
-            for b in range(p):
-                Gh[c, a, b] = 0.0
-            Gh[c, a, oc - (c - p)] = 1.0
-            for b in range(1, p + 1):  # entry at right-counted rc + b = left-counted oc - b
-                col = oc - b - (c - p)
-                if col >= 0:
-                    Gh[c, a, col] = rb[rc, b]
-            Gbw[c, a] = dinv[rc]
-            Gcol[c, oc - (c - p)] = colsum[oc]
-            for k in range(d):
-                Gz[c, a, k] = z[rc, k]
+        G[c, :] = st[(n - c) * w : (n - c + p) * w]
         Gsse[c] = sse
+        for a in range(p):
+            Gcol[c, a] = colsum[n - 1 - (c - p + a)]
         if c == p:
             break
-        while j >= 0 and spans[j] == c - 1:
-            for i in range(p + 1):
-                h[i] = basis[j, p - i]
-                colsum[c - 1 - i] += h[i]
-            for k in range(d):
-                rhs[k] = q[j, k]
-            sse += rotate_row(rb, dinv, z, n - c, h, rhs, p + 1, 1.0)
-            j -= 1
+        res, span = window(p, d, um, qm, tm, ivm, m - row_start[c], m - row_start[c - 1],
+                           span, n - 1, 0, st, colsum, no_basis, no_spans)
+        sse += res
+
+
+@njit(cache=True)
+def _merged_coefficients(stl, size, st_f, st_m, n, p, d, c_left, c_right, delta, coef):
+    """Control points of a merged candidate (columns counted in the candidate): the merged
+    block ``stl`` (columns ``c_left - p ..``) first, then the incumbent's final forward rows
+    leftwards and its final mirrored rows rightwards (unit triangular, square-root-free)."""
+    w = 1 + p + d
+    base = c_left - p
+    for i in range(size - 1, -1, -1):
+        o = i * w
+        for k in range(d):
+            acc = stl[o + p + 1 + k]
+            for a in range(min(p, size - 1 - i), 0, -1):
+                acc -= stl[o + a] * coef[base + i + a, k]
+            coef[base + i, k] = acc
+    for col in range(base - 1, -1, -1):
+        o = col * w
+        for k in range(d):
+            acc = st_f[o + p + 1 + k]
+            for a in range(p, 0, -1):
+                acc -= st_f[o + a] * coef[col + a, k]
+            coef[col, k] = acc
+    for oc in range(c_right, n):  # incumbent's column oc: the mirror's n - 1 - oc
+        o = (n - 1 - oc) * w
+        for k in range(d):
+            acc = st_m[o + p + 1 + k]
+            for a in range(min(p, oc), 0, -1):
+                acc -= st_m[o + a] * coef[oc - a + delta, k]
+            coef[oc + delta, k] = acc
 
 
 @njit(cache=True)
@@ -303,35 +281,6 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
 
 
 @njit(cache=True)
-def _merged_coefficients(rbm, zm, size, rb_f, z_f, rb_b, z_b, n, p, c_left, c_right, delta,
-                         coef):
-    """Control points of a merged candidate (columns counted in the candidate): the merged
-    block ``rbm``, ``zm`` (columns ``c_left - p ..``) first, then the incumbent's final forward
-    rows leftwards and its final backward rows rightwards (unit triangular, square-root-free)."""
-    d = zm.shape[1]
-    base = c_left - p
-    for i in range(size - 1, -1, -1):
-        for k in range(d):
-            acc = zm[i, k]
-            for a in range(min(p, size - 1 - i), 0, -1):
-                acc -= rbm[i, a] * coef[base + i + a, k]
-            coef[base + i, k] = acc
-    for col in range(base - 1, -1, -1):
-        for k in range(d):
-            acc = z_f[col, k]
-            for a in range(p, 0, -1):
-                acc -= rb_f[col, a] * coef[col + a, k]
-            coef[col, k] = acc
-    for oc in range(c_right, n):  # incumbent's column oc is the candidate's oc + delta
-        rc = n - 1 - oc
-        for k in range(d):
-            acc = z_b[rc, k]
-            for a in range(min(p, oc), 0, -1):
-                acc -= rb_b[rc, a] * coef[oc - a + delta, k]
-            coef[oc + delta, k] = acc
-
-
-@njit(cache=True)
 def _candidate_knots(u, t, interior, p, t2):
     """Fill ``t2`` with the candidate's clamped knot vector; return (reason, e, f): ``e`` the
     first index where it differs from the incumbent's ``t``, ``f`` the length of their common
@@ -365,39 +314,34 @@ def _candidate_knots(u, t, interior, p, t2):
 
 
 @njit(cache=True)
-def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse, Gh, Gbw, Gz,
-                   Gsse, Fcol, Gcol, col_before, col_from, base_sse, inverse_left, inverse_right,
-                   gram_norm, rb_f, z_f, rb_b, z_b, basis, knots, offsets, max_window_rows,
-                   want_max_dev, sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
+def evaluate_moves(u, q, p, t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse, Gcol,
+                   st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
+                   gram_norm, knots, offsets, max_window_rows, want_max_dev, sse_out,
+                   max_dev_out, n_ctrl_out, reason_out, path_out):
     """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``) by merging the
     incumbent's cached states; fall back to the full fit where the cheap path cannot decide.
 
     Outputs per candidate: SSE, maximum deviation (when ``want_max_dev``), control points,
     reason code and the path that decided it. The maximum deviation of a merged candidate
-    comes from its control points, solved from the final rows of the incumbent's forward
-    factor (``rb_f``, ``z_f``: columns left of the merged block), the merged block and the
-    final rows of the backward factor (``rb_b``, ``z_b``: columns right of it), and the
-    incumbent's basis values for the rows outside the window.
+    comes from its control points, solved from the merged block outwards through the final
+    rows of the incumbent's forward factor (``st_f``: columns left of the block) and of the
+    mirror's (``st_m``: columns right of it), and the incumbent's basis values for the rows
+    outside the window.
     """
     m, d = q.shape
+    w = 1 + p + d
     n_cand = offsets.size - 1
-    k_max = 0
-    for b in range(n_cand):
-        k_max = max(k_max, offsets[b + 1] - offsets[b])
-    n_max = max(k_max + p + 1, n + 1)
+    n_max = m + p + 1  # a candidate with more columns than points is rejected before a fit
     t2 = np.empty(n_max + p + 1)
+    iv = np.zeros(p * (n_max + p + 1))
     coef = np.empty((n_max, d))
     basis_ws = np.empty((m if want_max_dev else 0, p + 1))
     spans_ws = np.empty(m if want_max_dev else 0, dtype=np.int64)
     rows_max = n_max + p
-    rbm = np.zeros((rows_max, p + 1))
-    dinvm = np.empty(rows_max)
-    zm = np.zeros((rows_max, d))
-    h = np.empty(p + 1)
-    rhs = np.empty(d)
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
+    stl = np.empty(rows_max * w)
     colsum = np.empty(rows_max)
+    h = np.empty(p)
+    y = np.empty(d)
     window_basis = np.empty((m if want_max_dev else 0, p + 1))
     window_span = np.empty(m if want_max_dev else 0, dtype=np.int64)
     for b in range(n_cand):
@@ -424,9 +368,6 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
             continue
         c_left = max(e - p, p)
         c_right = min(t.size - f + p - 1, n)
-        c_right2 = c_right + delta
-        window_rows = row_start[c_right] - row_start[c_left]
-        use_delta = window_rows <= max_window_rows
         if e == t.size and n2 == n:  # the incumbent itself
             if not want_max_dev:
                 reason_out[b] = FEASIBLE
@@ -435,55 +376,40 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
                 continue
             c_left = n - p  # merge the last spans again (their rows are unchanged)
             c_right = n
-            c_right2 = n
-            window_rows = row_start[c_right] - row_start[c_left]
-        if use_delta:
+        c_right2 = c_right + delta
+        if row_start[c_right] - row_start[c_left] <= max_window_rows:
             size = c_right2 - c_left + p
-            for i in range(size):
-                for k in range(p + 1):
-                    rbm[i, k] = 0.0
-                dinvm[i] = np.inf
-            for i in range(size):
-                colsum[i] = 0.0
+            empty_state(stl, size, w)
+            stl[: p * w] = F[c_left]
+            colsum[:size] = 0.0
             for a in range(p):
                 colsum[a] += Fcol[c_left, a]
                 colsum[size - p + a] += Gcol[c_right, a]
-            for a in range(p):
-                for k in range(p):
-                    rbm[a, k] = Frb[c_left, a, k]
-                dinvm[a] = Fdinv[c_left, a]
-                for k in range(d):
-                    zm[a, k] = Fz[c_left, a, k]
-            res = 0.0
-            span2 = c_left
-            for j in range(row_start[c_left], row_start[c_right]):
-                x = u[j]
-                while span2 < n2 - 1 and tb[span2 + 1] <= x:
-                    span2 += 1
-                basis_values(tb, p, span2, x, h, left, right)
-                if want_max_dev:
-                    window_span[j] = span2
-                    for k in range(p + 1):
-                        window_basis[j, k] = h[k]
-                for k in range(p + 1):
-                    colsum[span2 - c_left + k] += h[k]
-                for k in range(d):
-                    rhs[k] = q[j, k]
-                res += rotate_row(rbm, dinvm, zm, span2 - c_left, h, rhs, p + 1, 1.0)
-            for a in range(p):
-                big_w = Gbw[c_right, a]
-                if big_w == np.inf:
+            # the basis of the window's spans c_left .. c_right2 - 1 reads these reciprocals
+            reciprocals(tb, p, iv, c_left - p + 1, c_right2)
+            res, _ = window(p, d, u, q, tb, iv, row_start[c_left], row_start[c_right], c_left,
+                            n2 - 1, c_left - p, stl, colsum, window_basis, window_span)
+            for a in range(p):  # the backward state's rows, as weighted rows
+                o = a * w
+                big_w = G[c_right, o]
+                if big_w >= UNREACHED:
                     continue
+                oc = c_right - 1 - a  # its column, counted from the left
                 for k in range(p):
-                    h[k] = Gh[c_right, a, k]
+                    h[k] = 0.0
+                h[oc - (c_right - p)] = 1.0
+                for k in range(1, p + 1):
+                    col = oc - k - (c_right - p)
+                    if col >= 0:
+                        h[col] = G[c_right, o + k]
                 for k in range(d):
-                    rhs[k] = Gz[c_right, a, k]
-                res += rotate_row(rbm, dinvm, zm, size - p, h, rhs, p, big_w)
+                    y[k] = G[c_right, o + p + 1 + k]
+                res += rotate_flat(stl, p, d, size - p, h, y, p, big_w)
             # certify the full kernel's verdict (feasible) by bounding the condition number:
             # [left final rows; merged rows; right final rows] is a square factor S of the
-            # candidate's normal matrix, block triangular around the merged block Rm, with the
+            # candidate's normal matrix, block triangular around the merged block, with the
             # left and right blocks parts of the incumbent's factors (see the module notes)
-            inv_m = inverse_norm_bound(rbm, dinvm, size, p)
+            inv_m = inverse_norm_bound(stl, p, d, size)
             inv_s = inv_m + inverse_left * (1.0 + gram_norm * inv_m) \
                 + inverse_right * (1.0 + gram_norm * inv_m)
             # ||B'||_2^2 <= largest column sum (entries >= 0, rows summing to 1); the columns
@@ -500,8 +426,8 @@ def evaluate_moves(u, q, p, t, n, spans, row_start, match, Frb, Fdinv, Fz, Fsse,
                 path_out[b] = PATH_DELTA
                 if want_max_dev:
                     c = coef[:n2]
-                    _merged_coefficients(rbm, zm, size, rb_f, z_f, rb_b, z_b, n, p, c_left,
-                                         c_right, delta, c)
+                    _merged_coefficients(stl, size, st_f, st_m, n, p, d, c_left, c_right,
+                                         delta, c)
                     worst = 0.0
                     for j in range(m):
                         if j < row_start[c_left] or j >= row_start[c_right]:

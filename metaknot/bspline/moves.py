@@ -96,36 +96,37 @@ class MoveEvaluator:
         self.n = n
         self.spans = np.empty(m, dtype=np.int64)
         self.basis = np.empty((m, p + 1))
-        self.row_start = np.empty(n + 1, dtype=np.int64)
-        column_sums = np.zeros(n)
-        _moves.incumbent_rows(u, t, p, n, self.spans, self.basis, self.row_start, column_sums)
+        # the first data row of a span >= c (c = 0 .. n; the last point is in span n - 1)
+        self.row_start = np.zeros(n + 1, dtype=np.int64)
+        self.row_start[p + 1 : n] = np.searchsorted(u, t[p + 1 : n], side="left")
+        self.row_start[n] = m
+        column_sums = np.empty(n)
         self.match = np.empty(n, dtype=np.int64)
         _moves.sw_matching(u, t, p, n, self.match)
-        self._Frb = np.zeros((n + 1, p, p))
-        self._Fdinv = np.zeros((n + 1, p))
-        self._Fz = np.zeros((n + 1, p, d))
-        self._Fsse = np.zeros(n + 1)
-        self._Gh = np.zeros((n + 1, p, p))
-        self._Gbw = np.zeros((n + 1, p))
-        self._Gz = np.zeros((n + 1, p, d))
-        self._Gsse = np.zeros(n + 1)
-        self._Fcol = np.zeros((n + 1, p))
-        self._Gcol = np.zeros((n + 1, p))
-        rb = np.empty((n, p + 1))
-        dinv = np.empty(n)
-        z = np.empty((n, d))
-        _moves.forward_states(q, p, n, self.spans, self.basis, self._Frb, self._Fdinv, self._Fz,
-                              self._Fsse, self._Fcol, rb, dinv, z)
-        self._rb_f, self._z_f = rb, z
+        w = 1 + p + d
+        iv = np.zeros(p * t.size)
+        _moves.reciprocals(t, p, iv, 0, t.size)
+        self._F = np.empty((n + 1, p * w))
+        self._Fsse = np.empty(n + 1)
+        self._Fcol = np.empty((n + 1, p))
+        self._st_f = np.empty(n * w)
+        _moves.forward_states(u, q, t, iv, p, n, self.row_start, self._F, self._Fsse, self._Fcol,
+                              self._st_f, column_sums, self.basis, self.spans)
         self.sse = float(self._Fsse[n])
-        # bounds for the conditioning certificate: ||R^-1||_2 of the forward and the backward
+        # the backward sweep: the same loop on the mirrored problem
+        t_mirror = np.ascontiguousarray(-t[::-1])
+        _moves.reciprocals(t_mirror, p, iv, 0, t.size)
+        self._G = np.empty((n + 1, p * w))
+        self._Gsse = np.empty(n + 1)
+        self._Gcol = np.empty((n + 1, p))
+        self._st_m = np.empty(n * w)
+        _moves.backward_states(np.ascontiguousarray(-u[::-1]), np.ascontiguousarray(q[::-1]),
+                               t_mirror, iv, p, n, self.row_start, self._G, self._Gsse,
+                               self._Gcol, self._st_m, np.empty(n))
+        # bounds for the conditioning certificate: ||R^-1||_2 of the forward and the mirrored
         # factor, ||B||_2 <= sqrt(largest column sum) (entries >= 0, rows summing to 1)
-        self._inverse_left = float(_moves.inverse_norm_bound(rb, dinv, n, p))
-        rb, dinv, z = np.empty((n, p + 1)), np.empty(n), np.empty((n, d))
-        _moves.backward_states(q, p, n, self.spans, self.basis, self._Gh, self._Gbw, self._Gz,
-                               self._Gsse, self._Gcol, rb, dinv, z)
-        self._rb_b, self._z_b = rb, z
-        self._inverse_right = float(_moves.inverse_norm_bound(rb, dinv, n, p))
+        self._inverse_left = float(_moves.inverse_norm_bound(self._st_f, p, d, n))
+        self._inverse_right = float(_moves.inverse_norm_bound(self._st_m, p, d, n))
         self._gram_norm = float(np.sqrt(column_sums.max()))
         # largest column sum of the columns before c, and from c on (c = 0 .. n)
         self._col_before = np.concatenate(([0.0], np.maximum.accumulate(column_sums)))
@@ -154,10 +155,9 @@ class MoveEvaluator:
         reason = np.empty(b, dtype=np.int8)
         path = np.empty(b, dtype=np.int8)
         _moves.evaluate_moves(
-            self.u, self.q, self.degree, self.t, self.n, self.spans, self.row_start, self.match,
-            self._Frb, self._Fdinv, self._Fz, self._Fsse, self._Gh, self._Gbw, self._Gz,
-            self._Gsse, self._Fcol, self._Gcol, self._col_before, self._col_from, self.sse,
-            self._inverse_left, self._inverse_right, self._gram_norm, self._rb_f, self._z_f,
-            self._rb_b, self._z_b, self.basis, knots, offsets, self.max_window_rows,
-            max_deviation, sse, max_dev, n_ctrl, reason, path)
+            self.u, self.q, self.degree, self.t, self.n, self.spans, self.basis, self.row_start,
+            self.match, self._F, self._Fsse, self._Fcol, self._G, self._Gsse, self._Gcol,
+            self._st_f, self._st_m, self._col_before, self._col_from, self.sse,
+            self._inverse_left, self._inverse_right, self._gram_norm, knots, offsets,
+            self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
         return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason), path

@@ -1,0 +1,184 @@
+"""Renders ``_moves_rows.py``: the row loop of delta evaluation, per degree and dimension.
+
+:mod:`metaknot.bspline._moves` rotates data rows into a banded factor in three places: the
+forward sweep and the backward sweep over an incumbent (span by span, saving a state at every
+knot), and the window of a move (the rows whose basis functions the move changed, under the
+candidate's knots). One loop serves all three: ``window_p{p}_d{d}`` rotates rows ``j0..j1 - 1``
+into a flat factor whose first column is the knot vector's column ``col0``. Written with every
+basis value, row entry and right-hand side in a local variable, and the loops over the degree
+and the dimension unrolled, it runs several times faster than the same loop over small arrays.
+
+* The factor is one flat array, ``W = 1 + p + d`` entries per column: the reciprocal weight
+  ``dinv``, the ``p`` off-diagonal entries of the unit upper triangular factor, the ``d``
+  right-hand sides (square-root-free Givens rotations, Gentleman 1973).
+* A column no row has reached holds ``dinv = EMPTY`` (huge, finite): the first row rotated
+  into it needs no branch of its own. The rotation replaces the column by the row scaled to a
+  unit leading entry, up to a relative ``big_w / (h**2 * EMPTY)``, and leaves the row with
+  the reciprocal weight ``h**2 * EMPTY``, so what it carries on is negligible.
+* Basis values by de Boor-Cox (NURBS Book A2.2) with the reciprocal knot differences from a
+  table (``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])``), so no division per row.
+* Column sums of the rows' basis values are accumulated (the conditioning certificate needs
+  them), and with ``store`` the basis values and spans are kept (the maximum deviation).
+
+The generated file is committed; ``python -m metaknot.bspline._moves_codegen`` rewrites it and
+a test checks it is current.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+MAX_DEGREE = 5
+MAX_DIMENSION = 3
+TARGET = Path(__file__).with_name("_moves_rows.py")
+
+HEADER = '''"""Row loops of delta evaluation, by degree and dimension. GENERATED: do not edit.
+
+Rendered by ``python -m metaknot.bspline._moves_codegen``; see that module and ``_moves``.
+"""
+
+from numba import njit
+
+# An empty column of the factor: its reciprocal weight (see _moves_codegen).
+EMPTY = 1e150
+# Fused multiply-adds only: no reassociation, no approximate reciprocals.
+FASTMATH = {"contract"}
+'''
+
+
+def basis_lines(p: int, indent: str) -> list[str]:
+    """De Boor-Cox unrolled: the values ``h0..hp`` of the basis functions non-zero at ``x`` in
+    span ``span``, with reciprocal knot differences from ``iv``."""
+    lines = []
+    for j in range(1, p + 1):
+        lines.append(f"{indent}l{j} = x - t[span - {j - 1}]")
+        lines.append(f"{indent}r{j} = t[span + {j}] - x")
+    prev = ["1.0"]
+    for j in range(1, p + 1):
+        cur = []
+        saved = None
+        for r in range(j):
+            lo = f"span - {j - r - 1}" if j - r - 1 else "span"
+            index = f"{lo} + o{j}" if j > 1 else lo
+            factor = "" if prev[r] == "1.0" else f"{prev[r]} * "
+            lines.append(f"{indent}tmp = {factor}iv[{index}]")
+            name = f"b{j}_{r}" if j < p else f"h{r}"
+            term = f"r{r + 1} * tmp"
+            lines.append(f"{indent}{name} = {term}" if saved is None
+                         else f"{indent}{name} = {saved} + {term}")
+            lines.append(f"{indent}s{j}_{r} = l{j - r} * tmp")
+            saved = f"s{j}_{r}"
+            cur.append(name)
+        name = f"b{j}_{j}" if j < p else f"h{j}"
+        lines.append(f"{indent}{name} = {saved}")
+        cur.append(name)
+        prev = cur
+    return lines
+
+
+def rotation_lines(p: int, d: int, i: int, indent: str) -> list[str]:
+    """Rotate the row's entry ``h{i}`` (column ``first + i``) into the factor ``st``."""
+    width = 1 + p + d
+    out = [
+        f"{indent}o = (first + {i}) * {width}",
+        f"{indent}di = st[o]",
+        f"{indent}hd = h{i} * di",
+        f"{indent}bw = big_w + h{i} * hd",
+        f"{indent}inv = 1.0 / bw",
+        f"{indent}cb = big_w * inv",
+        f"{indent}sb = hd * inv",
+        f"{indent}st[o] = di * cb",
+    ]
+    for a in range(i + 1, p + 1):
+        out += [
+            f"{indent}ra = st[o + {a - i}]",
+            f"{indent}st[o + {a - i}] = cb * ra + sb * h{a}",
+            f"{indent}h{a} = h{a} - h{i} * ra",
+        ]
+    for k in range(d):
+        out += [
+            f"{indent}zk = st[o + {p + 1 + k}]",
+            f"{indent}st[o + {p + 1 + k}] = cb * zk + sb * y{k}",
+            f"{indent}y{k} = y{k} - h{i} * zk",
+        ]
+    out.append(f"{indent}big_w = bw")
+    return out
+
+
+def render_window(p: int, d: int) -> str:
+    """Source of ``window_p{p}_d{d}``."""
+    ind = " " * 8
+    lines = [
+        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        f"def window_p{p}_d{d}(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,",
+        "                    spans):",
+        f'    """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree {p},',
+        f"    dimension {d}), whose first column is the knot vector's column ``col0``; the",
+        "    spans start at ``span`` and stop at ``last``. Adds the rows' basis values to",
+        "    ``colsum`` (indexed like ``st``) and, if ``basis`` is not empty, stores them and",
+        "    the spans by row. Returns the rows' residual SSE and the last span.",
+        '    """',
+        "    store = basis.shape[0] > 0",
+        *[f"    o{j} = {j - 1} * t.size" for j in range(2, p + 1)],
+        "    sse = 0.0",
+        "    for j in range(j0, j1):",
+        "        x = u[j]",
+        "        while t[span + 1] <= x and span < last:",
+        "            span += 1",
+    ]
+    lines += basis_lines(p, ind)
+    lines += [
+        f"        first = span - {p} - col0",
+        *[f"        colsum[first + {i}] += h{i}" for i in range(p + 1)],
+        "        if store:",
+        "            spans[j] = span",
+        *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
+        *[f"        y{k} = q[j, {k}]" for k in range(d)],
+        "        big_w = 1.0",
+    ]
+    for i in range(p + 1):
+        lines += rotation_lines(p, d, i, ind)
+    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
+    lines += [
+        "        # what the rotations leave of the row, with its weight, is its residual",
+        f"        sse += ({left_over}) / big_w",
+        "    return sse, span",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def render_dispatch() -> str:
+    """Source of ``window``: the loop of the right degree and dimension."""
+    lines = [
+        "@njit(cache=True)",
+        "def window(p, d, u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis, spans):",
+        '    """``window_p{p}_d{d}`` for the given degree and dimension."""',
+    ]
+    first = True
+    for p in range(1, MAX_DEGREE + 1):
+        for d in range(1, MAX_DIMENSION + 1):
+            keyword = "if" if first else "elif"
+            first = False
+            lines += [
+                f"    {keyword} p == {p} and d == {d}:",
+                f"        return window_p{p}_d{d}(u, q, t, iv, j0, j1, span, last, col0, st,",
+                "                                colsum, basis, spans)",
+            ]
+    lines += [
+        "    raise ValueError('degree 1-5 and dimension 1-3 only')",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def render() -> str:
+    """The whole generated module."""
+    parts = [HEADER]
+    for p in range(1, MAX_DEGREE + 1):
+        for d in range(1, MAX_DIMENSION + 1):
+            parts.append("\n" + render_window(p, d))
+    parts.append("\n" + render_dispatch())
+    return "\n".join(parts)
+
+
+if __name__ == "__main__":
+    TARGET.write_text(render())
