@@ -153,56 +153,6 @@ def inverse_norm_bound(st, p, d, size):
 
 
 @njit(cache=True)
-def forward_states(u, q, t, iv, p, n, row_start, F, Fsse, Fcol, st, colsum, basis, spans):
-    """Forward states ``c = p .. n``: ``F[c]`` holds the flat factor's columns ``c - p ..
-    c - 1`` after the rows of spans ``< c``, ``Fsse[c]`` their residual and ``Fcol[c, a]``
-    what they add to the sum of column ``c - p + a``. ``st`` is left with the final factor,
-    ``colsum`` with the column sums, ``basis`` and ``spans`` with every row's."""
-    d = q.shape[1]
-    w = 1 + p + d
-    empty_state(st, n, w)
-    colsum[:] = 0.0
-    sse = 0.0
-    for c in range(p, n + 1):
-        F[c, :] = st[(c - p) * w : c * w]
-        Fsse[c] = sse
-        for a in range(p):
-            Fcol[c, a] = colsum[c - p + a]
-        if c == n:
-            break
-        res, _ = window(p, d, u, q, t, iv, row_start[c], row_start[c + 1], c, n - 1, 0, st,
-                        colsum, basis, spans)
-        sse += res
-
-
-@njit(cache=True)
-def backward_states(um, qm, tm, ivm, p, n, row_start, G, Gsse, Gcol, st, colsum):
-    """Backward states ``c = n .. p`` from the mirrored problem (``um``, ``qm``, ``tm``):
-    ``G[c]`` holds the mirror's columns ``n - c .. n - c + p - 1`` (the incumbent's
-    ``c - 1 .. c - p``) after the rows ``j >= row_start[c]``, ``Gsse[c]`` their residual and
-    ``Gcol[c, a]`` what they add to the sum of the incumbent's column ``c - p + a``. ``st`` is
-    left with the mirror's final factor."""
-    m, d = qm.shape
-    w = 1 + p + d
-    empty_state(st, n, w)
-    colsum[:] = 0.0
-    no_basis = np.empty((0, p + 1))
-    no_spans = np.empty(0, dtype=np.int64)
-    sse = 0.0
-    span = p
-    for c in range(n, p - 1, -1):
-        G[c, :] = st[(n - c) * w : (n - c + p) * w]
-        Gsse[c] = sse
-        for a in range(p):
-            Gcol[c, a] = colsum[n - 1 - (c - p + a)]
-        if c == p:
-            break
-        res, span = window(p, d, um, qm, tm, ivm, m - row_start[c], m - row_start[c - 1],
-                           span, n - 1, 0, st, colsum, no_basis, no_spans)
-        sse += res
-
-
-@njit(cache=True)
 def _merged_coefficients(stl, size, st_f, st_m, n, p, d, c_left, c_right, delta, coef):
     """Control points of a merged candidate (columns counted in the candidate): the merged
     block ``stl`` (columns ``c_left - p ..``) first, then the incumbent's final forward rows

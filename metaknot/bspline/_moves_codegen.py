@@ -22,10 +22,14 @@ and the dimension unrolled, it runs several times faster than the same loop over
 
 The generated file is committed; ``python -m metaknot.bspline._moves_codegen`` rewrites it and
 a test checks it is current.
+
+``sweep_p{p}_d{d}`` is the same loop over every row, saving a state at given row boundaries:
+the forward and the backward (mirrored) sweeps of an incumbent.
 """
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 MAX_DEGREE = 5
@@ -51,7 +55,8 @@ def basis_lines(p: int, indent: str) -> list[str]:
     span ``span``, with reciprocal knot differences from ``iv``."""
     lines = []
     for j in range(1, p + 1):
-        lines.append(f"{indent}l{j} = x - t[span - {j - 1}]")
+        knot = f"t[span - {j - 1}]" if j > 1 else "t[span]"
+        lines.append(f"{indent}l{j} = x - {knot}")
         lines.append(f"{indent}r{j} = t[span + {j}] - x")
     prev = ["1.0"]
     for j in range(1, p + 1):
@@ -147,27 +152,75 @@ def render_window(p: int, d: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def render_dispatch() -> str:
-    """Source of ``window``: the loop of the right degree and dimension."""
+def render_sweep(p: int, d: int) -> str:
+    """Source of ``sweep_p{p}_d{d}``: a whole sweep with its saved states."""
+    ind = " " * 12
+    width = 1 + p + d
     lines = [
-        "@njit(cache=True)",
-        "def window(p, d, u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis, spans):",
-        '    """``window_p{p}_d{d}`` for the given degree and dimension."""',
+        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        f"def sweep_p{p}_d{d}(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,",
+        "                   basis, spans):",
+        f'    """Rotate every data row into the flat factor ``st`` (degree {p}, dimension',
+        f"    {d}), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save",
+        "    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual",
+        "    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved",
+        "    after the last step. Stores every row's basis values and span.",
+        '    """',
+        *[f"    o{j} = {j - 1} * t.size" for j in range(2, p + 1)],
+        "    steps = bounds.size - 1",
+        "    sse = 0.0",
+        f"    span = {p}",
+        "    for s in range(steps + 1):",
+        "        b = blocks[s]",
+        f"        S[s, :] = st[b * {width} : (b + {p}) * {width}]",
+        "        Ssse[s] = sse",
+        *[f"        Scol[s, {a}] = colsum[b + {a}]" for a in range(p)],
+        "        if s == steps:",
+        "            break",
+        "        for j in range(bounds[s], bounds[s + 1]):",
+        "            x = u[j]",
+        "            while t[span + 1] <= x and span < last:",
+        "                span += 1",
     ]
+    lines += basis_lines(p, ind)
+    lines += [
+        f"            first = span - {p}",
+        *[f"            colsum[first + {i}] += h{i}" for i in range(p + 1)],
+        "            spans[j] = span",
+        *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
+        *[f"            y{k} = q[j, {k}]" for k in range(d)],
+        "            big_w = 1.0",
+    ]
+    for i in range(p + 1):
+        lines += rotation_lines(p, d, i, ind)
+    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
+    lines += [
+        f"            sse += ({left_over}) / big_w",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _dispatch(name: str, params: str, doc: str) -> list[str]:
+    """``name``: the loop of the right degree and dimension."""
+    lines = ["@njit(cache=True)", f"def {name}(p, d, {params}):", f'    """{doc}"""']
     first = True
     for p in range(1, MAX_DEGREE + 1):
         for d in range(1, MAX_DIMENSION + 1):
             keyword = "if" if first else "elif"
             first = False
-            lines += [
-                f"    {keyword} p == {p} and d == {d}:",
-                f"        return window_p{p}_d{d}(u, q, t, iv, j0, j1, span, last, col0, st,",
-                "                                colsum, basis, spans)",
-            ]
-    lines += [
-        "    raise ValueError('degree 1-5 and dimension 1-3 only')",
-    ]
-    return "\n".join(lines) + "\n"
+            call = textwrap.wrap(f"return {name}_p{p}_d{d}({params})", 88,
+                                 subsequent_indent=" " * (len(name) + 19))
+            lines += [f"    {keyword} p == {p} and d == {d}:", *(" " * 8 + c for c in call)]
+    return [*lines, "    raise ValueError('degree 1-5 and dimension 1-3 only')"]
+
+
+def render_dispatch() -> str:
+    """Source of ``window`` and ``sweep``: the loops of the right degree and dimension."""
+    window = _dispatch("window", "u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis, "
+                       "spans", "``window_p{p}_d{d}`` for the given degree and dimension.")
+    sweep = _dispatch("sweep", "u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, "
+                      "basis, spans", "``sweep_p{p}_d{d}`` for the given degree and dimension.")
+    return "\n".join(window) + "\n\n\n" + "\n".join(sweep) + "\n"
 
 
 def render() -> str:
@@ -176,6 +229,7 @@ def render() -> str:
     for p in range(1, MAX_DEGREE + 1):
         for d in range(1, MAX_DIMENSION + 1):
             parts.append("\n" + render_window(p, d))
+            parts.append("\n" + render_sweep(p, d))
     parts.append("\n" + render_dispatch())
     return "\n".join(parts)
 

@@ -38,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import _kernel, _moves
+from . import _kernel, _moves, _moves_rows
 from .fit import BatchFit, _prepare
 from .knots import clamped_knot_vector
 
@@ -100,29 +100,42 @@ class MoveEvaluator:
         self.row_start = np.zeros(n + 1, dtype=np.int64)
         self.row_start[p + 1 : n] = np.searchsorted(u, t[p + 1 : n], side="left")
         self.row_start[n] = m
-        column_sums = np.empty(n)
         self.match = np.empty(n, dtype=np.int64)
         _moves.sw_matching(u, t, p, n, self.match)
         w = 1 + p + d
         iv = np.zeros(p * t.size)
         _moves.reciprocals(t, p, iv, 0, t.size)
+        steps = np.arange(p, n + 1)  # state c: after the rows of spans < c
         self._F = np.empty((n + 1, p * w))
         self._Fsse = np.empty(n + 1)
         self._Fcol = np.empty((n + 1, p))
         self._st_f = np.empty(n * w)
-        _moves.forward_states(u, q, t, iv, p, n, self.row_start, self._F, self._Fsse, self._Fcol,
-                              self._st_f, column_sums, self.basis, self.spans)
+        _moves.empty_state(self._st_f, n, w)
+        column_sums = np.zeros(n)
+        _moves_rows.sweep(p, d, u, q, t, iv, n - 1, self.row_start[p:], steps - p, self._st_f,
+                          self._F[p:], self._Fsse[p:], self._Fcol[p:], column_sums,
+                          self.basis, self.spans)
         self.sse = float(self._Fsse[n])
-        # the backward sweep: the same loop on the mirrored problem
+        # the backward sweep: the same loop on the mirrored problem (column c is the
+        # mirror's n - 1 - c); state c, after the rows j >= row_start[c], is saved at step
+        # n - c, its columns c - 1 .. c - p being the mirror's n - c .. n - c + p - 1
         t_mirror = np.ascontiguousarray(-t[::-1])
         _moves.reciprocals(t_mirror, p, iv, 0, t.size)
+        backward = np.arange(n, p - 1, -1)
+        states = np.empty((n - p + 1, p * w))
+        sse = np.empty(n - p + 1)
+        mirror_col = np.empty((n - p + 1, p))
+        self._st_m = np.empty(n * w)
+        _moves.empty_state(self._st_m, n, w)
+        _moves_rows.sweep(p, d, np.ascontiguousarray(-u[::-1]), np.ascontiguousarray(q[::-1]),
+                          t_mirror, iv, n - 1, m - self.row_start[backward], n - backward,
+                          self._st_m, states, sse, mirror_col, np.zeros(n),
+                          np.empty((m, p + 1)), np.empty(m, dtype=np.int64))
         self._G = np.empty((n + 1, p * w))
         self._Gsse = np.empty(n + 1)
         self._Gcol = np.empty((n + 1, p))
-        self._st_m = np.empty(n * w)
-        _moves.backward_states(np.ascontiguousarray(-u[::-1]), np.ascontiguousarray(q[::-1]),
-                               t_mirror, iv, p, n, self.row_start, self._G, self._Gsse,
-                               self._Gcol, self._st_m, np.empty(n))
+        self._G[backward], self._Gsse[backward] = states, sse
+        self._Gcol[backward] = mirror_col[:, ::-1]
         # bounds for the conditioning certificate: ||R^-1||_2 of the forward and the mirrored
         # factor, ||B||_2 <= sqrt(largest column sum) (entries >= 0, rows summing to 1)
         self._inverse_left = float(_moves.inverse_norm_bound(self._st_f, p, d, n))
