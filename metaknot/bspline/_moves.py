@@ -48,7 +48,7 @@ from ._kernel import (
     _fit_into,
     _max_deviation,
 )
-from ._moves_rows import EMPTY, window
+from ._moves_rows import EMPTY, absorb, window
 
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
@@ -87,49 +87,16 @@ def empty_state(st, columns, width):
 
 
 @njit(cache=True)
-def rotate_flat(st, p, d, first, h, y, width, big_w):
-    """Rotate the row ``h`` (``width`` entries from column ``first``) with right-hand side
-    ``y`` and reciprocal weight ``big_w`` into the flat factor ``st``; return what the rotations
-    leave of it (its weighted squared residual). ``h`` and ``y`` are overwritten."""
-    w = 1 + p + d
-    for i in range(width):
-        o = (first + i) * w
-        hi = h[i]
-        di = st[o]
-        hd = hi * di
-        bw = big_w + hi * hd
-        inv = 1.0 / bw
-        cb = big_w * inv
-        sb = hd * inv
-        st[o] = di * cb
-        for a in range(i + 1, width):
-            ra = st[o + a - i]
-            st[o + a - i] = cb * ra + sb * h[a]
-            h[a] = h[a] - hi * ra
-        for k in range(d):
-            zk = st[o + p + 1 + k]
-            st[o + p + 1 + k] = cb * zk + sb * y[k]
-            y[k] = y[k] - hi * zk
-        big_w = bw
-    res = 0.0
-    for k in range(d):
-        res += y[k] * y[k]
-    return res / big_w
-
-
-@njit(cache=True)
-def inverse_norm_bound(st, p, d, size):
+def inverse_norm_bound(st, p, d, size, v, wv):
     """Upper bound of the 2-norm of ``R^-1`` for the flat factor's first ``size`` columns
     (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row).
 
     ``|rb^-1| <= M^-1`` elementwise for the comparison matrix ``M`` of the unit triangular
     ``rb``, so its infinity and 1-norms are at most the largest entries of ``M^-1 e`` and
     ``M^-T e``; ``||A||_2 <= sqrt(||A||_1 ||A||_inf)``, and the diagonal scaling adds at most
-    ``max sqrt(dinv)``.
+    ``max sqrt(dinv)``. ``v`` and ``wv`` are workspaces of at least ``size`` entries.
     """
     w = 1 + p + d
-    v = np.empty(size)
-    wv = np.empty(size)
     v_max = 0.0
     w_max = 0.0
     d_max = 0.0
@@ -290,8 +257,8 @@ def evaluate_moves(u, q, p, t, n, spans, basis, row_start, match, F, Fsse, Fcol,
     rows_max = n_max + p
     stl = np.empty(rows_max * w)
     colsum = np.empty(rows_max)
-    h = np.empty(p)
-    y = np.empty(d)
+    bound_v = np.empty(rows_max)
+    bound_w = np.empty(rows_max)
     window_basis = np.empty((m if want_max_dev else 0, p + 1))
     window_span = np.empty(m if want_max_dev else 0, dtype=np.int64)
     for b in range(n_cand):
@@ -339,27 +306,13 @@ def evaluate_moves(u, q, p, t, n, spans, basis, row_start, match, F, Fsse, Fcol,
             reciprocals(tb, p, iv, c_left - p + 1, c_right2)
             res, _ = window(p, d, u, q, tb, iv, row_start[c_left], row_start[c_right], c_left,
                             n2 - 1, c_left - p, stl, colsum, window_basis, window_span)
-            for a in range(p):  # the backward state's rows, as weighted rows
-                o = a * w
-                big_w = G[c_right, o]
-                if big_w >= UNREACHED:
-                    continue
-                oc = c_right - 1 - a  # its column, counted from the left
-                for k in range(p):
-                    h[k] = 0.0
-                h[oc - (c_right - p)] = 1.0
-                for k in range(1, p + 1):
-                    col = oc - k - (c_right - p)
-                    if col >= 0:
-                        h[col] = G[c_right, o + k]
-                for k in range(d):
-                    y[k] = G[c_right, o + p + 1 + k]
-                res += rotate_flat(stl, p, d, size - p, h, y, p, big_w)
+            # the backward state's rows, as weighted rows
+            res += absorb(p, d, stl, size - p, G, c_right, UNREACHED)
             # certify the full kernel's verdict (feasible) by bounding the condition number:
             # [left final rows; merged rows; right final rows] is a square factor S of the
             # candidate's normal matrix, block triangular around the merged block, with the
             # left and right blocks parts of the incumbent's factors (see the module notes)
-            inv_m = inverse_norm_bound(stl, p, d, size)
+            inv_m = inverse_norm_bound(stl, p, d, size, bound_v, bound_w)
             inv_s = inv_m + inverse_left * (1.0 + gram_norm * inv_m) \
                 + inverse_right * (1.0 + gram_norm * inv_m)
             # ||B'||_2^2 <= largest column sum (entries >= 0, rows summing to 1); the columns

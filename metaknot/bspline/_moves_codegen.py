@@ -200,6 +200,40 @@ def render_sweep(p: int, d: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+def render_absorb(p: int, d: int) -> str:
+    """Source of ``absorb_p{p}_d{d}``: a backward state's rows into a merged factor."""
+    width = 1 + p + d
+    ind = " " * 8
+    lines = [
+        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        f"def absorb_p{p}_d{d}(st, first, G, c, unreached):",
+        f'    """Rotate the rows of the backward state ``G[c]`` (degree {p}, dimension {d}) into',
+        "    the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the",
+        "    mirror's column, a unit entry at position ``p - 1 - a`` and its off-diagonal",
+        "    entries leftwards, weighted by ``1 / G[c, a * W]`` (a row never reached is",
+        "    skipped). Returns what the rotations leave of them.",
+        '    """',
+        "    sse = 0.0",
+    ]
+    for a in range(p):
+        o = a * width
+        lines += [
+            f"    big_w = G[c, {o}]",
+            "    if big_w < unreached:",
+        ]
+        for pos in range(p + 1):
+            k = p - 1 - a - pos  # the entry's distance from the unit entry
+            value = "1.0" if k == 0 else (f"G[c, {o + k}]" if 0 < k <= p else "0.0")
+            lines.append(f"{ind}h{pos} = {value}")
+        lines += [f"{ind}y{k} = G[c, {o + p + 1 + k}]" for k in range(d)]
+        for i in range(p):
+            lines += rotation_lines(p, d, i, ind)
+        left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
+        lines.append(f"{ind}sse += ({left_over}) / big_w")
+    lines.append("    return sse")
+    return "\n".join(lines) + "\n"
+
+
 def _dispatch(name: str, params: str, doc: str) -> list[str]:
     """``name``: the loop of the right degree and dimension."""
     lines = ["@njit(cache=True)", f"def {name}(p, d, {params}):", f'    """{doc}"""']
@@ -220,7 +254,9 @@ def render_dispatch() -> str:
                        "spans", "``window_p{p}_d{d}`` for the given degree and dimension.")
     sweep = _dispatch("sweep", "u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, "
                       "basis, spans", "``sweep_p{p}_d{d}`` for the given degree and dimension.")
-    return "\n".join(window) + "\n\n\n" + "\n".join(sweep) + "\n"
+    absorb = _dispatch("absorb", "st, first, G, c, unreached",
+                       "``absorb_p{p}_d{d}`` for the given degree and dimension.")
+    return "\n\n\n".join("\n".join(f) for f in (window, sweep, absorb)) + "\n"
 
 
 def render() -> str:
@@ -230,6 +266,7 @@ def render() -> str:
         for d in range(1, MAX_DIMENSION + 1):
             parts.append("\n" + render_window(p, d))
             parts.append("\n" + render_sweep(p, d))
+            parts.append("\n" + render_absorb(p, d))
     parts.append("\n" + render_dispatch())
     return "\n".join(parts)
 

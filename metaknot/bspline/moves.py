@@ -138,8 +138,9 @@ class MoveEvaluator:
         self._Gcol[backward] = mirror_col[:, ::-1]
         # bounds for the conditioning certificate: ||R^-1||_2 of the forward and the mirrored
         # factor, ||B||_2 <= sqrt(largest column sum) (entries >= 0, rows summing to 1)
-        self._inverse_left = float(_moves.inverse_norm_bound(self._st_f, p, d, n))
-        self._inverse_right = float(_moves.inverse_norm_bound(self._st_m, p, d, n))
+        work = np.empty((2, n))
+        self._inverse_left = float(_moves.inverse_norm_bound(self._st_f, p, d, n, *work))
+        self._inverse_right = float(_moves.inverse_norm_bound(self._st_m, p, d, n, *work))
         self._gram_norm = float(np.sqrt(column_sums.max()))
         # largest column sum of the columns before c, and from c on (c = 0 .. n)
         self._col_before = np.concatenate(([0.0], np.maximum.accumulate(column_sums)))
