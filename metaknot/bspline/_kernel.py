@@ -2,7 +2,8 @@
 
 Each candidate is fitted by Givens QR on the banded collocation matrix, row by row, as FITPACK's
 ``fpcurf`` does: O(N p^2) work and O(n p) memory per candidate, numerically stable (no normal
-equations). A batch of candidates is spread over threads with ``prange``.
+equations). A batch of candidates is spread over threads with ``prange``; each thread reuses its
+workspaces from one candidate to the next.
 
 Reason codes (see :class:`metaknot.bspline.Infeasibility`):
 0 feasible, 1 more control points than data points, 2 knot outside the open parameter range or
@@ -17,7 +18,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._rows import rows
+from ._rows import EMPTY, rows
 
 FEASIBLE = 0
 TOO_MANY_CONTROL_POINTS = 1
@@ -56,33 +57,26 @@ def _build_knots(u, interior, p, t):
     return FEASIBLE
 
 
-@njit(cache=True)
-def _schoenberg_whitney(u, t, p, n):
-    """True if data sites can be matched to the n basis functions (full column rank)."""
-    m = u.size
-    j = 0
-    for i in range(n):
-        lo = t[i]
-        hi = t[i + p + 1]
-        while j < m and not (u[j] > lo or (i == 0 and u[j] >= lo)):
-            j += 1
-        if j == m:
-            return False
-        if not (u[j] < hi or (i == n - 1 and u[j] <= hi)):
-            return False
-        j += 1
-    return True
+@njit(cache=True, error_model="numpy")
+def reciprocals_into(t, p, iv):
+    """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` for ``j = 1..p`` (0 where not
+    positive): the denominators of the basis recurrence, computed once per knot vector. Stored
+    by ``j`` so that the inner loop over ``lo`` is a vector division."""
+    size = t.size
+    for j in range(1, p + 1):
+        row = (j - 1) * size
+        for lo in range(size - j):
+            diff = t[lo + j] - t[lo]
+            iv[row + lo] = 1.0 / diff if diff > 0.0 else 0.0
+        for lo in range(size - j, size):
+            iv[row + lo] = 0.0
 
 
 @njit(cache=True)
 def reciprocal_differences(t, p):
-    """``iv[lo * p + j - 1] = 1 / (t[lo + j] - t[lo])`` for ``j = 1..p`` (0 where not positive):
-    the denominators of the basis recurrence, computed once per knot vector."""
-    iv = np.zeros(t.size * p)
-    for lo in range(t.size):
-        for j in range(1, p + 1):
-            if lo + j < t.size and t[lo + j] > t[lo]:
-                iv[lo * p + j - 1] = 1.0 / (t[lo + j] - t[lo])
+    """The table of :func:`reciprocals_into`, allocated."""
+    iv = np.empty(t.size * p)
+    reciprocals_into(t, p, iv)
     return iv
 
 
@@ -90,42 +84,65 @@ def reciprocal_differences(t, p):
 def _solve(u, q, t, p, n, coef, basis, spans):
     """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
 
+    Allocates its workspaces; see :func:`_solve_into`.
+    """
+    iv = np.empty(t.size * p)
+    st = np.empty(n * (1 + p + q.shape[1]))
+    return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st)
+
+
+@njit(cache=True)
+def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st):
+    """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
+
     Square-root-free Givens rotations (Gentleman 1973), row by row as in FITPACK's ``fpcurf``:
     the triangular factor is ``R = diag(sqrt(1 / dinv)) @ rb`` with unit-diagonal ``rb``; a data
     row enters with weight ``w = 1 / big_w``. Tracking ``big_w`` and ``dinv`` (reciprocals)
     keeps every division off the chain of dependent operations, so rotations pipeline. The sum of
     squared residuals is what the rotations leave of the data rows, so no second pass is needed
-    for it. The row loop itself is generated per degree (``_rows.py``). If ``basis`` is not empty,
-    basis values and spans of every data point are stored for :func:`_max_deviation`.
+    for it. The row loop itself is generated per degree and dimension (``_rows.py``) and checks
+    the Schoenberg-Whitney conditions on the way. ``iv`` (at least ``t.size * p``) and ``st``
+    (at least ``n * (1 + p + d)``) are workspaces: ``st`` holds, per column of the factor,
+    ``dinv``, the ``p`` off-diagonal entries of ``rb`` and the ``d`` right-hand sides. If
+    ``basis`` is not empty, basis values and spans of every data point are stored for
+    :func:`_max_deviation`.
     """
     d = q.shape[1]
-    rb = np.zeros((n, p + 1))
-    dinv = np.full(n, np.inf)
-    z = np.zeros((n, d))
-    sse = rows(u, q, t, reciprocal_differences(t, p), p, n, rb, dinv, z, basis, spans)
+    width = 1 + p + d
+    reciprocals_into(t, p, iv)
+    for i in range(n):
+        st[i * width] = EMPTY
+        for k in range(1, width):
+            st[i * width + k] = 0.0
+    sse, matched = rows(u, q, t, iv, p, n, st, basis, spans)
+    if not matched:
+        return SCHOENBERG_WHITNEY, np.inf
     # 1 / dinv is the squared diagonal of R: compare its smallest entry with its largest
     largest_dinv = 0.0
     smallest_dinv = np.inf
     for i in range(n):
-        largest_dinv = max(largest_dinv, dinv[i])
-        smallest_dinv = min(smallest_dinv, dinv[i])
+        largest_dinv = max(largest_dinv, st[i * width])
+        smallest_dinv = min(smallest_dinv, st[i * width])
     if not (smallest_dinv > 0.0 and smallest_dinv >= RCOND * RCOND * largest_dinv):
         return SINGULAR, np.inf
-    if not (_conditioning_bound(rb, p, n, smallest_dinv, largest_dinv) <= COND_LIMIT
-            or _condition_estimate(rb, dinv, p, n) <= COND_LIMIT):
+    if not (_conditioning_bound(st, width, p, n, smallest_dinv, largest_dinv) <= COND_LIMIT
+            or _condition_estimate(st, width, p, n) <= COND_LIMIT):
         return SINGULAR, np.inf
     for i in range(n - 1, -1, -1):
+        row = i * width
         for k in range(d):
-            acc = z[i, k]
+            acc = st[row + p + 1 + k]
             for a in range(min(p, n - 1 - i), 0, -1):  # nearest neighbour last: short chain
-                acc -= rb[i, a] * coef[i + a, k]
+                acc -= st[row + a] * coef[i + a, k]
             coef[i, k] = acc
     return FEASIBLE, sse
 
 
 @njit(cache=True)
-def _conditioning_bound(rb, p, n, smallest_dinv, largest_dinv):
+def _conditioning_bound(st, width, p, n, smallest_dinv, largest_dinv):
     """Cheap upper bound of the infinity-norm condition number of ``R``.
+
+    ``rb[i, a]`` is ``st[i * width + a]`` (see :func:`_solve_into`).
 
     ``|R^-1| <= M^-1`` elementwise, with ``M`` the comparison matrix of ``R`` (unit diagonal,
     minus the absolute off-diagonal entries of ``rb``), so ``||R^-1||_inf`` is at most the
@@ -139,7 +156,7 @@ def _conditioning_bound(rb, p, n, smallest_dinv, largest_dinv):
         acc = 1.0
         row = 1.0
         for a in range(min(p, n - 1 - i), 0, -1):
-            r = abs(rb[i, a])
+            r = abs(st[i * width + a])
             row += r
             acc += r * v[i + a]
         v[i] = acc
@@ -150,8 +167,10 @@ def _conditioning_bound(rb, p, n, smallest_dinv, largest_dinv):
 
 
 @njit(cache=True)
-def _condition_estimate(rb, dinv, p, n):
+def _condition_estimate(st, width, p, n):
     """Estimate the infinity-norm condition number of ``R = diag(sqrt(1 / dinv)) @ rb``.
+
+    ``dinv[i]`` is ``st[i * width]``, ``rb[i, a]`` is ``st[i * width + a]``.
 
     ``||R||_inf`` exactly, ``||R^-1||_inf = ||R^-T||_1`` by Hager's estimator (Higham 1988, as
     in LAPACK's ``xLACON``): a few rounds of two banded triangular solves, O(n p) each. The
@@ -160,10 +179,10 @@ def _condition_estimate(rb, dinv, p, n):
     sq = np.empty(n)  # 1 / R_ii
     norm_r = 0.0
     for i in range(n):
-        sq[i] = math.sqrt(dinv[i])
+        sq[i] = math.sqrt(st[i * width])
         row = 1.0
         for a in range(1, min(p, n - 1 - i) + 1):
-            row += abs(rb[i, a])
+            row += abs(st[i * width + a])
         norm_r = max(norm_r, row / sq[i])
     x = np.full(n, 1.0 / n)
     y = np.empty(n)
@@ -174,7 +193,7 @@ def _condition_estimate(rb, dinv, p, n):
         for i in range(n):  # y = R^-T x
             acc = x[i]
             for a in range(min(p, i), 0, -1):
-                acc -= rb[i - a, a] * y[i - a]
+                acc -= st[(i - a) * width + a] * y[i - a]
             y[i] = acc
         for i in range(n):
             y[i] *= sq[i]
@@ -188,7 +207,7 @@ def _condition_estimate(rb, dinv, p, n):
         for i in range(n - 1, -1, -1):  # z = R^-1 sign(y)
             acc = sq[i] if y[i] >= 0.0 else -sq[i]
             for a in range(min(p, n - 1 - i), 0, -1):
-                acc -= rb[i, a] * z[i + a]
+                acc -= st[i * width + a] * z[i + a]
             z[i] = acc
             zx += acc * x[i]
             if abs(acc) > z_best:
@@ -228,9 +247,19 @@ def _fit_into(u, q, interior, p, t, coef, basis, spans):
     reason = _build_knots(u, interior, p, t)
     if reason != FEASIBLE:
         return reason, np.inf
-    if not _schoenberg_whitney(u, t, p, n):
-        return SCHOENBERG_WHITNEY, np.inf
     return _solve(u, q, t, p, n, coef, basis, spans)
+
+
+@njit(cache=True)
+def _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st):
+    """:func:`_fit_into` with the workspaces of :func:`_solve_into` given."""
+    n = interior.size + p + 1
+    if n > u.size:
+        return TOO_MANY_CONTROL_POINTS, np.inf
+    reason = _build_knots(u, interior, p, t)
+    if reason != FEASIBLE:
+        return reason, np.inf
+    return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st)
 
 
 @njit(cache=True)
@@ -265,6 +294,8 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
         coef_ws = np.empty((n_max, q.shape[1]))
         basis = np.empty((u.size if want_max_dev else 0, p + 1))
         spans = np.empty(u.size if want_max_dev else 0, dtype=np.int64)
+        iv_ws = np.empty((n_max + p + 1) * p)
+        st_ws = np.empty(n_max * (1 + p + q.shape[1]))
         for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
             interior = knots[offsets[b] : offsets[b + 1]]
             n = interior.size + p + 1
@@ -274,7 +305,8 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
             code = TOO_MANY_CONTROL_POINTS
             sse[b] = np.inf
             if n <= u.size:
-                code, sse[b] = _fit_into(u, q, interior, p, t, coef, basis, spans)
+                code, sse[b] = _fit_ws(u, q, interior, p, t, coef, basis, spans, iv_ws,
+                                       st_ws)
             reason[b] = code
             if want_max_dev:
                 max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE \
