@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 # An empty column of the factor: its reciprocal weight (see _codegen).
-EMPTY = 1e300
+EMPTY = 1e150
 # Fused multiply-adds only: no reassociation, no approximate reciprocals.
 FASTMATH = {{"contract"}}
 {constants}
@@ -169,29 +169,109 @@ def render_rows(p: int, d: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+def render_back(p: int, d: int) -> str:
+    """Source of ``back_p{p}_d{d}``: back substitution with the last ``p`` solutions in locals.
+
+    Entries of ``rb`` beyond the last column are zero (no row reaches them) and the locals start
+    at zero, so every row does the same operations.
+    """
+    width = 1 + p + d
+    lines = [
+        "@njit(cache=True, fastmath=FASTMATH)",
+        f"def back_p{p}_d{d}(st, n, coef):",
+        f'    """Control points from the factor (degree {p}, dimension {d})."""',
+        *[f"    c{a}_{k} = 0.0" for k in range(d) for a in range(1, p + 1)],
+        "    for i in range(n - 1, -1, -1):",
+        f"        o = np.uint64(i) * U{width}",
+        *[f"        r{a} = st[o + U{a}]" for a in range(1, p + 1)],
+    ]
+    for k in range(d):
+        # nearest neighbour last: the chain from one control point to the next is short
+        terms = "".join(f" - r{a} * c{a}_{k}" for a in range(p, 0, -1))
+        lines.append(f"        v{k} = st[o + U{p + 1 + k}]{terms}")
+        lines.append(f"        coef[i, {k}] = v{k}")
+        lines += [f"        c{a}_{k} = c{a - 1}_{k}" for a in range(p, 1, -1)]
+        lines.append(f"        c1_{k} = v{k}")
+    return "\n".join(lines) + "\n"
+
+
+def render_bound(p: int) -> str:
+    """Source of ``bound_p{p}``: one backward pass over the factor for ``_conditioning_bound``.
+
+    Returns the smallest and largest ``dinv``, the largest row sum of ``|rb|`` and the largest
+    entry of ``M^-1 e``, in the order of operations of a loop over the band (the locals standing
+    for entries past the last column are zero, as are those entries of ``rb``), with no
+    contraction, so the verdicts are those of the plain loop.
+    """
+    lines = [
+        "@njit(cache=True)",
+        f"def bound_p{p}(st, width, n):",
+        f'    """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree {p})."""',
+        *[f"    v{a} = 0.0" for a in range(1, p + 1)],
+        "    smallest = np.inf",
+        "    largest = 0.0",
+        "    v_max = 0.0",
+        "    row_max = 0.0",
+        "    w = np.uint64(width)",
+        "    for i in range(n - 1, -1, -1):",
+        "        o = np.uint64(i) * w",
+        "        di = st[o]",
+        "        smallest = min(smallest, di)",
+        "        largest = max(largest, di)",
+        "        acc = 1.0",
+        "        row = 1.0",
+    ]
+    for a in range(p, 0, -1):
+        lines += [f"        r = abs(st[o + U{a}])",
+                  "        row += r",
+                  f"        acc += r * v{a}"]
+    lines += [f"        v{a} = v{a - 1}" for a in range(p, 1, -1)]
+    lines += ["        v1 = acc",
+              "        v_max = max(v_max, acc)",
+              "        row_max = max(row_max, row)",
+              "    return smallest, largest, row_max, v_max"]
+    return "\n".join(lines) + "\n"
+
+
+def _dispatch(name: str, args: str, doc: str, fallback: str, by_dimension: bool) -> list[str]:
+    lines = ["@njit(cache=True)", f"def {name}({args}):", f'    """{doc}"""']
+    if by_dimension:
+        lines.append("    d = coef.shape[1]" if name == "back" else "    d = q.shape[1]")
+    first = True
+    inner = args.replace("p, ", "")
+    for p in range(1, MAX_DEGREE + 1):
+        for d in (range(1, MAX_DIMENSION + 1) if by_dimension else [None]):
+            kw = "if" if first else "elif"
+            first = False
+            cond = f"p == {p} and d == {d}" if by_dimension else f"p == {p}"
+            suffix = f"_p{p}_d{d}" if by_dimension else f"_p{p}"
+            lines += [f"    {kw} {cond}:", f"        return {name}{suffix}({inner})"]
+    lines.append(f"    return {fallback}")
+    return lines
+
+
 def render() -> str:
     """Source of the whole generated module."""
     constants = "\n".join(f"U{k} = np.uint64({k})"
                           for k in range(MAX_DEGREE + MAX_DIMENSION + 2))
-    body = "\n\n".join(render_rows(p, d) for p in range(1, MAX_DEGREE + 1)
-                       for d in range(1, MAX_DIMENSION + 1))
+    body = "\n\n".join(
+        [render_rows(p, d) for p in range(1, MAX_DEGREE + 1) for d in range(1, MAX_DIMENSION + 1)]
+        + [render_back(p, d) for p in range(1, MAX_DEGREE + 1)
+           for d in range(1, MAX_DIMENSION + 1)]
+        + [render_bound(p) for p in range(1, MAX_DEGREE + 1)])
     dispatch = [
-        "@njit(cache=True)",
-        "def rows(u, q, t, iv, p, n, st, basis, spans):",
-        '    """Dispatch on the degree and dimension: (SSE, Schoenberg-Whitney holds)."""',
-        "    d = q.shape[1]",
+        *_dispatch("rows", "u, q, t, iv, p, n, st, basis, spans",
+                   "Dispatch on the degree and dimension: (SSE, Schoenberg-Whitney holds).",
+                   "np.nan, False", True),
+        "", "",
+        *_dispatch("back", "st, p, n, coef", "Dispatch on the degree and dimension.", "None",
+                   True),
+        "", "",
+        *_dispatch("bound", "st, p, width, n", "Dispatch on the degree.",
+                   "np.nan, np.nan, np.nan, np.nan", False),
     ]
-    first = True
-    for p in range(1, MAX_DEGREE + 1):
-        for d in range(1, MAX_DIMENSION + 1):
-            kw = "if" if first else "elif"
-            first = False
-            dispatch += [f"    {kw} p == {p} and d == {d}:",
-                         f"        return rows_p{p}_d{d}(u, q, t, iv, n, st, basis, spans)"]
-    dispatch += ["    return np.nan, False"]
     return (HEADER.format(constants=constants) + "\n\n" + body + "\n\n" + "\n".join(dispatch)
             + "\n")
-
 
 if __name__ == "__main__":
     TARGET.write_text(render())

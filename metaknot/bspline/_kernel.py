@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._rows import EMPTY, rows
+from ._rows import EMPTY, back, bound, rows
 
 FEASIBLE = 0
 TOO_MANY_CONTROL_POINTS = 1
@@ -110,31 +110,19 @@ def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st):
     d = q.shape[1]
     width = 1 + p + d
     reciprocals_into(t, p, iv)
-    for i in range(n):
-        st[i * width] = EMPTY
-        for k in range(1, width):
-            st[i * width + k] = 0.0
+    st[: n * width] = 0.0
+    st[: n * width : width] = EMPTY
     sse, matched = rows(u, q, t, iv, p, n, st, basis, spans)
     if not matched:
         return SCHOENBERG_WHITNEY, np.inf
     # 1 / dinv is the squared diagonal of R: compare its smallest entry with its largest
-    largest_dinv = 0.0
-    smallest_dinv = np.inf
-    for i in range(n):
-        largest_dinv = max(largest_dinv, st[i * width])
-        smallest_dinv = min(smallest_dinv, st[i * width])
+    smallest_dinv, largest_dinv, row_max, v_max = bound(st, p, width, n)
     if not (smallest_dinv > 0.0 and smallest_dinv >= RCOND * RCOND * largest_dinv):
         return SINGULAR, np.inf
-    if not (_conditioning_bound(st, width, p, n, smallest_dinv, largest_dinv) <= COND_LIMIT
+    if not (_bound_from(smallest_dinv, largest_dinv, row_max, v_max) <= COND_LIMIT
             or _condition_estimate(st, width, p, n) <= COND_LIMIT):
         return SINGULAR, np.inf
-    for i in range(n - 1, -1, -1):
-        row = i * width
-        for k in range(d):
-            acc = st[row + p + 1 + k]
-            for a in range(min(p, n - 1 - i), 0, -1):  # nearest neighbour last: short chain
-                acc -= st[row + a] * coef[i + a, k]
-            coef[i, k] = acc
+    back(st, p, n, coef)
     return FEASIBLE, sse
 
 
@@ -146,22 +134,17 @@ def _conditioning_bound(st, width, p, n, smallest_dinv, largest_dinv):
 
     ``|R^-1| <= M^-1`` elementwise, with ``M`` the comparison matrix of ``R`` (unit diagonal,
     minus the absolute off-diagonal entries of ``rb``), so ``||R^-1||_inf`` is at most the
-    largest entry of ``M^-1 e`` times the largest ``1 / R_ii``. One banded pass, no division;
-    usually within a small factor of the true value for B-spline systems.
+    largest entry of ``M^-1 e`` times the largest ``1 / R_ii``. One banded pass (generated per
+    degree, ``_rows.bound``, which also finds the extremes of ``dinv``), no division; usually
+    within a small factor of the true value for B-spline systems.
     """
-    v = np.empty(n)
-    v_max = 0.0
-    row_max = 0.0
-    for i in range(n - 1, -1, -1):
-        acc = 1.0
-        row = 1.0
-        for a in range(min(p, n - 1 - i), 0, -1):
-            r = abs(st[i * width + a])
-            row += r
-            acc += r * v[i + a]
-        v[i] = acc
-        v_max = max(v_max, acc)
-        row_max = max(row_max, row)
+    _, _, row_max, v_max = bound(st, p, width, n)
+    return _bound_from(smallest_dinv, largest_dinv, row_max, v_max)
+
+
+@njit(cache=True)
+def _bound_from(smallest_dinv, largest_dinv, row_max, v_max):
+    """The bound of :func:`_conditioning_bound` from the results of its pass."""
     # (largest R_ii) * (largest 1 / R_ii) = sqrt(largest dinv / smallest dinv)
     return math.sqrt(largest_dinv / smallest_dinv) * row_max * v_max
 

@@ -7,7 +7,7 @@ import numpy as np
 from numba import njit
 
 # An empty column of the factor: its reciprocal weight (see _codegen).
-EMPTY = 1e300
+EMPTY = 1e150
 # Fused multiply-adds only: no reassociation, no approximate reciprocals.
 FASTMATH = {"contract"}
 U0 = np.uint64(0)
@@ -2302,6 +2302,571 @@ def rows_p5_d3(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
+@njit(cache=True, fastmath=FASTMATH)
+def back_p1_d1(st, n, coef):
+    """Control points from the factor (degree 1, dimension 1)."""
+    c1_0 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U3
+        r1 = st[o + U1]
+        v0 = st[o + U2] - r1 * c1_0
+        coef[i, 0] = v0
+        c1_0 = v0
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p1_d2(st, n, coef):
+    """Control points from the factor (degree 1, dimension 2)."""
+    c1_0 = 0.0
+    c1_1 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U4
+        r1 = st[o + U1]
+        v0 = st[o + U2] - r1 * c1_0
+        coef[i, 0] = v0
+        c1_0 = v0
+        v1 = st[o + U3] - r1 * c1_1
+        coef[i, 1] = v1
+        c1_1 = v1
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p1_d3(st, n, coef):
+    """Control points from the factor (degree 1, dimension 3)."""
+    c1_0 = 0.0
+    c1_1 = 0.0
+    c1_2 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U5
+        r1 = st[o + U1]
+        v0 = st[o + U2] - r1 * c1_0
+        coef[i, 0] = v0
+        c1_0 = v0
+        v1 = st[o + U3] - r1 * c1_1
+        coef[i, 1] = v1
+        c1_1 = v1
+        v2 = st[o + U4] - r1 * c1_2
+        coef[i, 2] = v2
+        c1_2 = v2
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p2_d1(st, n, coef):
+    """Control points from the factor (degree 2, dimension 1)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U4
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        v0 = st[o + U3] - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c2_0 = c1_0
+        c1_0 = v0
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p2_d2(st, n, coef):
+    """Control points from the factor (degree 2, dimension 2)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U5
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        v0 = st[o + U3] - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U4] - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c2_1 = c1_1
+        c1_1 = v1
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p2_d3(st, n, coef):
+    """Control points from the factor (degree 2, dimension 3)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    c1_2 = 0.0
+    c2_2 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U6
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        v0 = st[o + U3] - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U4] - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c2_1 = c1_1
+        c1_1 = v1
+        v2 = st[o + U5] - r2 * c2_2 - r1 * c1_2
+        coef[i, 2] = v2
+        c2_2 = c1_2
+        c1_2 = v2
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p3_d1(st, n, coef):
+    """Control points from the factor (degree 3, dimension 1)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U5
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        v0 = st[o + U4] - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p3_d2(st, n, coef):
+    """Control points from the factor (degree 3, dimension 2)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    c3_1 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U6
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        v0 = st[o + U4] - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U5] - r3 * c3_1 - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c3_1 = c2_1
+        c2_1 = c1_1
+        c1_1 = v1
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p3_d3(st, n, coef):
+    """Control points from the factor (degree 3, dimension 3)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    c3_1 = 0.0
+    c1_2 = 0.0
+    c2_2 = 0.0
+    c3_2 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U7
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        v0 = st[o + U4] - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U5] - r3 * c3_1 - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c3_1 = c2_1
+        c2_1 = c1_1
+        c1_1 = v1
+        v2 = st[o + U6] - r3 * c3_2 - r2 * c2_2 - r1 * c1_2
+        coef[i, 2] = v2
+        c3_2 = c2_2
+        c2_2 = c1_2
+        c1_2 = v2
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p4_d1(st, n, coef):
+    """Control points from the factor (degree 4, dimension 1)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c4_0 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U6
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        r4 = st[o + U4]
+        v0 = st[o + U5] - r4 * c4_0 - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c4_0 = c3_0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p4_d2(st, n, coef):
+    """Control points from the factor (degree 4, dimension 2)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c4_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    c3_1 = 0.0
+    c4_1 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U7
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        r4 = st[o + U4]
+        v0 = st[o + U5] - r4 * c4_0 - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c4_0 = c3_0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U6] - r4 * c4_1 - r3 * c3_1 - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c4_1 = c3_1
+        c3_1 = c2_1
+        c2_1 = c1_1
+        c1_1 = v1
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p4_d3(st, n, coef):
+    """Control points from the factor (degree 4, dimension 3)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c4_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    c3_1 = 0.0
+    c4_1 = 0.0
+    c1_2 = 0.0
+    c2_2 = 0.0
+    c3_2 = 0.0
+    c4_2 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U8
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        r4 = st[o + U4]
+        v0 = st[o + U5] - r4 * c4_0 - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c4_0 = c3_0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U6] - r4 * c4_1 - r3 * c3_1 - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c4_1 = c3_1
+        c3_1 = c2_1
+        c2_1 = c1_1
+        c1_1 = v1
+        v2 = st[o + U7] - r4 * c4_2 - r3 * c3_2 - r2 * c2_2 - r1 * c1_2
+        coef[i, 2] = v2
+        c4_2 = c3_2
+        c3_2 = c2_2
+        c2_2 = c1_2
+        c1_2 = v2
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p5_d1(st, n, coef):
+    """Control points from the factor (degree 5, dimension 1)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c4_0 = 0.0
+    c5_0 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U7
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        r4 = st[o + U4]
+        r5 = st[o + U5]
+        v0 = st[o + U6] - r5 * c5_0 - r4 * c4_0 - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c5_0 = c4_0
+        c4_0 = c3_0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p5_d2(st, n, coef):
+    """Control points from the factor (degree 5, dimension 2)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c4_0 = 0.0
+    c5_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    c3_1 = 0.0
+    c4_1 = 0.0
+    c5_1 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U8
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        r4 = st[o + U4]
+        r5 = st[o + U5]
+        v0 = st[o + U6] - r5 * c5_0 - r4 * c4_0 - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c5_0 = c4_0
+        c4_0 = c3_0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U7] - r5 * c5_1 - r4 * c4_1 - r3 * c3_1 - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c5_1 = c4_1
+        c4_1 = c3_1
+        c3_1 = c2_1
+        c2_1 = c1_1
+        c1_1 = v1
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def back_p5_d3(st, n, coef):
+    """Control points from the factor (degree 5, dimension 3)."""
+    c1_0 = 0.0
+    c2_0 = 0.0
+    c3_0 = 0.0
+    c4_0 = 0.0
+    c5_0 = 0.0
+    c1_1 = 0.0
+    c2_1 = 0.0
+    c3_1 = 0.0
+    c4_1 = 0.0
+    c5_1 = 0.0
+    c1_2 = 0.0
+    c2_2 = 0.0
+    c3_2 = 0.0
+    c4_2 = 0.0
+    c5_2 = 0.0
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * U9
+        r1 = st[o + U1]
+        r2 = st[o + U2]
+        r3 = st[o + U3]
+        r4 = st[o + U4]
+        r5 = st[o + U5]
+        v0 = st[o + U6] - r5 * c5_0 - r4 * c4_0 - r3 * c3_0 - r2 * c2_0 - r1 * c1_0
+        coef[i, 0] = v0
+        c5_0 = c4_0
+        c4_0 = c3_0
+        c3_0 = c2_0
+        c2_0 = c1_0
+        c1_0 = v0
+        v1 = st[o + U7] - r5 * c5_1 - r4 * c4_1 - r3 * c3_1 - r2 * c2_1 - r1 * c1_1
+        coef[i, 1] = v1
+        c5_1 = c4_1
+        c4_1 = c3_1
+        c3_1 = c2_1
+        c2_1 = c1_1
+        c1_1 = v1
+        v2 = st[o + U8] - r5 * c5_2 - r4 * c4_2 - r3 * c3_2 - r2 * c2_2 - r1 * c1_2
+        coef[i, 2] = v2
+        c5_2 = c4_2
+        c4_2 = c3_2
+        c3_2 = c2_2
+        c2_2 = c1_2
+        c1_2 = v2
+
+
+@njit(cache=True)
+def bound_p1(st, width, n):
+    """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree 1)."""
+    v1 = 0.0
+    smallest = np.inf
+    largest = 0.0
+    v_max = 0.0
+    row_max = 0.0
+    w = np.uint64(width)
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * w
+        di = st[o]
+        smallest = min(smallest, di)
+        largest = max(largest, di)
+        acc = 1.0
+        row = 1.0
+        r = abs(st[o + U1])
+        row += r
+        acc += r * v1
+        v1 = acc
+        v_max = max(v_max, acc)
+        row_max = max(row_max, row)
+    return smallest, largest, row_max, v_max
+
+
+@njit(cache=True)
+def bound_p2(st, width, n):
+    """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree 2)."""
+    v1 = 0.0
+    v2 = 0.0
+    smallest = np.inf
+    largest = 0.0
+    v_max = 0.0
+    row_max = 0.0
+    w = np.uint64(width)
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * w
+        di = st[o]
+        smallest = min(smallest, di)
+        largest = max(largest, di)
+        acc = 1.0
+        row = 1.0
+        r = abs(st[o + U2])
+        row += r
+        acc += r * v2
+        r = abs(st[o + U1])
+        row += r
+        acc += r * v1
+        v2 = v1
+        v1 = acc
+        v_max = max(v_max, acc)
+        row_max = max(row_max, row)
+    return smallest, largest, row_max, v_max
+
+
+@njit(cache=True)
+def bound_p3(st, width, n):
+    """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree 3)."""
+    v1 = 0.0
+    v2 = 0.0
+    v3 = 0.0
+    smallest = np.inf
+    largest = 0.0
+    v_max = 0.0
+    row_max = 0.0
+    w = np.uint64(width)
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * w
+        di = st[o]
+        smallest = min(smallest, di)
+        largest = max(largest, di)
+        acc = 1.0
+        row = 1.0
+        r = abs(st[o + U3])
+        row += r
+        acc += r * v3
+        r = abs(st[o + U2])
+        row += r
+        acc += r * v2
+        r = abs(st[o + U1])
+        row += r
+        acc += r * v1
+        v3 = v2
+        v2 = v1
+        v1 = acc
+        v_max = max(v_max, acc)
+        row_max = max(row_max, row)
+    return smallest, largest, row_max, v_max
+
+
+@njit(cache=True)
+def bound_p4(st, width, n):
+    """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree 4)."""
+    v1 = 0.0
+    v2 = 0.0
+    v3 = 0.0
+    v4 = 0.0
+    smallest = np.inf
+    largest = 0.0
+    v_max = 0.0
+    row_max = 0.0
+    w = np.uint64(width)
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * w
+        di = st[o]
+        smallest = min(smallest, di)
+        largest = max(largest, di)
+        acc = 1.0
+        row = 1.0
+        r = abs(st[o + U4])
+        row += r
+        acc += r * v4
+        r = abs(st[o + U3])
+        row += r
+        acc += r * v3
+        r = abs(st[o + U2])
+        row += r
+        acc += r * v2
+        r = abs(st[o + U1])
+        row += r
+        acc += r * v1
+        v4 = v3
+        v3 = v2
+        v2 = v1
+        v1 = acc
+        v_max = max(v_max, acc)
+        row_max = max(row_max, row)
+    return smallest, largest, row_max, v_max
+
+
+@njit(cache=True)
+def bound_p5(st, width, n):
+    """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree 5)."""
+    v1 = 0.0
+    v2 = 0.0
+    v3 = 0.0
+    v4 = 0.0
+    v5 = 0.0
+    smallest = np.inf
+    largest = 0.0
+    v_max = 0.0
+    row_max = 0.0
+    w = np.uint64(width)
+    for i in range(n - 1, -1, -1):
+        o = np.uint64(i) * w
+        di = st[o]
+        smallest = min(smallest, di)
+        largest = max(largest, di)
+        acc = 1.0
+        row = 1.0
+        r = abs(st[o + U5])
+        row += r
+        acc += r * v5
+        r = abs(st[o + U4])
+        row += r
+        acc += r * v4
+        r = abs(st[o + U3])
+        row += r
+        acc += r * v3
+        r = abs(st[o + U2])
+        row += r
+        acc += r * v2
+        r = abs(st[o + U1])
+        row += r
+        acc += r * v1
+        v5 = v4
+        v4 = v3
+        v3 = v2
+        v2 = v1
+        v1 = acc
+        v_max = max(v_max, acc)
+        row_max = max(row_max, row)
+    return smallest, largest, row_max, v_max
+
+
 @njit(cache=True)
 def rows(u, q, t, iv, p, n, st, basis, spans):
     """Dispatch on the degree and dimension: (SSE, Schoenberg-Whitney holds)."""
@@ -2337,3 +2902,56 @@ def rows(u, q, t, iv, p, n, st, basis, spans):
     elif p == 5 and d == 3:
         return rows_p5_d3(u, q, t, iv, n, st, basis, spans)
     return np.nan, False
+
+
+@njit(cache=True)
+def back(st, p, n, coef):
+    """Dispatch on the degree and dimension."""
+    d = coef.shape[1]
+    if p == 1 and d == 1:
+        return back_p1_d1(st, n, coef)
+    elif p == 1 and d == 2:
+        return back_p1_d2(st, n, coef)
+    elif p == 1 and d == 3:
+        return back_p1_d3(st, n, coef)
+    elif p == 2 and d == 1:
+        return back_p2_d1(st, n, coef)
+    elif p == 2 and d == 2:
+        return back_p2_d2(st, n, coef)
+    elif p == 2 and d == 3:
+        return back_p2_d3(st, n, coef)
+    elif p == 3 and d == 1:
+        return back_p3_d1(st, n, coef)
+    elif p == 3 and d == 2:
+        return back_p3_d2(st, n, coef)
+    elif p == 3 and d == 3:
+        return back_p3_d3(st, n, coef)
+    elif p == 4 and d == 1:
+        return back_p4_d1(st, n, coef)
+    elif p == 4 and d == 2:
+        return back_p4_d2(st, n, coef)
+    elif p == 4 and d == 3:
+        return back_p4_d3(st, n, coef)
+    elif p == 5 and d == 1:
+        return back_p5_d1(st, n, coef)
+    elif p == 5 and d == 2:
+        return back_p5_d2(st, n, coef)
+    elif p == 5 and d == 3:
+        return back_p5_d3(st, n, coef)
+    return None
+
+
+@njit(cache=True)
+def bound(st, p, width, n):
+    """Dispatch on the degree."""
+    if p == 1:
+        return bound_p1(st, width, n)
+    elif p == 2:
+        return bound_p2(st, width, n)
+    elif p == 3:
+        return bound_p3(st, width, n)
+    elif p == 4:
+        return bound_p4(st, width, n)
+    elif p == 5:
+        return bound_p5(st, width, n)
+    return np.nan, np.nan, np.nan, np.nan
