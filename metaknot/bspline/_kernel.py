@@ -298,7 +298,12 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
 
 @njit(cache=True, parallel=True)
 def masks_to_knots(u, masks):
-    """Interior knots and row offsets of a (B, N-2) boolean mask batch."""
+    """Interior knots and row offsets of a (B, N-2) boolean mask batch.
+
+    Branch-free (a random mask makes every branch on its entries a coin toss): every entry up to
+    a row's last selected one is stored at the row's next free position, which advances only
+    past selected ones, so unselected entries are overwritten and no store leaves the row.
+    """
     n_cand, n_var = masks.shape
     counts = np.zeros(n_cand, dtype=np.int64)
     for b in prange(n_cand):
@@ -311,9 +316,11 @@ def masks_to_knots(u, masks):
         offsets[b + 1] = offsets[b] + counts[b]
     knots = np.empty(offsets[n_cand])
     for b in prange(n_cand):
+        end = n_var
+        while end > 0 and not masks[b, end - 1]:
+            end -= 1
         pos = offsets[b]
-        for i in range(n_var):
-            if masks[b, i]:
-                knots[pos] = u[i + 1]
-                pos += 1
+        for i in range(end):
+            knots[pos] = u[i + 1]
+            pos += masks[b, i]
     return knots, offsets
