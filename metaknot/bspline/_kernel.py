@@ -36,24 +36,30 @@ COND_LIMIT = 1e11
 
 @njit(cache=True)
 def _build_knots(u, interior, p, t):
-    """Fill the clamped knot vector ``t``; return a reason code for malformed interior knots."""
+    """Fill the clamped knot vector ``t``; return a reason code for malformed interior knots.
+
+    One pass without branches on the knots (out of range, NaN included, takes precedence over
+    unsorted or coincident).
+    """
     k = interior.size
     u0 = u[0]
     um = u[u.size - 1]
     for i in range(p + 1):
         t[i] = u0
         t[k + p + 1 + i] = um
+    outside = False
+    unsorted = False
     prev = u0
     for i in range(k):
         x = interior[i]
-        if not (x > u0 and x < um):  # also catches NaN
-            return KNOT_OUT_OF_RANGE
         t[p + 1 + i] = x
-    for i in range(k):
-        x = interior[i]
-        if x <= prev:
-            return COINCIDENT_KNOTS
+        outside |= not ((x > u0) & (x < um))  # also catches NaN
+        unsorted |= x <= prev
         prev = x
+    if outside:
+        return KNOT_OUT_OF_RANGE
+    if unsorted:
+        return COINCIDENT_KNOTS
     return FEASIBLE
 
 
