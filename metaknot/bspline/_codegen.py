@@ -93,10 +93,11 @@ def _rotation_lines(p: int, d: int, i: int, indent: str) -> list[str]:
     out = [
         f"{indent}o = (first + U{i}) * U{width}",
         f"{indent}di = st[o]",
-        f"{indent}bw = big_w + h{i} * h{i} * di",
+        f"{indent}hd = h{i} * di",
+        f"{indent}bw = big_w + h{i} * hd",
         f"{indent}inv = 1.0 / bw",
         f"{indent}cb = big_w * inv",
-        f"{indent}sb = h{i} * di * inv",
+        f"{indent}sb = hd * inv",
         f"{indent}st[o] = di * cb",
     ]
     for a in range(i + 1, p + 1):
