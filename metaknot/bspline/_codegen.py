@@ -5,18 +5,30 @@ The row loop (basis functions of a data point, then square-root-free Givens rota
 row into the triangular factor) is the evaluator's hot spot. Written once per degree and
 dimension with every basis value, row entry and right-hand side in a local variable, it runs
 several times faster than the same loop over small arrays, which the compiler must reload after
-every store. The loop is written to compile to straight-line code:
+every store. The loop is written to compile to straight-line code: branches on the data (does
+the span advance, is the column new, is the entry zero) follow the knot vector, which the branch
+predictor cannot guess:
 
 * the state of the factor is one flat array, ``W = 1 + p + d`` entries per column: the
   reciprocal weight ``dinv``, the ``p`` off-diagonal entries of the unit upper triangular
   factor, the ``d`` right-hand sides; indices are unsigned, so no negative-index wraparound is
-  generated for them;
+  generated for them, and divisions carry no zero check (``error_model='numpy'``);
 * an empty column of the factor holds ``dinv = EMPTY`` (huge, finite) rather than infinity, so
-  the first row rotated into it needs no branch of its own: the rotation then replaces the
-  column by the row scaled to a unit leading entry (up to a relative ``1 / EMPTY``) and leaves
-  the row weightless. Entries that are exactly zero are rotated too (as no-ops);
+  the first row rotated into it needs no branch of its own: with ``h`` the row's entry and
+  ``big_w`` its reciprocal weight, the rotation replaces the column by the row scaled to a unit
+  leading entry, up to a relative ``big_w / (h**2 * EMPTY)``, and leaves the row with the
+  reciprocal weight ``h**2 * EMPTY``, so what it carries on is negligible. Entries that are
+  exactly zero are rotated too (as no-ops, up to rounding);
+* the span of a data point advances by one without a branch (a second step, rarely taken, only
+  where a knot span holds no data);
 * the Schoenberg-Whitney conditions are checked on the way, by the greedy matching of data
-  points to basis functions, from the span of each data point.
+  points to basis functions (in data order, each point to the first unmatched function whose
+  open support holds it), from the span of each data point;
+* fused multiply-adds are allowed (``fastmath={"contract"}``, nothing else).
+
+Back substitution and the pass of the conditioning bound are generated too, with the band's
+last values in locals. A column never reached keeps ``dinv = EMPTY`` and fails the ``RCOND``
+test, as an infinite one did.
 
 The generated file is committed; ``python -m metaknot.bspline._codegen`` rewrites it and a test
 checks it is current.
