@@ -208,6 +208,32 @@ def render_back(p: int, d: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+def render_deviation(p: int, d: int) -> str:
+    """Source of ``deviation_p{p}_d{d}``: the maximum-deviation pass over the stored bases.
+
+    The operations of the plain loop over basis functions and coordinates, in its order.
+    """
+    lines = [
+        "@njit(cache=True)",
+        f"def deviation_p{p}_d{d}(q, coef, basis, spans):",
+        f'    """Largest distance of a data point to its fitted point (degree {p}, dimension {d}).'
+        '"""',
+        "    worst = 0.0",
+        "    for j in range(q.shape[0]):",
+        f"        first = np.uint64(spans[j]) - U{p}",
+        *[f"        b{i} = basis[j, {i}]" for i in range(p + 1)],
+        "        dist2 = 0.0",
+    ]
+    for k in range(d):
+        lines.append("        acc = 0.0")
+        lines += [f"        acc += b{i} * coef[first + U{i}, {k}]" for i in range(p + 1)]
+        lines += [f"        diff = q[j, {k}] - acc",
+                  "        dist2 += diff * diff"]
+    lines += ["        worst = max(worst, dist2)",
+              "    return np.sqrt(worst)"]
+    return "\n".join(lines) + "\n"
+
+
 def render_bound(p: int) -> str:
     """Source of ``bound_p{p}``: one backward pass over the factor for ``_conditioning_bound``.
 
@@ -271,6 +297,8 @@ def render() -> str:
         [render_rows(p, d) for p in range(1, MAX_DEGREE + 1) for d in range(1, MAX_DIMENSION + 1)]
         + [render_back(p, d) for p in range(1, MAX_DEGREE + 1)
            for d in range(1, MAX_DIMENSION + 1)]
+        + [render_deviation(p, d) for p in range(1, MAX_DEGREE + 1)
+           for d in range(1, MAX_DIMENSION + 1)]
         + [render_bound(p) for p in range(1, MAX_DEGREE + 1)])
     dispatch = [
         *_dispatch("rows", "u, q, t, iv, p, n, st, basis, spans",
@@ -279,6 +307,9 @@ def render() -> str:
         "", "",
         *_dispatch("back", "st, p, n, coef", "Dispatch on the degree and dimension.", "None",
                    True),
+        "", "",
+        *_dispatch("deviation", "q, p, coef, basis, spans",
+                   "Dispatch on the degree and dimension.", "np.nan", True),
         "", "",
         *_dispatch("bound", "st, p, width, n", "Dispatch on the degree.",
                    "np.nan, np.nan, np.nan, np.nan", False),

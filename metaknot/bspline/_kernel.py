@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._rows import EMPTY, back, bound, rows
+from ._rows import EMPTY, back, bound, deviation, rows
 
 FEASIBLE = 0
 TOO_MANY_CONTROL_POINTS = 1
@@ -211,20 +211,9 @@ def _condition_estimate(st, width, p, n):
 
 @njit(cache=True)
 def _max_deviation(q, p, coef, basis, spans):
-    """Largest distance of a data point to its fitted point, from the stored bases."""
-    m, d = q.shape
-    worst = 0.0
-    for j in range(m):
-        first = spans[j] - p
-        dist2 = 0.0
-        for k in range(d):
-            acc = 0.0
-            for i in range(p + 1):
-                acc += basis[j, i] * coef[first + i, k]
-            diff = q[j, k] - acc
-            dist2 += diff * diff
-        worst = max(worst, dist2)
-    return math.sqrt(worst)
+    """Largest distance of a data point to its fitted point, from the stored bases (a pass
+    generated per degree and dimension, ``_rows.deviation``)."""
+    return deviation(q, p, coef, basis, spans)
 
 
 @njit(cache=True)

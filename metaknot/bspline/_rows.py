@@ -2753,6 +2753,441 @@ def back_p5_d3(st, n, coef):
 
 
 @njit(cache=True)
+def deviation_p1_d1(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 1, dimension 1)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U1
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p1_d2(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 1, dimension 2)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U1
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p1_d3(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 1, dimension 3)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U1
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 2]
+        acc += b1 * coef[first + U1, 2]
+        diff = q[j, 2] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p2_d1(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 2, dimension 1)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U2
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p2_d2(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 2, dimension 2)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U2
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p2_d3(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 2, dimension 3)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U2
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 2]
+        acc += b1 * coef[first + U1, 2]
+        acc += b2 * coef[first + U2, 2]
+        diff = q[j, 2] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p3_d1(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 3, dimension 1)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U3
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p3_d2(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 3, dimension 2)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U3
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        acc += b3 * coef[first + U3, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p3_d3(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 3, dimension 3)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U3
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        acc += b3 * coef[first + U3, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 2]
+        acc += b1 * coef[first + U1, 2]
+        acc += b2 * coef[first + U2, 2]
+        acc += b3 * coef[first + U3, 2]
+        diff = q[j, 2] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p4_d1(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 4, dimension 1)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U4
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        b4 = basis[j, 4]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        acc += b4 * coef[first + U4, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p4_d2(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 4, dimension 2)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U4
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        b4 = basis[j, 4]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        acc += b4 * coef[first + U4, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        acc += b3 * coef[first + U3, 1]
+        acc += b4 * coef[first + U4, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p4_d3(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 4, dimension 3)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U4
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        b4 = basis[j, 4]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        acc += b4 * coef[first + U4, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        acc += b3 * coef[first + U3, 1]
+        acc += b4 * coef[first + U4, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 2]
+        acc += b1 * coef[first + U1, 2]
+        acc += b2 * coef[first + U2, 2]
+        acc += b3 * coef[first + U3, 2]
+        acc += b4 * coef[first + U4, 2]
+        diff = q[j, 2] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p5_d1(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 5, dimension 1)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U5
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        b4 = basis[j, 4]
+        b5 = basis[j, 5]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        acc += b4 * coef[first + U4, 0]
+        acc += b5 * coef[first + U5, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p5_d2(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 5, dimension 2)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U5
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        b4 = basis[j, 4]
+        b5 = basis[j, 5]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        acc += b4 * coef[first + U4, 0]
+        acc += b5 * coef[first + U5, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        acc += b3 * coef[first + U3, 1]
+        acc += b4 * coef[first + U4, 1]
+        acc += b5 * coef[first + U5, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def deviation_p5_d3(q, coef, basis, spans):
+    """Largest distance of a data point to its fitted point (degree 5, dimension 3)."""
+    worst = 0.0
+    for j in range(q.shape[0]):
+        first = np.uint64(spans[j]) - U5
+        b0 = basis[j, 0]
+        b1 = basis[j, 1]
+        b2 = basis[j, 2]
+        b3 = basis[j, 3]
+        b4 = basis[j, 4]
+        b5 = basis[j, 5]
+        dist2 = 0.0
+        acc = 0.0
+        acc += b0 * coef[first + U0, 0]
+        acc += b1 * coef[first + U1, 0]
+        acc += b2 * coef[first + U2, 0]
+        acc += b3 * coef[first + U3, 0]
+        acc += b4 * coef[first + U4, 0]
+        acc += b5 * coef[first + U5, 0]
+        diff = q[j, 0] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 1]
+        acc += b1 * coef[first + U1, 1]
+        acc += b2 * coef[first + U2, 1]
+        acc += b3 * coef[first + U3, 1]
+        acc += b4 * coef[first + U4, 1]
+        acc += b5 * coef[first + U5, 1]
+        diff = q[j, 1] - acc
+        dist2 += diff * diff
+        acc = 0.0
+        acc += b0 * coef[first + U0, 2]
+        acc += b1 * coef[first + U1, 2]
+        acc += b2 * coef[first + U2, 2]
+        acc += b3 * coef[first + U3, 2]
+        acc += b4 * coef[first + U4, 2]
+        acc += b5 * coef[first + U5, 2]
+        diff = q[j, 2] - acc
+        dist2 += diff * diff
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
 def bound_p1(st, width, n):
     """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree 1)."""
     v1 = 0.0
@@ -2999,6 +3434,43 @@ def back(st, p, n, coef):
     elif p == 5 and d == 3:
         return back_p5_d3(st, n, coef)
     return None
+
+
+@njit(cache=True)
+def deviation(q, p, coef, basis, spans):
+    """Dispatch on the degree and dimension."""
+    d = q.shape[1]
+    if p == 1 and d == 1:
+        return deviation_p1_d1(q, coef, basis, spans)
+    elif p == 1 and d == 2:
+        return deviation_p1_d2(q, coef, basis, spans)
+    elif p == 1 and d == 3:
+        return deviation_p1_d3(q, coef, basis, spans)
+    elif p == 2 and d == 1:
+        return deviation_p2_d1(q, coef, basis, spans)
+    elif p == 2 and d == 2:
+        return deviation_p2_d2(q, coef, basis, spans)
+    elif p == 2 and d == 3:
+        return deviation_p2_d3(q, coef, basis, spans)
+    elif p == 3 and d == 1:
+        return deviation_p3_d1(q, coef, basis, spans)
+    elif p == 3 and d == 2:
+        return deviation_p3_d2(q, coef, basis, spans)
+    elif p == 3 and d == 3:
+        return deviation_p3_d3(q, coef, basis, spans)
+    elif p == 4 and d == 1:
+        return deviation_p4_d1(q, coef, basis, spans)
+    elif p == 4 and d == 2:
+        return deviation_p4_d2(q, coef, basis, spans)
+    elif p == 4 and d == 3:
+        return deviation_p4_d3(q, coef, basis, spans)
+    elif p == 5 and d == 1:
+        return deviation_p5_d1(q, coef, basis, spans)
+    elif p == 5 and d == 2:
+        return deviation_p5_d2(q, coef, basis, spans)
+    elif p == 5 and d == 3:
+        return deviation_p5_d3(q, coef, basis, spans)
+    return np.nan
 
 
 @njit(cache=True)
