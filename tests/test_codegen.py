@@ -28,13 +28,68 @@ def test_generated_basis_matches_scipy(degree: int) -> None:
     t = clamped_knot_vector(u, interior, degree)
     n = t.size - degree - 1
     iv = _kernel.reciprocal_differences(t, degree)
-    assert iv[degree * degree] == pytest.approx(1.0 / (t[degree + 1] - t[degree]))
+    assert iv[degree] == pytest.approx(1.0 / (t[degree + 1] - t[degree]))
     basis = np.empty((u.size, degree + 1))
     spans = np.empty(u.size, dtype=np.int64)
-    _rows.rows(u, q, t, iv, degree, n, np.zeros((n, degree + 1)), np.full(n, np.inf),
-               np.zeros((n, 2)), basis, spans)
+    st = np.zeros((n, 1 + degree + 2))
+    st[:, 0] = _rows.EMPTY
+    _, matched = _rows.rows(u, q, t, iv, degree, n, st.ravel(), basis, spans)
+    assert matched
     dense = BSpline.design_matrix(u, t, degree).toarray()
     ours = np.zeros_like(dense)
     for j in range(u.size):
         ours[j, spans[j] - degree : spans[j] + 1] = basis[j]
     np.testing.assert_allclose(ours, dense, rtol=1e-13, atol=1e-15)
+
+
+def _schoenberg_whitney(u: np.ndarray, t: np.ndarray, p: int, n: int) -> bool:
+    """Plain reference: match each basis function to the first free data site in its support."""
+    j = 0
+    for i in range(n):
+        while j < u.size and not (u[j] > t[i] or (i == 0 and u[j] >= t[i])):
+            j += 1
+        if j == u.size:
+            return False
+        if not (u[j] < t[i + p + 1] or (i == n - 1 and u[j] <= t[i + p + 1])):
+            return False
+        j += 1
+    return True
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+def test_row_loop_matching_is_schoenberg_whitney(degree: int) -> None:
+    """The matching done in the row loop agrees with the plain greedy check, on knots at data
+    sites, between them, clustered (spans without data) and too many."""
+    from metaknot.bspline import _kernel, _rows
+
+    rng = np.random.default_rng(100 + degree)
+    verdicts = set()
+    for case in range(400):
+        m = int(rng.integers(degree + 2, 30))
+        u = np.sort(np.concatenate(([0.0, 1.0], rng.random(m - 2))))
+        q = rng.normal(size=(m, 1))
+        kind = case % 4
+        if kind == 0:  # at data sites
+            k = int(rng.integers(0, m - 1))
+            interior = np.sort(rng.choice(u[1:-1], size=min(k, m - 2), replace=False))
+        elif kind == 1:  # anywhere
+            interior = np.sort(rng.uniform(0.01, 0.99, size=int(rng.integers(0, m))))
+        elif kind == 2:  # clustered
+            centre = rng.uniform(0.1, 0.9)
+            interior = np.sort(centre + rng.uniform(-0.05, 0.05, size=int(rng.integers(1, m))))
+        else:  # exactly at data sites and between
+            sites = rng.choice(u[1:-1], size=int(rng.integers(0, m // 2)), replace=False)
+            interior = np.sort(np.concatenate((sites, rng.uniform(0.01, 0.99, size=2))))
+        interior = np.unique(interior[(interior > 0.0) & (interior < 1.0)])
+        t = clamped_knot_vector(u, interior, degree)
+        n = t.size - degree - 1
+        if n > m:
+            continue
+        st = np.zeros((n, 1 + degree + 1))
+        st[:, 0] = _rows.EMPTY
+        _, matched = _rows.rows(u, q, t, _kernel.reciprocal_differences(t, degree), degree, n,
+                                st.ravel(), np.empty((0, degree + 1)), np.empty(0, np.int64))
+        expected = _schoenberg_whitney(u, t, degree, n)
+        assert matched == expected, (case, interior)
+        verdicts.add(expected)
+    assert verdicts == {True, False}

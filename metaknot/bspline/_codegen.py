@@ -1,10 +1,37 @@
-"""Renders ``_rows.py``: the row loop of the least-squares kernel, one function per degree.
+"""Renders ``_rows.py``: the row loop of the least-squares kernel, one function per degree and
+dimension.
 
 The row loop (basis functions of a data point, then square-root-free Givens rotations of its
-row into the triangular factor) is the evaluator's hot spot. Written once per degree with every
-basis value and row entry in a local variable, it runs about twice as fast as the same loop over
-small arrays, which the compiler must reload after every store. The generated file is committed;
-``python -m metaknot.bspline._codegen`` rewrites it and a test checks it is current.
+row into the triangular factor) is the evaluator's hot spot. Written once per degree and
+dimension with every basis value, row entry and right-hand side in a local variable, it runs
+several times faster than the same loop over small arrays, which the compiler must reload after
+every store. The loop is written to compile to straight-line code: branches on the data (does
+the span advance, is the column new, is the entry zero) follow the knot vector, which the branch
+predictor cannot guess:
+
+* the state of the factor is one flat array, ``W = 1 + p + d`` entries per column: the
+  reciprocal weight ``dinv``, the ``p`` off-diagonal entries of the unit upper triangular
+  factor, the ``d`` right-hand sides; indices are unsigned, so no negative-index wraparound is
+  generated for them, and divisions carry no zero check (``error_model='numpy'``);
+* an empty column of the factor holds ``dinv = EMPTY`` (huge, finite) rather than infinity, so
+  the first row rotated into it needs no branch of its own: with ``h`` the row's entry and
+  ``big_w`` its reciprocal weight, the rotation replaces the column by the row scaled to a unit
+  leading entry, up to a relative ``big_w / (h**2 * EMPTY)``, and leaves the row with the
+  reciprocal weight ``h**2 * EMPTY``, so what it carries on is negligible. Entries that are
+  exactly zero are rotated too (as no-ops, up to rounding);
+* the span of a data point advances by one without a branch (a second step, rarely taken, only
+  where a knot span holds no data);
+* the Schoenberg-Whitney conditions are checked on the way, by the greedy matching of data
+  points to basis functions (in data order, each point to the first unmatched function whose
+  open support holds it), from the span of each data point;
+* fused multiply-adds are allowed (``fastmath={"contract"}``, nothing else).
+
+Back substitution and the pass of the conditioning bound are generated too, with the band's
+last values in locals. A column never reached keeps ``dinv = EMPTY`` and fails the ``RCOND``
+test, as an infinite one did.
+
+The generated file is committed; ``python -m metaknot.bspline._codegen`` rewrites it and a test
+checks it is current.
 """
 
 from __future__ import annotations
@@ -12,9 +39,10 @@ from __future__ import annotations
 from pathlib import Path
 
 MAX_DEGREE = 5
+MAX_DIMENSION = 3
 TARGET = Path(__file__).with_name("_rows.py")
 
-HEADER = '''"""Row loops of the least-squares kernel, one per degree. GENERATED: do not edit.
+HEADER = '''"""Row loops of the least-squares kernel, by degree, dimension. GENERATED: do not edit.
 
 Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_kernel._solve``.
 """
@@ -22,6 +50,11 @@ Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_kern
 import numpy as np
 from numba import njit
 
+# An empty column of the factor: its reciprocal weight (see _codegen).
+EMPTY = 1e150
+# Fused multiply-adds only: no reassociation, no approximate reciprocals.
+FASTMATH = {{"contract"}}
+{constants}
 '''
 
 
@@ -29,22 +62,24 @@ def _basis_lines(p: int, indent: str) -> list[str]:
     """De Boor-Cox (NURBS Book A2.2) unrolled: values h0..hp of the non-zero basis functions.
 
     The denominators ``t[lo + j] - t[lo]`` depend on the knots only; their reciprocals come from
-    the table ``iv`` (``iv[lo * p + j - 1]``), so the loop does no division.
+    the table ``iv`` (``iv[(j - 1) * t.size + lo]``, see ``_kernel.reciprocals_into``), so the
+    loop does no division.
     """
     lines = []
     for j in range(1, p + 1):
-        knot = f"t[span - {j - 1}]" if j > 1 else "t[span]"
+        knot = f"t[span - U{j - 1}]" if j > 1 else "t[span]"
         lines.append(f"{indent}l{j} = x - {knot}")
-        lines.append(f"{indent}r{j} = t[span + {j}] - x")
+        lines.append(f"{indent}r{j} = t[span + U{j}] - x")
     prev = ["1.0"]
     for j in range(1, p + 1):
         cur = []
         saved = None
         for r in range(j):
             # 1 / (t[lo + j] - t[lo]) with lo = span + 1 - j + r, precomputed per knot vector
-            lo = f"(span - {j - r - 1})" if j - r - 1 else "span"
+            lo = f"span - U{j - r - 1}" if j - r - 1 else "span"
+            index = f"{lo} + o{j}" if j > 1 else lo
             factor = "" if prev[r] == "1.0" else f"{prev[r]} * "
-            lines.append(f"{indent}tmp = {factor}iv[{lo} * {p} + {j - 1}]")
+            lines.append(f"{indent}tmp = {factor}iv[{index}]")
             name = f"b{j}_{r}" if j < p else f"h{r}"
             term = f"r{r + 1} * tmp"
             lines.append(f"{indent}{name} = {term}" if saved is None
@@ -59,101 +94,228 @@ def _basis_lines(p: int, indent: str) -> list[str]:
     return lines
 
 
-def _rotation_lines(p: int, i: int, indent: str) -> list[str]:
-    """Rotate the row's entry ``h{i}`` (column ``first + i``) into the factor."""
-    rest = range(i + 1, p + 1)
+def _rotation_lines(p: int, d: int, i: int, indent: str) -> list[str]:
+    """Rotate the row's entry ``h{i}`` (column ``first + i``) into the factor.
+
+    With ``big_w = 1 / w`` the row's reciprocal weight and ``di`` the column's, the new
+    reciprocal weights are ``bw`` (row) and ``di * cb`` (column); the only division is off the
+    chain from one row to the next in the same column.
+    """
+    width = 1 + p + d
     out = [
-        f"{indent}if not absorbed and h{i} != 0.0:",
-        f"{indent}    col = first + {i}",
-        f"{indent}    di = dinv[col]",
-        f"{indent}    if di == np.inf:",
-        f"{indent}        ix = 1.0 / h{i}",
-        f"{indent}        dinv[col] = big_w * ix * ix",
-        f"{indent}        for k in range(d):",
-        f"{indent}            z[col, k] = rhs[k] * ix",
+        f"{indent}o = (first + U{i}) * U{width}",
+        f"{indent}di = st[o]",
+        f"{indent}hd = h{i} * di",
+        f"{indent}bw = big_w + h{i} * hd",
+        f"{indent}inv = 1.0 / bw",
+        f"{indent}cb = big_w * inv",
+        f"{indent}sb = hd * inv",
+        f"{indent}st[o] = di * cb",
     ]
-    out += [f"{indent}        rb[col, {a - i}] = h{a} * ix" for a in rest]
-    out += [
-        f"{indent}        absorbed = True",
-        f"{indent}    else:",
-        f"{indent}        bw = big_w + h{i} * h{i} * di",
-        f"{indent}        inv = 1.0 / bw",
-        f"{indent}        cb = big_w * inv",
-        f"{indent}        sb = h{i} * di * inv",
-        f"{indent}        dinv[col] = di * cb",
-        f"{indent}        for k in range(d):",
-        f"{indent}            zk = z[col, k]",
-        f"{indent}            yk = rhs[k]",
-        f"{indent}            z[col, k] = cb * zk + sb * yk",
-        f"{indent}            rhs[k] = yk - h{i} * zk",
-    ]
-    for a in rest:
+    for a in range(i + 1, p + 1):
         out += [
-            f"{indent}        ra = rb[col, {a - i}]",
-            f"{indent}        rb[col, {a - i}] = cb * ra + sb * h{a}",
-            f"{indent}        h{a} = h{a} - h{i} * ra",
+            f"{indent}ra = st[o + U{a - i}]",
+            f"{indent}st[o + U{a - i}] = cb * ra + sb * h{a}",
+            f"{indent}h{a} = h{a} - h{i} * ra",
         ]
-    out.append(f"{indent}        big_w = bw")
+    for k in range(d):
+        out += [
+            f"{indent}zk = st[o + U{p + 1 + k}]",
+            f"{indent}st[o + U{p + 1 + k}] = cb * zk + sb * y{k}",
+            f"{indent}y{k} = y{k} - h{i} * zk",
+        ]
+    out.append(f"{indent}big_w = bw")
     return out
 
 
-def render_rows(p: int) -> str:
-    """Source of ``rows_p{p}``."""
+def render_rows(p: int, d: int) -> str:
+    """Source of ``rows_p{p}_d{d}``."""
     ind = " " * 8
     lines = [
-        "@njit(cache=True)",
-        f"def rows_p{p}(u, q, t, iv, n, rb, dinv, z, basis, spans):",
-        f'    """Rotate every data row into the factor (degree {p}); return the residual SSE."""',
-        "    m, d = q.shape",
+        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        f"def rows_p{p}_d{d}(u, q, t, iv, n, st, basis, spans):",
+        f'    """Rotate every data row into the factor (degree {p}, dimension {d}).',
+        "",
+        "    Return the residual SSE and whether the Schoenberg-Whitney conditions hold.",
+        '    """',
+        "    m = q.shape[0]",
         "    store = basis.shape[0] > 0",
-        "    rhs = np.empty(d)",
-        f"    span = {p}",
+        "    last = np.uint64(n - 1)",
+        *[f"    o{j} = np.uint64({j - 1} * t.size)" for j in range(2, p + 1)],
+        f"    span = U{p}",
         "    sse = 0.0",
+        "    # greedy matching: data points so far matched to basis functions 0..matched - 1",
+        "    matched = U0",
+        "    before_last = U0",
+        "    unmatched = False",
         "    for j in range(m):",
         "        x = u[j]",
-        "        while span < n - 1 and t[span + 1] <= x:",
-        "            span += 1",
+        "        step = (t[span + U1] <= x) & (span < last)",
+        "        span = span + U1 if step else span",
+        "        while t[span + U1] <= x and span < last:",
+        "            span += U1",
     ]
     lines += _basis_lines(p, ind)
     lines += [
+        f"        first = span - U{p}",
+        "        # x lies inside the support of basis functions first..span, but not of span",
+        "        # itself at its left end (x == t[span]); the last point belongs to the last one",
+        "        before_last = matched",
+        "        unmatched |= matched < first",
+        "        hi = span - U1 if l1 == 0.0 else span",
+        "        matched = matched + U1 if matched <= hi else matched",
         "        if store:",
         "            spans[j] = span",
         *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
-        "        for k in range(d):",
-        "            rhs[k] = q[j, k]",
-        f"        first = span - {p}",
+        *[f"        y{k} = q[j, {k}]" for k in range(d)],
         "        big_w = 1.0",
-        "        absorbed = False",
     ]
     for i in range(p + 1):
-        lines += _rotation_lines(p, i, ind)
+        lines += _rotation_lines(p, d, i, ind)
+    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
     lines += [
-        "        if not absorbed:",
-        "            # what the rotations leave of the row, with its weight, is its residual",
-        "            left_over = 0.0",
-        "            for k in range(d):",
-        "                left_over += rhs[k] * rhs[k]",
-        "            sse += left_over / big_w",
-        "    return sse",
+        "        # what the rotations leave of the row, with its weight, is its residual",
+        f"        sse += ({left_over}) / big_w",
+        "    ok = not unmatched and matched == last + U1 and before_last >= last",
+        "    return sse, ok",
     ]
     return "\n".join(lines) + "\n"
 
 
+def render_back(p: int, d: int) -> str:
+    """Source of ``back_p{p}_d{d}``: back substitution with the last ``p`` solutions in locals.
+
+    Entries of ``rb`` beyond the last column are zero (no row reaches them) and the locals start
+    at zero, so every row does the same operations.
+    """
+    width = 1 + p + d
+    lines = [
+        "@njit(cache=True, fastmath=FASTMATH)",
+        f"def back_p{p}_d{d}(st, n, coef):",
+        f'    """Control points from the factor (degree {p}, dimension {d})."""',
+        *[f"    c{a}_{k} = 0.0" for k in range(d) for a in range(1, p + 1)],
+        "    for i in range(n - 1, -1, -1):",
+        f"        o = np.uint64(i) * U{width}",
+        *[f"        r{a} = st[o + U{a}]" for a in range(1, p + 1)],
+    ]
+    for k in range(d):
+        # nearest neighbour last: the chain from one control point to the next is short
+        terms = "".join(f" - r{a} * c{a}_{k}" for a in range(p, 0, -1))
+        lines.append(f"        v{k} = st[o + U{p + 1 + k}]{terms}")
+        lines.append(f"        coef[i, {k}] = v{k}")
+        lines += [f"        c{a}_{k} = c{a - 1}_{k}" for a in range(p, 1, -1)]
+        lines.append(f"        c1_{k} = v{k}")
+    return "\n".join(lines) + "\n"
+
+
+def render_deviation(p: int, d: int) -> str:
+    """Source of ``deviation_p{p}_d{d}``: the maximum-deviation pass over the stored bases.
+
+    The operations of the plain loop over basis functions and coordinates, in its order.
+    """
+    lines = [
+        "@njit(cache=True)",
+        f"def deviation_p{p}_d{d}(q, coef, basis, spans):",
+        f'    """Largest distance of a data point to its fitted point (degree {p}, dimension {d}).'
+        '"""',
+        "    worst = 0.0",
+        "    for j in range(q.shape[0]):",
+        f"        first = np.uint64(spans[j]) - U{p}",
+        *[f"        b{i} = basis[j, {i}]" for i in range(p + 1)],
+        "        dist2 = 0.0",
+    ]
+    for k in range(d):
+        lines.append("        acc = 0.0")
+        lines += [f"        acc += b{i} * coef[first + U{i}, {k}]" for i in range(p + 1)]
+        lines += [f"        diff = q[j, {k}] - acc",
+                  "        dist2 += diff * diff"]
+    lines += ["        worst = max(worst, dist2)",
+              "    return np.sqrt(worst)"]
+    return "\n".join(lines) + "\n"
+
+
+def render_bound(p: int) -> str:
+    """Source of ``bound_p{p}``: one backward pass over the factor for ``_conditioning_bound``.
+
+    Returns the smallest and largest ``dinv``, the largest row sum of ``|rb|`` and the largest
+    entry of ``M^-1 e``, in the order of operations of a loop over the band (the locals standing
+    for entries past the last column are zero, as are those entries of ``rb``), with no
+    contraction, so the verdicts are those of the plain loop.
+    """
+    lines = [
+        "@njit(cache=True)",
+        f"def bound_p{p}(st, width, n):",
+        f'    """Extremes of dinv, largest row sum of |rb| and of M^-1 e (degree {p})."""',
+        *[f"    v{a} = 0.0" for a in range(1, p + 1)],
+        "    smallest = np.inf",
+        "    largest = 0.0",
+        "    v_max = 0.0",
+        "    row_max = 0.0",
+        "    w = np.uint64(width)",
+        "    for i in range(n - 1, -1, -1):",
+        "        o = np.uint64(i) * w",
+        "        di = st[o]",
+        "        smallest = min(smallest, di)",
+        "        largest = max(largest, di)",
+        "        acc = 1.0",
+        "        row = 1.0",
+    ]
+    for a in range(p, 0, -1):
+        lines += [f"        r = abs(st[o + U{a}])",
+                  "        row += r",
+                  f"        acc += r * v{a}"]
+    lines += [f"        v{a} = v{a - 1}" for a in range(p, 1, -1)]
+    lines += ["        v1 = acc",
+              "        v_max = max(v_max, acc)",
+              "        row_max = max(row_max, row)",
+              "    return smallest, largest, row_max, v_max"]
+    return "\n".join(lines) + "\n"
+
+
+def _dispatch(name: str, args: str, doc: str, fallback: str, by_dimension: bool) -> list[str]:
+    lines = ["@njit(cache=True)", f"def {name}({args}):", f'    """{doc}"""']
+    if by_dimension:
+        lines.append("    d = coef.shape[1]" if name == "back" else "    d = q.shape[1]")
+    first = True
+    inner = args.replace("p, ", "")
+    for p in range(1, MAX_DEGREE + 1):
+        for d in (range(1, MAX_DIMENSION + 1) if by_dimension else [None]):
+            kw = "if" if first else "elif"
+            first = False
+            cond = f"p == {p} and d == {d}" if by_dimension else f"p == {p}"
+            suffix = f"_p{p}_d{d}" if by_dimension else f"_p{p}"
+            lines += [f"    {kw} {cond}:", f"        return {name}{suffix}({inner})"]
+    lines.append(f"    return {fallback}")
+    return lines
+
+
 def render() -> str:
     """Source of the whole generated module."""
-    body = "\n\n".join(render_rows(p) for p in range(1, MAX_DEGREE + 1))
+    constants = "\n".join(f"U{k} = np.uint64({k})"
+                          for k in range(MAX_DEGREE + MAX_DIMENSION + 2))
+    body = "\n\n".join(
+        [render_rows(p, d) for p in range(1, MAX_DEGREE + 1) for d in range(1, MAX_DIMENSION + 1)]
+        + [render_back(p, d) for p in range(1, MAX_DEGREE + 1)
+           for d in range(1, MAX_DIMENSION + 1)]
+        + [render_deviation(p, d) for p in range(1, MAX_DEGREE + 1)
+           for d in range(1, MAX_DIMENSION + 1)]
+        + [render_bound(p) for p in range(1, MAX_DEGREE + 1)])
     dispatch = [
-        "@njit(cache=True)",
-        "def rows(u, q, t, iv, p, n, rb, dinv, z, basis, spans):",
-        '    """Dispatch on the degree."""',
+        *_dispatch("rows", "u, q, t, iv, p, n, st, basis, spans",
+                   "Dispatch on the degree and dimension: (SSE, Schoenberg-Whitney holds).",
+                   "np.nan, False", True),
+        "", "",
+        *_dispatch("back", "st, p, n, coef", "Dispatch on the degree and dimension.", "None",
+                   True),
+        "", "",
+        *_dispatch("deviation", "q, p, coef, basis, spans",
+                   "Dispatch on the degree and dimension.", "np.nan", True),
+        "", "",
+        *_dispatch("bound", "st, p, width, n", "Dispatch on the degree.",
+                   "np.nan, np.nan, np.nan, np.nan", False),
     ]
-    for p in range(1, MAX_DEGREE + 1):
-        kw = "if" if p == 1 else "elif"
-        dispatch += [f"    {kw} p == {p}:",
-                     f"        return rows_p{p}(u, q, t, iv, n, rb, dinv, z, basis, spans)"]
-    dispatch += ["    return np.nan"]
-    return HEADER + "\n" + body + "\n\n" + "\n".join(dispatch) + "\n"
-
+    return (HEADER.format(constants=constants) + "\n\n" + body + "\n\n" + "\n".join(dispatch)
+            + "\n")
 
 if __name__ == "__main__":
     TARGET.write_text(render())

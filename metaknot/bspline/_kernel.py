@@ -2,7 +2,8 @@
 
 Each candidate is fitted by Givens QR on the banded collocation matrix, row by row, as FITPACK's
 ``fpcurf`` does: O(N p^2) work and O(n p) memory per candidate, numerically stable (no normal
-equations). A batch of candidates is spread over threads with ``prange``.
+equations). A batch of candidates is spread over threads with ``prange``; each thread reuses its
+workspaces from one candidate to the next.
 
 Reason codes (see :class:`metaknot.bspline.Infeasibility`):
 0 feasible, 1 more control points than data points, 2 knot outside the open parameter range or
@@ -17,7 +18,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._rows import rows
+from ._rows import EMPTY, back, bound, deviation, rows
 
 FEASIBLE = 0
 TOO_MANY_CONTROL_POINTS = 1
@@ -35,54 +36,53 @@ COND_LIMIT = 1e11
 
 @njit(cache=True)
 def _build_knots(u, interior, p, t):
-    """Fill the clamped knot vector ``t``; return a reason code for malformed interior knots."""
+    """Fill the clamped knot vector ``t``; return a reason code for malformed interior knots.
+
+    One pass without branches on the knots (out of range, NaN included, takes precedence over
+    unsorted or coincident).
+    """
     k = interior.size
     u0 = u[0]
     um = u[u.size - 1]
     for i in range(p + 1):
         t[i] = u0
         t[k + p + 1 + i] = um
+    outside = False
+    unsorted = False
     prev = u0
     for i in range(k):
         x = interior[i]
-        if not (x > u0 and x < um):  # also catches NaN
-            return KNOT_OUT_OF_RANGE
         t[p + 1 + i] = x
-    for i in range(k):
-        x = interior[i]
-        if x <= prev:
-            return COINCIDENT_KNOTS
+        outside |= not ((x > u0) & (x < um))  # also catches NaN
+        unsorted |= x <= prev
         prev = x
+    if outside:
+        return KNOT_OUT_OF_RANGE
+    if unsorted:
+        return COINCIDENT_KNOTS
     return FEASIBLE
 
 
-@njit(cache=True)
-def _schoenberg_whitney(u, t, p, n):
-    """True if data sites can be matched to the n basis functions (full column rank)."""
-    m = u.size
-    j = 0
-    for i in range(n):
-        lo = t[i]
-        hi = t[i + p + 1]
-        while j < m and not (u[j] > lo or (i == 0 and u[j] >= lo)):
-            j += 1
-        if j == m:
-            return False
-        if not (u[j] < hi or (i == n - 1 and u[j] <= hi)):
-            return False
-        j += 1
-    return True
+@njit(cache=True, error_model="numpy")
+def reciprocals_into(t, p, iv):
+    """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` for ``j = 1..p`` (0 where not
+    positive): the denominators of the basis recurrence, computed once per knot vector. Stored
+    by ``j`` so that the inner loop over ``lo`` is a vector division."""
+    size = t.size
+    for j in range(1, p + 1):
+        row = (j - 1) * size
+        for lo in range(size - j):
+            diff = t[lo + j] - t[lo]
+            iv[row + lo] = 1.0 / diff if diff > 0.0 else 0.0
+        for lo in range(size - j, size):
+            iv[row + lo] = 0.0
 
 
 @njit(cache=True)
 def reciprocal_differences(t, p):
-    """``iv[lo * p + j - 1] = 1 / (t[lo + j] - t[lo])`` for ``j = 1..p`` (0 where not positive):
-    the denominators of the basis recurrence, computed once per knot vector."""
-    iv = np.zeros(t.size * p)
-    for lo in range(t.size):
-        for j in range(1, p + 1):
-            if lo + j < t.size and t[lo + j] > t[lo]:
-                iv[lo * p + j - 1] = 1.0 / (t[lo + j] - t[lo])
+    """The table of :func:`reciprocals_into`, allocated."""
+    iv = np.empty(t.size * p)
+    reciprocals_into(t, p, iv)
     return iv
 
 
@@ -90,68 +90,76 @@ def reciprocal_differences(t, p):
 def _solve(u, q, t, p, n, coef, basis, spans):
     """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
 
+    Allocates its workspaces; see :func:`_solve_into`.
+    """
+    iv = np.empty(t.size * p)
+    st = np.empty(n * (1 + p + q.shape[1]))
+    return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st)
+
+
+@njit(cache=True)
+def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st):
+    """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
+
     Square-root-free Givens rotations (Gentleman 1973), row by row as in FITPACK's ``fpcurf``:
     the triangular factor is ``R = diag(sqrt(1 / dinv)) @ rb`` with unit-diagonal ``rb``; a data
     row enters with weight ``w = 1 / big_w``. Tracking ``big_w`` and ``dinv`` (reciprocals)
     keeps every division off the chain of dependent operations, so rotations pipeline. The sum of
     squared residuals is what the rotations leave of the data rows, so no second pass is needed
-    for it. The row loop itself is generated per degree (``_rows.py``). If ``basis`` is not empty,
-    basis values and spans of every data point are stored for :func:`_max_deviation`.
+    for it. The row loop itself is generated per degree and dimension (``_rows.py``) and checks
+    the Schoenberg-Whitney conditions on the way. ``iv`` (at least ``t.size * p``) and ``st``
+    (at least ``n * (1 + p + d)``) are workspaces: ``st`` holds, per column of the factor,
+    ``dinv``, the ``p`` off-diagonal entries of ``rb`` and the ``d`` right-hand sides. If
+    ``basis`` is not empty, basis values and spans of every data point are stored for
+    :func:`_max_deviation`.
     """
     d = q.shape[1]
-    rb = np.zeros((n, p + 1))
-    dinv = np.full(n, np.inf)
-    z = np.zeros((n, d))
-    sse = rows(u, q, t, reciprocal_differences(t, p), p, n, rb, dinv, z, basis, spans)
+    width = 1 + p + d
+    reciprocals_into(t, p, iv)
+    st[: n * width] = 0.0
+    st[: n * width : width] = EMPTY
+    sse, matched = rows(u, q, t, iv, p, n, st, basis, spans)
+    if not matched:
+        return SCHOENBERG_WHITNEY, np.inf
     # 1 / dinv is the squared diagonal of R: compare its smallest entry with its largest
-    largest_dinv = 0.0
-    smallest_dinv = np.inf
-    for i in range(n):
-        largest_dinv = max(largest_dinv, dinv[i])
-        smallest_dinv = min(smallest_dinv, dinv[i])
+    smallest_dinv, largest_dinv, row_max, v_max = bound(st, p, width, n)
     if not (smallest_dinv > 0.0 and smallest_dinv >= RCOND * RCOND * largest_dinv):
         return SINGULAR, np.inf
-    if not (_conditioning_bound(rb, p, n, smallest_dinv, largest_dinv) <= COND_LIMIT
-            or _condition_estimate(rb, dinv, p, n) <= COND_LIMIT):
+    if not (_bound_from(smallest_dinv, largest_dinv, row_max, v_max) <= COND_LIMIT
+            or _condition_estimate(st, width, p, n) <= COND_LIMIT):
         return SINGULAR, np.inf
-    for i in range(n - 1, -1, -1):
-        for k in range(d):
-            acc = z[i, k]
-            for a in range(min(p, n - 1 - i), 0, -1):  # nearest neighbour last: short chain
-                acc -= rb[i, a] * coef[i + a, k]
-            coef[i, k] = acc
+    back(st, p, n, coef)
     return FEASIBLE, sse
 
 
 @njit(cache=True)
-def _conditioning_bound(rb, p, n, smallest_dinv, largest_dinv):
+def _conditioning_bound(st, width, p, n, smallest_dinv, largest_dinv):
     """Cheap upper bound of the infinity-norm condition number of ``R``.
+
+    ``rb[i, a]`` is ``st[i * width + a]`` (see :func:`_solve_into`).
 
     ``|R^-1| <= M^-1`` elementwise, with ``M`` the comparison matrix of ``R`` (unit diagonal,
     minus the absolute off-diagonal entries of ``rb``), so ``||R^-1||_inf`` is at most the
-    largest entry of ``M^-1 e`` times the largest ``1 / R_ii``. One banded pass, no division;
-    usually within a small factor of the true value for B-spline systems.
+    largest entry of ``M^-1 e`` times the largest ``1 / R_ii``. One banded pass (generated per
+    degree, ``_rows.bound``, which also finds the extremes of ``dinv``), no division; usually
+    within a small factor of the true value for B-spline systems.
     """
-    v = np.empty(n)
-    v_max = 0.0
-    row_max = 0.0
-    for i in range(n - 1, -1, -1):
-        acc = 1.0
-        row = 1.0
-        for a in range(min(p, n - 1 - i), 0, -1):
-            r = abs(rb[i, a])
-            row += r
-            acc += r * v[i + a]
-        v[i] = acc
-        v_max = max(v_max, acc)
-        row_max = max(row_max, row)
+    _, _, row_max, v_max = bound(st, p, width, n)
+    return _bound_from(smallest_dinv, largest_dinv, row_max, v_max)
+
+
+@njit(cache=True)
+def _bound_from(smallest_dinv, largest_dinv, row_max, v_max):
+    """The bound of :func:`_conditioning_bound` from the results of its pass."""
     # (largest R_ii) * (largest 1 / R_ii) = sqrt(largest dinv / smallest dinv)
     return math.sqrt(largest_dinv / smallest_dinv) * row_max * v_max
 
 
 @njit(cache=True)
-def _condition_estimate(rb, dinv, p, n):
+def _condition_estimate(st, width, p, n):
     """Estimate the infinity-norm condition number of ``R = diag(sqrt(1 / dinv)) @ rb``.
+
+    ``dinv[i]`` is ``st[i * width]``, ``rb[i, a]`` is ``st[i * width + a]``.
 
     ``||R||_inf`` exactly, ``||R^-1||_inf = ||R^-T||_1`` by Hager's estimator (Higham 1988, as
     in LAPACK's ``xLACON``): a few rounds of two banded triangular solves, O(n p) each. The
@@ -160,10 +168,10 @@ def _condition_estimate(rb, dinv, p, n):
     sq = np.empty(n)  # 1 / R_ii
     norm_r = 0.0
     for i in range(n):
-        sq[i] = math.sqrt(dinv[i])
+        sq[i] = math.sqrt(st[i * width])
         row = 1.0
         for a in range(1, min(p, n - 1 - i) + 1):
-            row += abs(rb[i, a])
+            row += abs(st[i * width + a])
         norm_r = max(norm_r, row / sq[i])
     x = np.full(n, 1.0 / n)
     y = np.empty(n)
@@ -174,7 +182,7 @@ def _condition_estimate(rb, dinv, p, n):
         for i in range(n):  # y = R^-T x
             acc = x[i]
             for a in range(min(p, i), 0, -1):
-                acc -= rb[i - a, a] * y[i - a]
+                acc -= st[(i - a) * width + a] * y[i - a]
             y[i] = acc
         for i in range(n):
             y[i] *= sq[i]
@@ -188,7 +196,7 @@ def _condition_estimate(rb, dinv, p, n):
         for i in range(n - 1, -1, -1):  # z = R^-1 sign(y)
             acc = sq[i] if y[i] >= 0.0 else -sq[i]
             for a in range(min(p, n - 1 - i), 0, -1):
-                acc -= rb[i, a] * z[i + a]
+                acc -= st[i * width + a] * z[i + a]
             z[i] = acc
             zx += acc * x[i]
             if abs(acc) > z_best:
@@ -203,20 +211,9 @@ def _condition_estimate(rb, dinv, p, n):
 
 @njit(cache=True)
 def _max_deviation(q, p, coef, basis, spans):
-    """Largest distance of a data point to its fitted point, from the stored bases."""
-    m, d = q.shape
-    worst = 0.0
-    for j in range(m):
-        first = spans[j] - p
-        dist2 = 0.0
-        for k in range(d):
-            acc = 0.0
-            for i in range(p + 1):
-                acc += basis[j, i] * coef[first + i, k]
-            diff = q[j, k] - acc
-            dist2 += diff * diff
-        worst = max(worst, dist2)
-    return math.sqrt(worst)
+    """Largest distance of a data point to its fitted point, from the stored bases (a pass
+    generated per degree and dimension, ``_rows.deviation``)."""
+    return deviation(q, p, coef, basis, spans)
 
 
 @njit(cache=True)
@@ -228,9 +225,19 @@ def _fit_into(u, q, interior, p, t, coef, basis, spans):
     reason = _build_knots(u, interior, p, t)
     if reason != FEASIBLE:
         return reason, np.inf
-    if not _schoenberg_whitney(u, t, p, n):
-        return SCHOENBERG_WHITNEY, np.inf
     return _solve(u, q, t, p, n, coef, basis, spans)
+
+
+@njit(cache=True)
+def _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st):
+    """:func:`_fit_into` with the workspaces of :func:`_solve_into` given."""
+    n = interior.size + p + 1
+    if n > u.size:
+        return TOO_MANY_CONTROL_POINTS, np.inf
+    reason = _build_knots(u, interior, p, t)
+    if reason != FEASIBLE:
+        return reason, np.inf
+    return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st)
 
 
 @njit(cache=True)
@@ -265,6 +272,8 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
         coef_ws = np.empty((n_max, q.shape[1]))
         basis = np.empty((u.size if want_max_dev else 0, p + 1))
         spans = np.empty(u.size if want_max_dev else 0, dtype=np.int64)
+        iv_ws = np.empty((n_max + p + 1) * p)
+        st_ws = np.empty(n_max * (1 + p + q.shape[1]))
         for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
             interior = knots[offsets[b] : offsets[b + 1]]
             n = interior.size + p + 1
@@ -274,7 +283,8 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
             code = TOO_MANY_CONTROL_POINTS
             sse[b] = np.inf
             if n <= u.size:
-                code, sse[b] = _fit_into(u, q, interior, p, t, coef, basis, spans)
+                code, sse[b] = _fit_ws(u, q, interior, p, t, coef, basis, spans, iv_ws,
+                                       st_ws)
             reason[b] = code
             if want_max_dev:
                 max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE \
@@ -283,7 +293,12 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
 
 @njit(cache=True, parallel=True)
 def masks_to_knots(u, masks):
-    """Interior knots and row offsets of a (B, N-2) boolean mask batch."""
+    """Interior knots and row offsets of a (B, N-2) boolean mask batch.
+
+    Branch-free (a random mask makes every branch on its entries a coin toss): every entry up to
+    a row's last selected one is stored at the row's next free position, which advances only
+    past selected ones, so unselected entries are overwritten and no store leaves the row.
+    """
     n_cand, n_var = masks.shape
     counts = np.zeros(n_cand, dtype=np.int64)
     for b in prange(n_cand):
@@ -296,9 +311,11 @@ def masks_to_knots(u, masks):
         offsets[b + 1] = offsets[b] + counts[b]
     knots = np.empty(offsets[n_cand])
     for b in prange(n_cand):
+        end = n_var
+        while end > 0 and not masks[b, end - 1]:
+            end -= 1
         pos = offsets[b]
-        for i in range(n_var):
-            if masks[b, i]:
-                knots[pos] = u[i + 1]
-                pos += 1
+        for i in range(end):
+            knots[pos] = u[i + 1]
+            pos += masks[b, i]
     return knots, offsets
