@@ -77,7 +77,26 @@ def reciprocals(t, p, iv, lo_start, lo_stop):
             iv[(j - 1) * size + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
+def candidate_reciprocals(t2, t, iv_t, p, iv, lo_start, lo_stop, e, tail, shift):
+    """:func:`reciprocals` of the candidate's knots ``t2`` for ``lo_start <= lo < lo_stop``,
+    copied from the incumbent's table ``iv_t`` where both knots are the incumbent's: below
+    ``e`` (the first changed knot) and from ``tail`` on (``t2[i] = t[i - shift]``); only the
+    differences that involve a changed knot are divided."""
+    size2 = t2.size
+    size = t.size
+    for j in range(1, p + 1):
+        for lo in range(max(lo_start, 0), min(lo_stop, size2 - j)):
+            if lo + j < e:
+                iv[(j - 1) * size2 + lo] = iv_t[(j - 1) * size + lo]
+            elif lo >= tail:
+                iv[(j - 1) * size2 + lo] = iv_t[(j - 1) * size + lo - shift]
+            else:
+                gap = t2[lo + j] - t2[lo]
+                iv[(j - 1) * size2 + lo] = 1.0 / gap if gap > 0.0 else 0.0
+
+
+@njit(cache=True, inline='always')
 def empty_state(st, columns, width):
     """Mark ``columns`` columns of the flat factor ``st`` as reached by no row."""
     for c in range(columns):
@@ -86,7 +105,7 @@ def empty_state(st, columns, width):
             st[c * width + k] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def inverse_norm_bound(st, p, d, size, v, wv):
     """Upper bound of the 2-norm of ``R^-1`` for the flat factor's first ``size`` columns
     (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row).
@@ -151,8 +170,8 @@ def _merged_coefficients(stl, size, st_f, st_m, n, p, d, c_left, c_right, delta,
 
 @njit(cache=True)
 def sw_matching(u, t, p, n, match):
-    """The greedy Schoenberg-Whitney matching of ``_kernel._schoenberg_whitney``: ``match[i]``
-    is the data row given to basis function ``i`` (the first free row inside its support).
+    """A greedy Schoenberg-Whitney matching (the check the full kernel makes): ``match[i]`` is
+    the data row given to basis function ``i`` (the first free row inside its support).
     Returns False (and stops) where a function finds none."""
     m = u.size
     j = 0
@@ -170,7 +189,7 @@ def sw_matching(u, t, p, n, match):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def sw_local(u, t2, p, n2, match, first, tail, shift):
     """The Schoenberg-Whitney check of ``t2`` given the incumbent's matching ``match``.
 
@@ -197,7 +216,7 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def _candidate_knots(u, t, interior, p, t2):
     """Fill ``t2`` with the candidate's clamped knot vector; return (reason, e, f): ``e`` the
     first index where it differs from the incumbent's ``t``, ``f`` the length of their common
@@ -211,12 +230,29 @@ def _candidate_knots(u, t, interior, p, t2):
     for i in range(p + 1):
         t2[i] = u0
         t2[n2 - 1 - i] = um
-    t2[p + 1 : p + 1 + k] = interior
-    e = 0
+    for i in range(k):
+        t2[p + 1 + i] = interior[i]
+    # the common head and tail, compared eight entries at a time (the compiler vectorises a
+    # block without an early exit), then one at a time
     limit = min(n1, n2)
+    e = 0
+    while e + 8 <= limit:
+        differs = False
+        for i in range(8):
+            differs |= t[e + i] != t2[e + i]
+        if differs:
+            break
+        e += 8
     while e < limit and t[e] == t2[e]:
         e += 1
     f = 0
+    while f + 8 <= limit - e:
+        differs = False
+        for i in range(8):
+            differs |= t[n1 - 1 - f - i] != t2[n2 - 1 - f - i]
+        if differs:
+            break
+        f += 8
     while f < limit - e and t[n1 - 1 - f] == t2[n2 - 1 - f]:
         f += 1
     stop = n2 - f  # t2[e:stop] are the changed knots, all interior
@@ -231,8 +267,8 @@ def _candidate_knots(u, t, interior, p, t2):
 
 
 @njit(cache=True)
-def evaluate_moves(u, q, p, t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse, Gcol,
-                   st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
+def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse,
+                   Gcol, st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
                    gram_norm, knots, offsets, max_window_rows, want_max_dev, sse_out,
                    max_dev_out, n_ctrl_out, reason_out, path_out):
     """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``) by merging the
@@ -296,14 +332,17 @@ def evaluate_moves(u, q, p, t, n, spans, basis, row_start, match, F, Fsse, Fcol,
         c_right2 = c_right + delta
         if row_start[c_right] - row_start[c_left] <= max_window_rows:
             size = c_right2 - c_left + p
-            empty_state(stl, size, w)
-            stl[: p * w] = F[c_left]
-            colsum[:size] = 0.0
+            for i in range(p * w):  # the forward state's columns, then empty ones
+                stl[i] = F[c_left, i]
+            empty_state(stl[p * w :], size - p, w)
+            for i in range(size):
+                colsum[i] = 0.0
             for a in range(p):
                 colsum[a] += Fcol[c_left, a]
                 colsum[size - p + a] += Gcol[c_right, a]
             # the basis of the window's spans c_left .. c_right2 - 1 reads these reciprocals
-            reciprocals(tb, p, iv, c_left - p + 1, c_right2)
+            candidate_reciprocals(tb, t, iv_t, p, iv, c_left - p + 1, c_right2, e, tb.size - f,
+                                  delta)
             res, _ = window(p, d, u, q, tb, iv, row_start[c_left], row_start[c_right], c_left,
                             n2 - 1, c_left - p, stl, colsum, window_basis, window_span)
             # the backward state's rows, as weighted rows

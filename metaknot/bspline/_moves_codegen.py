@@ -32,6 +32,9 @@ from __future__ import annotations
 import textwrap
 from pathlib import Path
 
+from ._codegen import _basis_lines as basis_lines
+from ._codegen import _rotation_lines as rotation_lines
+
 MAX_DEGREE = 5
 MAX_DIMENSION = 3
 TARGET = Path(__file__).with_name("_moves_rows.py")
@@ -41,73 +44,13 @@ HEADER = '''"""Row loops of delta evaluation, by degree and dimension. GENERATED
 Rendered by ``python -m metaknot.bspline._moves_codegen``; see that module and ``_moves``.
 """
 
+import numpy as np
 from numba import njit
 
-# An empty column of the factor: its reciprocal weight (see _moves_codegen).
-EMPTY = 1e150
-# Fused multiply-adds only: no reassociation, no approximate reciprocals.
-FASTMATH = {"contract"}
+from ._rows import EMPTY, FASTMATH, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
+
+__all__ = ["EMPTY", "FASTMATH", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
 '''
-
-
-def basis_lines(p: int, indent: str) -> list[str]:
-    """De Boor-Cox unrolled: the values ``h0..hp`` of the basis functions non-zero at ``x`` in
-    span ``span``, with reciprocal knot differences from ``iv``."""
-    lines = []
-    for j in range(1, p + 1):
-        knot = f"t[span - {j - 1}]" if j > 1 else "t[span]"
-        lines.append(f"{indent}l{j} = x - {knot}")
-        lines.append(f"{indent}r{j} = t[span + {j}] - x")
-    prev = ["1.0"]
-    for j in range(1, p + 1):
-        cur = []
-        saved = None
-        for r in range(j):
-            lo = f"span - {j - r - 1}" if j - r - 1 else "span"
-            index = f"{lo} + o{j}" if j > 1 else lo
-            factor = "" if prev[r] == "1.0" else f"{prev[r]} * "
-            lines.append(f"{indent}tmp = {factor}iv[{index}]")
-            name = f"b{j}_{r}" if j < p else f"h{r}"
-            term = f"r{r + 1} * tmp"
-            lines.append(f"{indent}{name} = {term}" if saved is None
-                         else f"{indent}{name} = {saved} + {term}")
-            lines.append(f"{indent}s{j}_{r} = l{j - r} * tmp")
-            saved = f"s{j}_{r}"
-            cur.append(name)
-        name = f"b{j}_{j}" if j < p else f"h{j}"
-        lines.append(f"{indent}{name} = {saved}")
-        cur.append(name)
-        prev = cur
-    return lines
-
-
-def rotation_lines(p: int, d: int, i: int, indent: str) -> list[str]:
-    """Rotate the row's entry ``h{i}`` (column ``first + i``) into the factor ``st``."""
-    width = 1 + p + d
-    out = [
-        f"{indent}o = (first + {i}) * {width}",
-        f"{indent}di = st[o]",
-        f"{indent}hd = h{i} * di",
-        f"{indent}bw = big_w + h{i} * hd",
-        f"{indent}inv = 1.0 / bw",
-        f"{indent}cb = big_w * inv",
-        f"{indent}sb = hd * inv",
-        f"{indent}st[o] = di * cb",
-    ]
-    for a in range(i + 1, p + 1):
-        out += [
-            f"{indent}ra = st[o + {a - i}]",
-            f"{indent}st[o + {a - i}] = cb * ra + sb * h{a}",
-            f"{indent}h{a} = h{a} - h{i} * ra",
-        ]
-    for k in range(d):
-        out += [
-            f"{indent}zk = st[o + {p + 1 + k}]",
-            f"{indent}st[o + {p + 1 + k}] = cb * zk + sb * y{k}",
-            f"{indent}y{k} = y{k} - h{i} * zk",
-        ]
-    out.append(f"{indent}big_w = bw")
-    return out
 
 
 def render_window(p: int, d: int) -> str:
@@ -124,17 +67,20 @@ def render_window(p: int, d: int) -> str:
         "    the spans by row. Returns the rows' residual SSE and the last span.",
         '    """',
         "    store = basis.shape[0] > 0",
-        *[f"    o{j} = {j - 1} * t.size" for j in range(2, p + 1)],
+        *[f"    o{j} = np.uint64({j - 1} * t.size)" for j in range(2, p + 1)],
+        "    span = np.uint64(span)",
+        "    last = np.uint64(last)",
+        "    col0 = np.uint64(col0)",
         "    sse = 0.0",
         "    for j in range(j0, j1):",
         "        x = u[j]",
-        "        while t[span + 1] <= x and span < last:",
-        "            span += 1",
+        "        while t[span + U1] <= x and span < last:",
+        "            span += U1",
     ]
     lines += basis_lines(p, ind)
     lines += [
-        f"        first = span - {p} - col0",
-        *[f"        colsum[first + {i}] += h{i}" for i in range(p + 1)],
+        f"        first = span - U{p} - col0",
+        *[f"        colsum[first + U{i}] += h{i}" for i in range(p + 1)],
         "        if store:",
         "            spans[j] = span",
         *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
@@ -166,10 +112,11 @@ def render_sweep(p: int, d: int) -> str:
         "    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved",
         "    after the last step. Stores every row's basis values and span.",
         '    """',
-        *[f"    o{j} = {j - 1} * t.size" for j in range(2, p + 1)],
+        *[f"    o{j} = np.uint64({j - 1} * t.size)" for j in range(2, p + 1)],
         "    steps = bounds.size - 1",
+        "    last = np.uint64(last)",
         "    sse = 0.0",
-        f"    span = {p}",
+        f"    span = U{p}",
         "    for s in range(steps + 1):",
         "        b = blocks[s]",
         f"        S[s, :] = st[b * {width} : (b + {p}) * {width}]",
@@ -179,13 +126,13 @@ def render_sweep(p: int, d: int) -> str:
         "            break",
         "        for j in range(bounds[s], bounds[s + 1]):",
         "            x = u[j]",
-        "            while t[span + 1] <= x and span < last:",
-        "                span += 1",
+        "            while t[span + U1] <= x and span < last:",
+        "                span += U1",
     ]
     lines += basis_lines(p, ind)
     lines += [
-        f"            first = span - {p}",
-        *[f"            colsum[first + {i}] += h{i}" for i in range(p + 1)],
+        f"            first = span - U{p}",
+        *[f"            colsum[first + U{i}] += h{i}" for i in range(p + 1)],
         "            spans[j] = span",
         *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
         *[f"            y{k} = q[j, {k}]" for k in range(d)],
@@ -213,6 +160,7 @@ def render_absorb(p: int, d: int) -> str:
         "    entries leftwards, weighted by ``1 / G[c, a * W]`` (a row never reached is",
         "    skipped). Returns what the rotations leave of them.",
         '    """',
+        "    first = np.uint64(first)",
         "    sse = 0.0",
     ]
     for a in range(p):
@@ -236,7 +184,8 @@ def render_absorb(p: int, d: int) -> str:
 
 def _dispatch(name: str, params: str, doc: str) -> list[str]:
     """``name``: the loop of the right degree and dimension."""
-    lines = ["@njit(cache=True)", f"def {name}(p, d, {params}):", f'    """{doc}"""']
+    lines = ["@njit(cache=True, inline='always')", f"def {name}(p, d, {params}):",
+             f'    """{doc}"""']
     first = True
     for p in range(1, MAX_DEGREE + 1):
         for d in range(1, MAX_DIMENSION + 1):

@@ -105,6 +105,7 @@ class MoveEvaluator:
         w = 1 + p + d
         iv = np.zeros(p * t.size)
         _moves.reciprocals(t, p, iv, 0, t.size)
+        self._iv = iv.copy()
         steps = np.arange(p, n + 1)  # state c: after the rows of spans < c
         self._F = np.empty((n + 1, p * w))
         self._Fsse = np.empty(n + 1)
@@ -169,9 +170,9 @@ class MoveEvaluator:
         reason = np.empty(b, dtype=np.int8)
         path = np.empty(b, dtype=np.int8)
         _moves.evaluate_moves(
-            self.u, self.q, self.degree, self.t, self.n, self.spans, self.basis, self.row_start,
-            self.match, self._F, self._Fsse, self._Fcol, self._G, self._Gsse, self._Gcol,
-            self._st_f, self._st_m, self._col_before, self._col_from, self.sse,
+            self.u, self.q, self.degree, self.t, self._iv, self.n, self.spans, self.basis,
+            self.row_start, self.match, self._F, self._Fsse, self._Fcol, self._G, self._Gsse,
+            self._Gcol, self._st_f, self._st_m, self._col_before, self._col_from, self.sse,
             self._inverse_left, self._inverse_right, self._gram_norm, knots, offsets,
             self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
         return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason), path
