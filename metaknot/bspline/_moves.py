@@ -53,7 +53,7 @@ from ._moves_rows import EMPTY, absorb, window
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
 PATH_CHECKS = 1  # infeasible by the knot checks alone (no fit needed on either path)
-PATH_FULL = 2  # fitted in full (too wide a change, an uncertain verdict, or max deviation)
+PATH_FULL = 2  # fitted in full (too wide a change, or a verdict the delta path cannot certify)
 
 
 # The delta path reports a candidate feasible only if an upper bound of the condition number
