@@ -48,7 +48,7 @@ from ._kernel import (
     _fit_into,
     _max_deviation,
 )
-from ._moves_rows import EMPTY, absorb, window
+from ._moves_rows import EMPTY, FASTMATH, absorb, window
 
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
@@ -77,7 +77,7 @@ def reciprocals(t, p, iv, lo_start, lo_stop):
             iv[(j - 1) * size + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
 def candidate_reciprocals(t2, t, iv_t, p, iv, lo_start, lo_stop, e, tail, shift):
     """:func:`reciprocals` of the candidate's knots ``t2`` for ``lo_start <= lo < lo_stop``,
     copied from the incumbent's table ``iv_t`` where both knots are the incumbent's: below
@@ -96,7 +96,7 @@ def candidate_reciprocals(t2, t, iv_t, p, iv, lo_start, lo_stop, e, tail, shift)
                 iv[(j - 1) * size2 + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
 def empty_state(st, columns, width):
     """Mark ``columns`` columns of the flat factor ``st`` as reached by no row."""
     for c in range(columns):
@@ -105,7 +105,7 @@ def empty_state(st, columns, width):
             st[c * width + k] = 0.0
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
 def inverse_norm_bound(st, p, d, size, v, wv):
     """Upper bound of the 2-norm of ``R^-1`` for the flat factor's first ``size`` columns
     (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row).
@@ -189,7 +189,7 @@ def sw_matching(u, t, p, n, match):
     return True
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
 def sw_local(u, t2, p, n2, match, first, tail, shift):
     """The Schoenberg-Whitney check of ``t2`` given the incumbent's matching ``match``.
 
@@ -216,7 +216,7 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
     return True
 
 
-@njit(cache=True, inline='always')
+@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
 def _candidate_knots(u, t, interior, p, t2):
     """Fill ``t2`` with the candidate's clamped knot vector; return (reason, e, f): ``e`` the
     first index where it differs from the incumbent's ``t``, ``f`` the length of their common
@@ -266,7 +266,7 @@ def _candidate_knots(u, t, interior, p, t2):
     return FEASIBLE, e, f
 
 
-@njit(cache=True)
+@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse,
                    Gcol, st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
                    gram_norm, knots, offsets, max_window_rows, want_max_dev, sse_out,
