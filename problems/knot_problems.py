@@ -32,6 +32,7 @@ from metaknot.bspline import (
     interior_from_mask,
     parameterize,
 )
+from metaknot.bspline._codegen import MAX_DIMENSION
 from metaknot.bspline._moves import masks_to_knots_serial
 from metaknot.bspline.knots import stack_indices, stack_positions
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
@@ -122,6 +123,10 @@ class KnotProblem(Problem):
         else:
             method = self.data.params if self.data.params is not None else parameterization
             self.params = parameterize(self.data.points, method, degree=self.degree)
+        if not self.closed and self.data.dim > MAX_DIMENSION:
+            raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates for an open "
+                             f"curve (the compiled kernel's loops are generated for those); "
+                             f"got {self.data.dim}")
         self.parameterization = "explicit" if self.data.params is not None else parameterization
         self.objective = get_objective(objective, **(objective_options or {}))
         self.info = DataInfo(self.data.n_points, self.data.dim, self.data.scale, self.degree,

@@ -264,6 +264,13 @@ def test_an_infeasible_incumbent_is_refused():
         MoveEvaluator(u, q, np.array([0.5, 0.5]), 3)
     with pytest.raises(ValueError, match="1-D"):
         MoveEvaluator(u, q, np.ones((2, 2)) * 0.5, 3)
+    with pytest.raises(ValueError, match="max_window_rows"):
+        MoveEvaluator(u, q, u[5:-5:5], 3, max_window_rows=-1)
+    me = MoveEvaluator(u, q, u[5:-5:5], 3)
+    with pytest.raises(ValueError, match="offsets"):
+        me.evaluate(u[5:-5:5], np.array([0, 2]))
+    with pytest.raises(ValueError, match="1-D"):
+        me.evaluate(u[5:-5:5][None, :], np.array([0, 1]))
 
 
 def test_wide_changes_fall_back_to_the_full_fit():
@@ -315,3 +322,16 @@ def test_generated_move_loops_are_current():
         "metaknot/bspline/_moves_rows.py is stale: run "
         "`python -m metaknot.bspline._moves_codegen`"
     )
+
+
+def test_more_than_three_coordinates_are_refused_with_a_clear_error():
+    q = np.random.default_rng(0).random((30, 4)).cumsum(axis=0)
+    u = parameterize(q, "chord")
+    with pytest.raises(ValueError, match="1 to 3 coordinates"):
+        MoveEvaluator(u, q, u[5:-5:5], 3)
+    with pytest.raises(ValueError, match="1 to 3 coordinates"):
+        evaluate_knots(u, q, u[5:-5:5], np.array([0, u[5:-5:5].size]), 3)
+    from metaknot.problems import KnotSelection
+
+    with pytest.raises(ValueError, match="1 to 3 coordinates"):
+        KnotSelection(q)

@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
 from . import _kernel
+from ._codegen import MAX_DIMENSION
 from .knots import stack_indices, stack_masks, stack_positions
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
@@ -92,6 +93,9 @@ class BatchFit:
 def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, np.ndarray]:
     p = check_degree(degree)
     q = as_points(points, degree=p)
+    if q.shape[1] > MAX_DIMENSION:
+        raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
+                         f"kernel's loops are generated for those); got {q.shape[1]}")
     u = np.ascontiguousarray(u, dtype=np.float64)
     if u.shape != (q.shape[0],):
         raise ValueError(

@@ -62,8 +62,9 @@ class MoveEvaluator:
     degree
         Spline degree, 1..5.
     max_window_rows
-        Largest number of data rows a change may span for the delta path (default: N, every
-        wider changes cost about as much as a full fit).
+        Largest number of data rows a change may span for the delta path; wider changes are
+        fitted in full (default: N, so every change qualifies: a change spanning most rows
+        costs about what a full fit does).
 
     Raises
     ------
@@ -76,6 +77,10 @@ class MoveEvaluator:
         self.u, self.q = _prepare(u, points, degree)
         self.degree = int(degree)
         m = self.u.size
+        if max_window_rows is not None and (isinstance(max_window_rows, bool) or not isinstance(
+                max_window_rows, int | np.integer) or max_window_rows < 0):
+            raise ValueError(f"max_window_rows must be a whole number >= 0; got "
+                             f"{max_window_rows!r}")
         self.max_window_rows = m if max_window_rows is None else int(max_window_rows)
         self.rebind(interior_knots)
 
@@ -158,7 +163,19 @@ class MoveEvaluator:
 
         Returns the :class:`BatchFit` the batched evaluator would give and, per candidate, the
         path that decided it (``PATH_DELTA``, ``PATH_CHECKS`` or ``PATH_FULL``).
+
+        Raises
+        ------
+        ValueError
+            If ``knots`` is not 1-D or ``offsets`` does not run from 0 to ``len(knots)``
+            without decreasing.
         """
+        knots, offsets = np.asarray(knots), np.asarray(offsets)
+        if knots.ndim != 1:
+            raise ValueError(f"knots must be a 1-D array; got shape {knots.shape}")
+        if offsets.ndim != 1 or offsets.size < 1 or offsets[0] != 0 \
+                or offsets[-1] != knots.size or (np.diff(offsets) < 0).any():
+            raise ValueError("offsets must run from 0 to len(knots) without decreasing")
         if knots.dtype != np.float64 or not knots.flags.c_contiguous:
             knots = np.ascontiguousarray(knots, dtype=np.float64)
         if offsets.dtype != np.int64 or not offsets.flags.c_contiguous:
