@@ -4,15 +4,19 @@ On the seed paper's epitrochoid (361 points, centripetal, cubic) at mask densiti
 for several random incumbents, every one-bit flip (insertions and removals of one knot) is
 scored by a :class:`~metaknot.bspline.moves.MoveEvaluator` bound to the incumbent and by the
 batched kernel (:func:`~metaknot.bspline.evaluate_knots`, the evaluator every full evaluation
-goes through), both on one thread, best of ``--repeats``. Printed per density: the time per
-move of each, their ratio, the share of moves the delta path decided, the largest relative SSE
-difference, the time of one call with a single move (what a (1+1) EA pays per step), and the
-cost of moving the incumbent (``rebind``: one forward and one backward sweep) in full fits.
+goes through), both on one thread, best of ``--repeats``. The move evaluator is timed on the
+moves themselves (``evaluate_replacements`` with :func:`~metaknot.bspline.moves.bit_flips`:
+flip bit j) and on the candidates they make (``evaluate``: whole knot vectors, compared with
+the incumbent's). Printed per density: the time per move of each, the ratios, the share of
+moves the delta path decided, the largest relative SSE difference, the time of one call with a
+single move (what a (1+1) EA pays per step), and the cost of moving the incumbent (``rebind``:
+one forward and one backward sweep) in full fits.
 
 Then the (1+1) EA in the seed's setting (the three seed curves, 0/1 masks, the guarded
 ``paper`` objective) at a fixed wall-clock allowance per run (``--seconds``, seeds
 ``0..--seeds-1``), with delta evaluation off (every child fitted in full) and on: evaluations
-reached and the median objective. Last line ``move_speedup_vs_batched: <ratio at density 0.5>``.
+reached and the median objective. Last line
+``move_speedup_vs_batched: <ratio of the moves at density 0.5>``.
 
 Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5] [--seconds 5]
 [--seeds 5]`` (run it on a quiet machine: the wall-clock part is a race against the clock).
@@ -29,7 +33,7 @@ import numpy as np
 import metaknot as mk
 from metaknot.bspline import evaluate_knots, parameterize
 from metaknot.bspline.knots import stack_masks
-from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
+from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, bit_flips
 from metaknot.problems import KnotSelection, get_curve
 
 CURVES = ("epitrochoid", "archimedean", "vivaldi")
@@ -81,11 +85,12 @@ def main() -> None:
     u = parameterize(points, "centripetal")
     p = args.degree
     rng = np.random.default_rng(20130301)
-    ratios = {}
+    ratios: dict[float, float] = {}
+    candidates: dict[float, float] = {}
     print(f"epitrochoid, {u.size} points, degree {p}, one thread; every one-bit flip of "
           f"{args.incumbents} random incumbents per density")
     for density in (0.5, 0.2):
-        t_delta = t_full = t_single = t_rebind = 0.0
+        t_delta = t_moves = t_full = t_single = t_rebind = 0.0
         moves = delta_share = 0
         worst = 0.0
         for _ in range(args.incumbents):
@@ -93,30 +98,41 @@ def main() -> None:
             evaluator = MoveEvaluator(u, points, u[1:-1][mask], p)
             flips = np.repeat(mask[None], u.size - 2, axis=0) ^ np.eye(u.size - 2, dtype=bool)
             knots, offsets = stack_masks(u, flips)
+            flipped = bit_flips(u, mask, np.arange(u.size - 2))
             fit, path = evaluator.evaluate(knots, offsets)  # compile outside the timing
+            by_moves, _ = evaluator.evaluate_replacements(*flipped)
             ref = evaluate_knots(u, points, knots, offsets, p, max_deviation=False)
-            if not np.array_equal(fit.reason, ref.reason):
+            if not (np.array_equal(fit.reason, ref.reason)
+                    and np.array_equal(by_moves.reason, ref.reason)):
                 raise SystemExit("delta and full evaluation disagree on feasibility")
             ok = ref.feasible
-            worst = max(worst, float(np.max(np.abs(fit.sse[ok] - ref.sse[ok]) / ref.sse[ok])))
+            for got in (fit, by_moves):
+                worst = max(worst, float(np.max(np.abs(got.sse[ok] - ref.sse[ok])
+                                                / ref.sse[ok])))
             moves += len(flips)
             delta_share += int(np.count_nonzero(path == PATH_DELTA))
             t_delta += best_time(lambda e=evaluator, k=knots, o=offsets: e.evaluate(k, o),
                                  args.repeats)
+            t_moves += best_time(lambda e=evaluator, f=flipped: e.evaluate_replacements(*f),
+                                 args.repeats)
             t_full += best_time(lambda k=knots, o=offsets: evaluate_knots(
                 u, points, k, o, p, max_deviation=False), args.repeats)
-            one_k, one_o = stack_masks(u, flips[:1])
-            t_single += best_time(lambda e=evaluator, k=one_k, o=one_o: [
-                e.evaluate(k, o) for _ in range(100)], args.repeats) / 100
+            one = bit_flips(u, mask, [0])
+            t_single += best_time(lambda e=evaluator, f=one: [
+                e.evaluate_replacements(*f) for _ in range(100)], args.repeats) / 100
             t_rebind += best_time(lambda e=evaluator, m=mask: e.rebind(u[1:-1][m]),
                                   args.repeats)
         per_delta = t_delta / moves * 1e6
+        per_moves = t_moves / moves * 1e6
         per_full = t_full / moves * 1e6
-        ratios[density] = per_full / per_delta
+        ratios[density] = per_full / per_moves
+        candidates[density] = per_full / per_delta
         print(f"\ndensity {density}:")
-        print(f"  batched kernel:   {per_full:8.2f} us/move")
-        print(f"  delta evaluation: {per_delta:8.2f} us/move  (speedup {ratios[density]:.1f}x; "
-              f"{delta_share / moves:.1%} decided by the delta path)")
+        print(f"  batched kernel:                {per_full:8.2f} us/move")
+        print(f"  delta evaluation, moves:       {per_moves:8.2f} us/move  (speedup "
+              f"{ratios[density]:.1f}x; {delta_share / moves:.1%} decided by the delta path)")
+        print(f"  delta evaluation, candidates:  {per_delta:8.2f} us/move  (speedup "
+              f"{candidates[density]:.1f}x)")
         print(f"  one move per call: {t_single / args.incumbents * 1e6:7.2f} us/call")
         print(f"  rebind (forward + backward sweeps): "
               f"{t_rebind / args.incumbents / (per_full * 1e-6):.1f} full fits")
@@ -125,6 +141,7 @@ def main() -> None:
             raise SystemExit("delta evaluation is not exact")
     if args.seconds > 0:
         ea_at_fixed_wall_clock(args.seconds, args.seeds)
+    print(f"candidate_speedup_vs_batched: {candidates[0.5]:.1f}")
     print(f"move_speedup_vs_batched_density_0.2: {ratios[0.2]:.1f}")
     print(f"move_speedup_vs_batched: {ratios[0.5]:.1f}")
 

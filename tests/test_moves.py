@@ -335,3 +335,72 @@ def test_more_than_three_coordinates_are_refused_with_a_clear_error():
 
     with pytest.raises(ValueError, match="1 to 3 coordinates"):
         KnotSelection(q)
+
+
+@pytest.mark.parametrize("degree", [1, 3, 5])
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_replacements_score_as_the_candidates_they_make(degree, dim):
+    from metaknot.bspline.moves import bit_flips
+
+    q = curve(70, dim, seed=dim)
+    u = params_for(q, "centripetal", degree)
+    rng = np.random.default_rng(degree + dim)
+    mask = feasible_mask(u, q, degree, rng, 0.3)
+    me = MoveEvaluator(u, q, u[1:-1][mask], degree)
+    bits = np.arange(u.size - 2)
+    fit, path = me.evaluate_replacements(*bit_flips(u, mask, bits))
+    flips = np.repeat(mask[None], u.size - 2, axis=0) ^ np.eye(u.size - 2, dtype=bool)
+    ref, ref_path = me.evaluate(*stack_masks(u, flips))
+    np.testing.assert_array_equal(fit.reason, ref.reason)
+    np.testing.assert_array_equal(fit.n_control_points, ref.n_control_points)
+    np.testing.assert_array_equal(path, ref_path)
+    ok = ref.feasible
+    np.testing.assert_allclose(fit.sse[ok], ref.sse[ok], rtol=1e-12)
+    # general replacements: shifts, two knots for one, one for two, nothing for several
+    interior = me.interior
+    k = interior.size
+    starts, stops, inserted, counts = [], [], [], []
+    for _ in range(200):
+        a = int(rng.integers(0, k))
+        b = min(k, a + int(rng.integers(0, 3)))
+        lo = interior[a - 1] if a > 0 else u[0]
+        hi = interior[b] if b < k else u[-1]
+        new = np.sort(rng.uniform(lo, hi, int(rng.integers(0, 3))))
+        if rng.random() < 0.1:
+            new = new[::-1].copy()  # out of order: coincident knots, as the full kernel says
+        starts.append(a)
+        stops.append(b)
+        inserted.append(new)
+        counts.append(new.size)
+    offsets = np.concatenate(([0], np.cumsum(counts)))
+    fit, path = me.evaluate_replacements(np.array(starts), np.array(stops),
+                                         np.concatenate(inserted), offsets,
+                                         max_deviation=True)
+    rows = [np.concatenate((interior[:a], new, interior[b:]))
+            for a, b, new in zip(starts, stops, inserted, strict=True)]
+    ref = evaluate_knots(u, q, *stack(rows), degree, max_deviation=True)
+    np.testing.assert_array_equal(fit.reason, ref.reason)
+    ok = ref.feasible
+    np.testing.assert_allclose(fit.sse[ok], ref.sse[ok], rtol=1e-10, atol=1e-22 * np.sum(q**2))
+    np.testing.assert_allclose(fit.max_deviation[ok], ref.max_deviation[ok], rtol=1e-9,
+                               atol=1e-11 * np.sqrt(np.sum(q**2)))
+    assert (path == PATH_DELTA).sum() > 50
+
+
+def test_replacements_refuse_bad_arrays():
+    from metaknot.bspline.moves import bit_flips
+
+    q = curve(30, 2)
+    u = parameterize(q, "uniform")
+    me = MoveEvaluator(u, q, u[4:-4:4], 3)
+    k = me.interior.size
+    with pytest.raises(ValueError, match="start:stop"):
+        me.evaluate_replacements([2], [k + 1], [], [0, 0])
+    with pytest.raises(ValueError, match="start:stop"):
+        me.evaluate_replacements([3], [2], [], [0, 0])
+    with pytest.raises(ValueError, match="same length"):
+        me.evaluate_replacements([1, 2], [2], [], [0, 0])
+    with pytest.raises(ValueError, match="one entry more"):
+        me.evaluate_replacements([1], [2], [0.5], [0, 1, 1])
+    with pytest.raises(ValueError, match="bits"):
+        bit_flips(u, np.zeros(u.size - 2), [u.size])

@@ -266,13 +266,47 @@ def _candidate_knots(u, t, interior, p, t2):
     return FEASIBLE, e, f
 
 
+@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+def _replacement_knots(u, t, n, start, stop, inserted, p, t2):
+    """Fill ``t2`` with the knots of the incumbent ``t`` whose interior knots ``start:stop``
+    are replaced by ``inserted``; return (reason, e, f) as :func:`_candidate_knots` does, with
+    only the inserted knots checked."""
+    k = n - p - 1
+    size = t2.size
+    for i in range(p + 1 + start):  # the head, the inserted knots, the tail
+        t2[i] = t[i]
+    for i in range(inserted.size):
+        t2[p + 1 + start + i] = inserted[i]
+    tail = p + 1 + start + inserted.size
+    shift = size - t.size
+    for i in range(tail, size):
+        t2[i] = t[i - shift]
+    e = p + 1 + start
+    f = size - tail
+    u0 = u[0]
+    um = u[u.size - 1]
+    for i in range(inserted.size):
+        x = inserted[i]
+        if not (x > u0 and x < um):  # also catches NaN
+            return KNOT_OUT_OF_RANGE, e, f
+    if stop > k or start > stop:
+        return KNOT_OUT_OF_RANGE, e, f
+    for i in range(max(e, p + 2), min(tail + 1, size - p - 1)):
+        if t2[i] <= t2[i - 1]:
+            return COINCIDENT_KNOTS, e, f
+    return FEASIBLE, e, f
+
+
 @njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse,
                    Gcol, st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
-                   gram_norm, knots, offsets, max_window_rows, want_max_dev, sse_out,
-                   max_dev_out, n_ctrl_out, reason_out, path_out):
+                   gram_norm, knots, offsets, starts, stops, max_window_rows, want_max_dev,
+                   sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
     """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``) by merging the
     incumbent's cached states; fall back to the full fit where the cheap path cannot decide.
+    With ``starts`` not empty, candidate ``b`` is instead the incumbent with its interior knots
+    ``starts[b]:stops[b]`` replaced by ``knots[offsets[b]:offsets[b + 1]]`` (a move: no
+    comparison of whole knot vectors is then needed).
 
     Outputs per candidate: SSE, maximum deviation (when ``want_max_dev``), control points,
     reason code and the path that decided it. The maximum deviation of a merged candidate
@@ -297,9 +331,13 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
     bound_w = np.empty(rows_max)
     window_basis = np.empty((m if want_max_dev else 0, p + 1))
     window_span = np.empty(m if want_max_dev else 0, dtype=np.int64)
+    replacing = starts.size > 0
     for b in range(n_cand):
-        interior = knots[offsets[b]:offsets[b + 1]]
-        n2 = interior.size + p + 1
+        inserted = knots[offsets[b]:offsets[b + 1]]
+        if replacing:
+            n2 = n - (stops[b] - starts[b]) + inserted.size
+        else:
+            n2 = inserted.size + p + 1
         n_ctrl_out[b] = n2
         sse_out[b] = np.inf
         if want_max_dev:
@@ -309,7 +347,11 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
             reason_out[b] = TOO_MANY_CONTROL_POINTS
             continue
         tb = t2[: n2 + p + 1]
-        code, e, f = _candidate_knots(u, t, interior, p, tb)
+        if replacing:
+            code, e, f = _replacement_knots(u, t, n, starts[b], stops[b], inserted, p, tb)
+        else:
+            code, e, f = _candidate_knots(u, t, inserted, p, tb)
+        interior = tb[p + 1 : n2]
         if code != FEASIBLE:
             reason_out[b] = code
             continue

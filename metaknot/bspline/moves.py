@@ -42,11 +42,32 @@ from . import _kernel, _moves, _moves_rows
 from .fit import BatchFit, _prepare
 from .knots import clamped_knot_vector
 
-__all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator"]
+__all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "bit_flips"]
 
 PATH_DELTA = _moves.PATH_DELTA
 PATH_CHECKS = _moves.PATH_CHECKS
 PATH_FULL = _moves.PATH_FULL
+_NO_MOVES = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
+
+
+def bit_flips(u: ArrayLike, mask: ArrayLike, bits: ArrayLike
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Replacements (for :meth:`MoveEvaluator.evaluate_replacements`) that flip the given
+    bits of a 0/1 mask over the interior data points (``u[1:-1]``): a set bit removes its knot,
+    a clear bit inserts ``u[bit + 1]``. Returns ``(starts, stops, inserted, offsets)``."""
+    u = np.asarray(u, dtype=np.float64)
+    mask = np.asarray(mask).astype(bool)
+    bits = np.asarray(bits, dtype=np.int64)
+    if mask.shape != (u.size - 2,):
+        raise ValueError(f"mask must have shape ({u.size - 2},); got {mask.shape}")
+    if bits.ndim != 1 or (bits < 0).any() or (bits >= mask.size).any():
+        raise ValueError(f"bits must be indices into the mask, 0..{mask.size - 1}")
+    rank = np.concatenate(([0], np.cumsum(mask)))[bits]  # knots before each bit
+    on = mask[bits]
+    inserted = u[bits[~on] + 1]
+    offsets = np.zeros(bits.size + 1, dtype=np.int64)
+    np.cumsum(~on, out=offsets[1:])
+    return rank, rank + on, inserted, offsets
 
 
 class MoveEvaluator:
@@ -157,8 +178,9 @@ class MoveEvaluator:
         """The incumbent's clamped knot vector."""
         return clamped_knot_vector(self.u, self.interior, self.degree)
 
-    def evaluate(self, knots: np.ndarray, offsets: np.ndarray, *,
-                 max_deviation: bool = False) -> tuple[BatchFit, np.ndarray]:
+    def evaluate(self, knots: np.ndarray, offsets: np.ndarray, *, max_deviation: bool = False,
+                 _replacing: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> tuple[BatchFit, np.ndarray]:
         """Score candidates ``knots[offsets[b]:offsets[b + 1]]`` (sorted interior knots).
 
         Returns the :class:`BatchFit` the batched evaluator would give and, per candidate, the
@@ -186,10 +208,43 @@ class MoveEvaluator:
         n_ctrl = np.empty(b, dtype=np.int64)
         reason = np.empty(b, dtype=np.int8)
         path = np.empty(b, dtype=np.int8)
+        starts, stops = _NO_MOVES if _replacing is None else _replacing
         _moves.evaluate_moves(
             self.u, self.q, self.degree, self.t, self._iv, self.n, self.spans, self.basis,
             self.row_start, self.match, self._F, self._Fsse, self._Fcol, self._G, self._Gsse,
             self._Gcol, self._st_f, self._st_m, self._col_before, self._col_from, self.sse,
-            self._inverse_left, self._inverse_right, self._gram_norm, knots, offsets,
-            self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
+            self._inverse_left, self._inverse_right, self._gram_norm, knots, offsets, starts,
+            stops, self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
         return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason), path
+
+    def evaluate_replacements(self, starts: ArrayLike, stops: ArrayLike, inserted: ArrayLike,
+                              offsets: ArrayLike, *, max_deviation: bool = False
+                              ) -> tuple[BatchFit, np.ndarray]:
+        """Score moves given as replacements: move ``b`` replaces the incumbent's interior
+        knots ``starts[b]:stops[b]`` (indices into :attr:`interior`) by the sorted knots
+        ``inserted[offsets[b]:offsets[b + 1]]``.
+
+        A flipped bit, an inserted, removed or shifted knot is one replacement
+        (:func:`bit_flips` builds them for masks). The result is what :meth:`evaluate` gives
+        for the candidates the moves make, without comparing whole knot vectors.
+
+        Raises
+        ------
+        ValueError
+            If the arrays do not match (one start and stop per move, offsets from 0 to
+            ``len(inserted)``) or a start or stop lies outside ``0..len(interior)``.
+        """
+        starts = np.ascontiguousarray(starts, dtype=np.int64)
+        stops = np.ascontiguousarray(stops, dtype=np.int64)
+        k = self.interior.size
+        if starts.ndim != 1 or starts.shape != stops.shape:
+            raise ValueError("starts and stops must be 1-D arrays of the same length")
+        if starts.size == 0:
+            raise ValueError("no moves given")
+        if np.asarray(offsets).size != starts.size + 1:
+            raise ValueError("offsets must have one entry more than there are moves")
+        if (starts < 0).any() or (stops > k).any() or (starts > stops).any():
+            raise ValueError(f"each move must replace knots start:stop with "
+                             f"0 <= start <= stop <= {k}")
+        return self.evaluate(inserted, offsets, max_deviation=max_deviation,
+                             _replacing=(starts, stops))
