@@ -10,8 +10,10 @@ scored by rotating only the rows of the changed spans between the cached left an
 states: the SSE is exact (it is the same least-squares problem, orthogonally transformed), not
 an approximation.
 
-Any candidate can be passed: the changed block is found by comparing knot vectors, so moves
-of several neighbouring knots work too. Infeasible knots (out of range, coincident, too many,
+Moves are given either as what they replace (:meth:`MoveEvaluator.evaluate_replacements`:
+the incumbent's knots ``i:j`` by new ones; :func:`bit_flips` builds them for masks) or as the
+whole candidates they make (:meth:`MoveEvaluator.evaluate`: the changed block is found by
+comparing knot vectors, O(K) per candidate). Changes of several neighbouring knots work too. Infeasible knots (out of range, coincident, too many,
 Schoenberg-Whitney) are rejected by the same checks as the full kernel, the Schoenberg-Whitney
 matching resumed from the incumbent's. A merged candidate is reported feasible only with a
 certificate: ``[left final rows; merged rows; right final rows]`` is a square factor of the
