@@ -13,9 +13,10 @@ an approximation.
 Moves are given either as what they replace (:meth:`MoveEvaluator.evaluate_replacements`:
 the incumbent's knots ``i:j`` by new ones; :func:`bit_flips` builds them for masks) or as the
 whole candidates they make (:meth:`MoveEvaluator.evaluate`: the changed block is found by
-comparing knot vectors, O(K) per candidate). Changes of several neighbouring knots work too. Infeasible knots (out of range, coincident, too many,
-Schoenberg-Whitney) are rejected by the same checks as the full kernel, the Schoenberg-Whitney
-matching resumed from the incumbent's. A merged candidate is reported feasible only with a
+comparing knot vectors, O(K) per candidate). Changes of several neighbouring knots work too.
+
+Infeasible knots (out of range, coincident, too many, Schoenberg-Whitney) are rejected by the
+same checks as the full kernel, the Schoenberg-Whitney matching resumed from the incumbent's. A merged candidate is reported feasible only with a
 certificate: ``[left final rows; merged rows; right final rows]`` is a square factor of the
 candidate's normal matrix, block triangular around the merged block, its outer blocks parts of
 the incumbent's factors; bounding the inverse of each block bounds the candidate's condition
