@@ -16,12 +16,13 @@ whole candidates they make (:meth:`MoveEvaluator.evaluate`: the changed block is
 comparing knot vectors, O(K) per candidate). Changes of several neighbouring knots work too.
 
 Infeasible knots (out of range, coincident, too many, Schoenberg-Whitney) are rejected by the
-same checks as the full kernel, the Schoenberg-Whitney matching resumed from the incumbent's. A merged candidate is reported feasible only with a
-certificate: ``[left final rows; merged rows; right final rows]`` is a square factor of the
-candidate's normal matrix, block triangular around the merged block, its outer blocks parts of
-the incumbent's factors; bounding the inverse of each block bounds the candidate's condition
-number, and the full kernel's numerical-singularity tests (condition number above
-``COND_LIMIT``) cannot fail below half that bound. The full fit decides:
+same checks as the full kernel, the Schoenberg-Whitney matching resumed from the incumbent's.
+A merged candidate is reported feasible only with a certificate: ``[left final rows; merged
+rows; right final rows]`` is a square factor of the candidate's normal matrix, block
+triangular around the merged block, its outer blocks parts of the incumbent's factors;
+bounding the inverse of each block bounds the candidate's condition number, and the full
+kernel's numerical-singularity tests (condition number above ``COND_LIMIT``) cannot fail below
+half that bound. The full fit decides:
 
 * a candidate whose bound is not below half the limit (dense knots of degree 4-5 often are not;
   the kernel's own tests then decide whether it is numerically singular);
