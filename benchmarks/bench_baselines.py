@@ -36,7 +36,7 @@ reference point at 1.1 in each normalised objective: the region where the fronts
 Every run's own record keeps the fixed unit-box hypervolume; its ratio is printed as well.
 
 Run: ``python benchmarks/bench_baselines.py [--seeds 10] [--workers 2] [--results DIR]
-[--only-front]`` (about half an hour on two free cores; a study already in ``--results`` is
+[--only-front]`` (about 20 minutes on two free cores; a study already in ``--results`` is
 resumed). ``--only-front`` runs and reports the front study alone (a few minutes): its last
 lines are the two front ratios.
 """
