@@ -126,3 +126,33 @@ def test_the_default_move_origin_is_none():
         pass
 
     assert Plain().move_origin() is None
+
+
+def test_a_trace_recorded_one_candidate_at_a_time_equals_one_recorded_in_batches():
+    from metaknot.callbacks import Progress, TraceRecorder
+
+    rng = np.random.default_rng(3)
+    values = np.where(rng.random(400) < 0.1, np.inf, rng.random(400) * 10)
+    rmse = rng.random(400)
+    cp = rng.integers(5, 50, 400).astype(float)
+    extra = rng.random(400)  # a metric that appears only from evaluation 148 on
+    recorders = {}
+    for size in (1, 7):
+        recorder = TraceRecorder(per_decade=5)
+        best = np.inf
+        for start in range(0, 400, size):
+            stop = min(start + size, 400)
+            metrics = {"rmse": rmse[start:stop], "n_control_points": cp[start:stop]}
+            if start >= 147:  # a batch boundary for both sizes
+                metrics["extra"] = extra[start:stop]
+            best = min(best, float(values[start:stop].min()))
+            recorder.on_batch(Progress(stop, 400, best, values[start:stop], 0.0, metrics))
+        recorders[size] = recorder.trace()
+    one, batched = recorders[1], recorders[7]
+    np.testing.assert_array_equal(one.evaluations, batched.evaluations)
+    np.testing.assert_array_equal(one.best_f, batched.best_f)
+    np.testing.assert_array_equal(one.improvement, batched.improvement)
+    np.testing.assert_array_equal(one.checkpoint, batched.checkpoint)
+    assert one.metrics.keys() == batched.metrics.keys() == {"rmse", "n_control_points", "extra"}
+    for key in one.metrics:
+        np.testing.assert_array_equal(one.metrics[key], batched.metrics[key])
