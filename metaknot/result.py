@@ -115,8 +115,8 @@ class RunResult:
         the seed (``seed``, ``seed_spawn_key``), budget and evaluations used, ``best_f`` and the
         fit metrics, the timings, ``external_fits``, ``delta_evaluations``, ``status`` /
         ``error``. A two-objective run adds ``hypervolume`` (``1 - best_f``), ``front_size``
-        and ``front``, the front's columns as JSON (``metaknot.experiments.Study.fronts`` makes a long table of them).
-        The study layer adds the run id, study name, versions and time stamp.
+        and ``front``, the front's columns as JSON (``metaknot.experiments.Study.fronts`` makes
+        a long table of them). The study layer adds the run id, study name, versions and time stamp.
         """
         params = {f"algorithm.{k}": _plain(v) for k, v in self.optimizer_params.items()}
         front = {} if self.front is None else {
