@@ -1,30 +1,22 @@
 """Renders ``_moves_rows.py``: the row loop of delta evaluation, per degree and dimension.
 
 :mod:`metaknot.bspline._moves` rotates data rows into a banded factor in three places: the
-forward sweep and the backward sweep over an incumbent (span by span, saving a state at every
-knot), and the window of a move (the rows whose basis functions the move changed, under the
-candidate's knots). One loop serves all three: ``window_p{p}_d{d}`` rotates rows ``j0..j1 - 1``
-into a flat factor whose first column is the knot vector's column ``col0``. Written with every
-basis value, row entry and right-hand side in a local variable, and the loops over the degree
-and the dimension unrolled, it runs several times faster than the same loop over small arrays.
+forward sweep and the backward sweep over an incumbent (saving a state at every knot), and
+the window of a move (the rows whose basis functions the move changed, under the candidate's
+knots). ``window_p{p}_d{d}`` rotates rows ``j0..j1 - 1`` into a flat factor whose first column
+is the knot vector's column ``col0``; ``sweep_p{p}_d{d}`` is the same loop over every row,
+saving a state at given row boundaries (the forward and the mirrored sweeps);
+``absorb_p{p}_d{d}`` rotates a backward state's rows into a merged factor.
 
-* The factor is one flat array, ``W = 1 + p + d`` entries per column: the reciprocal weight
-  ``dinv``, the ``p`` off-diagonal entries of the unit upper triangular factor, the ``d``
-  right-hand sides (square-root-free Givens rotations, Gentleman 1973).
-* A column no row has reached holds ``dinv = EMPTY`` (huge, finite): the first row rotated
-  into it needs no branch of its own. The rotation replaces the column by the row scaled to a
-  unit leading entry, up to a relative ``big_w / (h**2 * EMPTY)``, and leaves the row with
-  the reciprocal weight ``h**2 * EMPTY``, so what it carries on is negligible.
-* Basis values by de Boor-Cox (NURBS Book A2.2) with the reciprocal knot differences from a
-  table (``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])``), so no division per row.
-* Column sums of the rows' basis values are accumulated (the conditioning certificate needs
-  them), and with ``store`` the basis values and spans are kept (the maximum deviation).
+The loops reuse the kernel's templates (:mod:`._codegen`: de Boor-Cox with a table of
+reciprocal knot differences, square-root-free Givens rotations on a flat factor of ``W = 1 +
+p + d`` entries per column, empty columns as ``dinv = EMPTY``, unsigned indices), so they
+compile to the same straight-line code. They add the column sums of the rows' basis values
+(the conditioning certificate needs them) and, with ``store``, keep the basis values and spans
+(the maximum deviation).
 
 The generated file is committed; ``python -m metaknot.bspline._moves_codegen`` rewrites it and
 a test checks it is current.
-
-``sweep_p{p}_d{d}`` is the same loop over every row, saving a state at given row boundaries:
-the forward and the backward (mirrored) sweeps of an incumbent.
 """
 
 from __future__ import annotations
