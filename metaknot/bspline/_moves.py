@@ -48,7 +48,7 @@ from ._kernel import (
     _fit_into,
     _max_deviation,
 )
-from ._moves_rows import EMPTY, FASTMATH, absorb, window
+from ._moves_rows import EMPTY, FASTMATH, absorb, sweep, window
 
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
@@ -437,6 +437,74 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
             max_dev_out[b] = _max_deviation(q, p, coef[:n2], basis_ws, spans_ws)
+
+
+@njit(cache=True)
+def bind(u, q, u_mirror, q_mirror, t, p):
+    """Everything delta evaluation caches for the incumbent with knot vector ``t`` (a feasible
+    fit): spans and basis values of the rows, ``row_start``, the Schoenberg-Whitney matching,
+    the reciprocal table, the forward states (``F``, ``Fsse``, ``Fcol``) and final factor,
+    the backward states (``G``, ``Gsse``, ``Gcol``) and the mirror's final factor, the bounds
+    of both factors' inverses and the column sums. One forward and one backward sweep."""
+    m, d = q.shape
+    w = 1 + p + d
+    n = t.size - p - 1
+    spans = np.empty(m, dtype=np.int64)
+    basis = np.empty((m, p + 1))
+    row_start = np.zeros(n + 1, dtype=np.int64)  # the first row of a span >= c
+    j = 0
+    for c in range(p + 1, n):
+        while j < m and u[j] < t[c]:
+            j += 1
+        row_start[c] = j
+    row_start[n] = m
+    match = np.empty(n, dtype=np.int64)
+    sw_matching(u, t, p, n, match)
+    iv = np.zeros(p * t.size)
+    reciprocals(t, p, iv, 0, t.size)
+    steps = n - p + 1
+    blocks = np.arange(steps)
+    F = np.empty((n + 1, p * w))
+    Fsse = np.empty(n + 1)
+    Fcol = np.empty((n + 1, p))
+    st_f = np.empty(n * w)
+    empty_state(st_f, n, w)
+    column_sums = np.zeros(n)
+    sweep(p, d, u, q, t, iv, n - 1, row_start[p:], blocks, st_f, F[p:], Fsse[p:], Fcol[p:],
+          column_sums, basis, spans)
+    # the backward sweep: the same loop on the mirrored problem (column c is the mirror's
+    # n - 1 - c); state c, after the rows j >= row_start[c], is saved at step n - c, its
+    # columns c - 1 .. c - p being the mirror's n - c .. n - c + p - 1
+    t_mirror = np.empty(t.size)
+    for i in range(t.size):
+        t_mirror[i] = -t[t.size - 1 - i]
+    iv_mirror = np.zeros(p * t.size)
+    reciprocals(t_mirror, p, iv_mirror, 0, t.size)
+    bounds = np.empty(steps, dtype=np.int64)
+    for s in range(steps):
+        bounds[s] = m - row_start[n - s]
+    states = np.empty((steps, p * w))
+    sse = np.empty(steps)
+    mirror_col = np.empty((steps, p))
+    st_m = np.empty(n * w)
+    empty_state(st_m, n, w)
+    sweep(p, d, u_mirror, q_mirror, t_mirror, iv_mirror, n - 1, bounds, blocks, st_m, states,
+          sse, mirror_col, np.zeros(n), np.empty((m, p + 1)), np.empty(m, dtype=np.int64))
+    G = np.empty((n + 1, p * w))
+    Gsse = np.empty(n + 1)
+    Gcol = np.empty((n + 1, p))
+    for s in range(steps):
+        c = n - s
+        G[c, :] = states[s]
+        Gsse[c] = sse[s]
+        for a in range(p):
+            Gcol[c, a] = mirror_col[s, p - 1 - a]
+    work_v = np.empty(n)
+    work_w = np.empty(n)
+    inverse_left = inverse_norm_bound(st_f, p, d, n, work_v, work_w)
+    inverse_right = inverse_norm_bound(st_m, p, d, n, work_v, work_w)
+    return (spans, basis, row_start, match, iv, F, Fsse, Fcol, st_f, G, Gsse, Gcol, st_m,
+            inverse_left, inverse_right, column_sums)
 
 
 @njit(cache=True)

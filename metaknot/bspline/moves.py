@@ -42,7 +42,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import _kernel, _moves, _moves_rows
+from . import _kernel, _moves
 from .fit import BatchFit, _prepare
 from .knots import clamped_knot_vector
 
@@ -102,6 +102,10 @@ class MoveEvaluator:
         self.u, self.q = _prepare(u, points, degree)
         self.degree = int(degree)
         m = self.u.size
+        # the mirrored problem of the backward sweep (parameters negated and reversed, points
+        # reversed)
+        self._u_mirror = np.ascontiguousarray(-self.u[::-1])
+        self._q_mirror = np.ascontiguousarray(self.q[::-1])
         if max_window_rows is not None and (isinstance(max_window_rows, bool) or not isinstance(
                 max_window_rows, int | np.integer) or max_window_rows < 0):
             raise ValueError(f"max_window_rows must be a whole number >= 0; got "
@@ -119,59 +123,16 @@ class MoveEvaluator:
         if code != _kernel.FEASIBLE:
             from .fit import Infeasibility
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
-        n = t.size - p - 1
-        m, d = q.shape
         self.interior = interior.copy()
         self.t = t
-        self.n = n
-        self.spans = np.empty(m, dtype=np.int64)
-        self.basis = np.empty((m, p + 1))
-        # the first data row of a span >= c (c = 0 .. n; the last point is in span n - 1)
-        self.row_start = np.zeros(n + 1, dtype=np.int64)
-        self.row_start[p + 1 : n] = np.searchsorted(u, t[p + 1 : n], side="left")
-        self.row_start[n] = m
-        self.match = np.empty(n, dtype=np.int64)
-        _moves.sw_matching(u, t, p, n, self.match)
-        w = 1 + p + d
-        iv = np.zeros(p * t.size)
-        _moves.reciprocals(t, p, iv, 0, t.size)
-        self._iv = iv.copy()
-        steps = np.arange(p, n + 1)  # state c: after the rows of spans < c
-        self._F = np.empty((n + 1, p * w))
-        self._Fsse = np.empty(n + 1)
-        self._Fcol = np.empty((n + 1, p))
-        self._st_f = np.empty(n * w)
-        _moves.empty_state(self._st_f, n, w)
-        column_sums = np.zeros(n)
-        _moves_rows.sweep(p, d, u, q, t, iv, n - 1, self.row_start[p:], steps - p, self._st_f,
-                          self._F[p:], self._Fsse[p:], self._Fcol[p:], column_sums,
-                          self.basis, self.spans)
-        self.sse = float(self._Fsse[n])
-        # the backward sweep: the same loop on the mirrored problem (column c is the
-        # mirror's n - 1 - c); state c, after the rows j >= row_start[c], is saved at step
-        # n - c, its columns c - 1 .. c - p being the mirror's n - c .. n - c + p - 1
-        t_mirror = np.ascontiguousarray(-t[::-1])
-        _moves.reciprocals(t_mirror, p, iv, 0, t.size)
-        backward = np.arange(n, p - 1, -1)
-        states = np.empty((n - p + 1, p * w))
-        sse = np.empty(n - p + 1)
-        mirror_col = np.empty((n - p + 1, p))
-        self._st_m = np.empty(n * w)
-        _moves.empty_state(self._st_m, n, w)
-        _moves_rows.sweep(p, d, np.ascontiguousarray(-u[::-1]), np.ascontiguousarray(q[::-1]),
-                          t_mirror, iv, n - 1, m - self.row_start[backward], n - backward,
-                          self._st_m, states, sse, mirror_col, np.zeros(n),
-                          np.empty((m, p + 1)), np.empty(m, dtype=np.int64))
-        self._G = np.empty((n + 1, p * w))
-        self._Gsse = np.empty(n + 1)
-        self._Gcol = np.empty((n + 1, p))
-        self._G[backward], self._Gsse[backward] = states, sse
-        self._Gcol[backward] = mirror_col[:, ::-1]
-        # bounds for the conditioning certificate: ||R^-1||_2 of the forward and the mirrored
-        # factor, ||B||_2 <= sqrt(largest column sum) (entries >= 0, rows summing to 1)
-        work = np.empty((2, n))
-        self._inverse_left = float(_moves.inverse_norm_bound(self._st_f, p, d, n, *work))
-        self._inverse_right = float(_moves.inverse_norm_bound(self._st_m, p, d, n, *work))
+        self.n = t.size - p - 1
+        (self.spans, self.basis, self.row_start, self.match, self._iv, self._F, self._Fsse,
+         self._Fcol, self._st_f, self._G, self._Gsse, self._Gcol, self._st_m,
+         self._inverse_left, self._inverse_right, column_sums) = _moves.bind(
+            u, q, self._u_mirror, self._q_mirror, t, p)
+        self.sse = float(self._Fsse[self.n])
+        # the certificate's bound of ||B||_2: sqrt(largest column sum) (entries >= 0, rows
+        # summing to 1)
         self._gram_norm = float(np.sqrt(column_sums.max()))
         # largest column sum of the columns before c, and from c on (c = 0 .. n)
         self._col_before = np.concatenate(([0.0], np.maximum.accumulate(column_sums)))
