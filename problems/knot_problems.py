@@ -33,7 +33,7 @@ from metaknot.bspline import (
     parameterize,
 )
 from metaknot.bspline._codegen import MAX_DIMENSION
-from metaknot.bspline._moves import masks_to_knots_serial
+from metaknot.bspline._moves import mask_replacements
 from metaknot.bspline.knots import stack_indices, stack_positions
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
@@ -184,8 +184,7 @@ class KnotProblem(Problem):
         if moves is None:
             return (*self.evaluate_with_metrics(X), 0)
         X = self.encoding.check(X)
-        fit, path = moves.evaluate(*self._stack(X),
-                                   max_deviation=self.objective.needs_max_deviation)
+        fit, path = self._evaluate_moves(moves, X, near)
         return self.objective(fit, self.info), self._metrics(fit), \
             int(np.count_nonzero(path == PATH_DELTA))
 
@@ -213,6 +212,11 @@ class KnotProblem(Problem):
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Candidates as flattened interior knots and row offsets (open curves)."""
         raise NotImplementedError
+
+    def _evaluate_moves(self, moves: MoveEvaluator, X: np.ndarray, near: np.ndarray
+                        ) -> tuple[BatchFit, np.ndarray]:
+        """Score the candidates ``X`` made from ``near`` with the move evaluator bound to it."""
+        return moves.evaluate(*self._stack(X), max_deviation=self.objective.needs_max_deviation)
 
     def _metrics(self, fit: BatchFit) -> dict[str, np.ndarray]:
         ok = fit.feasible
@@ -290,8 +294,14 @@ class KnotSelection(KnotProblem):
             return self.params[1:][np.asarray(x).astype(bool)]
         return interior_from_mask(self.params, x)
 
-    def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return masks_to_knots_serial(self.params, X.astype(bool))
+    def _evaluate_moves(self, moves: MoveEvaluator, X: np.ndarray, near: np.ndarray
+                        ) -> tuple[BatchFit, np.ndarray]:
+        """Masks as replacements of ``near``'s knots between the first and last flipped bit:
+        no whole knot vectors to compare."""
+        starts, stops, inserted, offsets = mask_replacements(
+            self.params, np.asarray(near, dtype=np.int64), X)
+        return moves.evaluate(inserted, offsets, max_deviation=self.objective.needs_max_deviation,
+                              _replacing=(starts, stops))
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "density": self.density}

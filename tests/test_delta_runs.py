@@ -156,3 +156,24 @@ def test_a_trace_recorded_one_candidate_at_a_time_equals_one_recorded_in_batches
     assert one.metrics.keys() == batched.metrics.keys() == {"rmse", "n_control_points", "extra"}
     for key in one.metrics:
         np.testing.assert_array_equal(one.metrics[key], batched.metrics[key])
+
+
+def test_mask_rows_far_from_the_origin_still_score_as_the_full_evaluation():
+    problem = KnotSelection(POINTS, objective="error_bounded",
+                            objective_options={"relative_tolerance": 1e-3})
+    n_var = problem.encoding.n_var
+    rng = np.random.default_rng(8)
+    near = (rng.random(n_var) < 0.3).astype(np.int64)
+    rows = [near.copy(), np.zeros(n_var, dtype=np.int64), np.ones(n_var, dtype=np.int64),
+            1 - near]
+    ends = near.copy()
+    ends[[0, -1]] ^= 1  # the first and the last bit: a replacement spanning every knot
+    rows.append(ends)
+    rows += [(rng.random(n_var) < 0.3).astype(np.int64) for _ in range(5)]
+    X = np.array(rows)
+    values, metrics, n_delta = problem.evaluate_near(X, near)
+    full, full_metrics = problem.evaluate_with_metrics(X)
+    np.testing.assert_allclose(values, full, rtol=1e-9)
+    for key in metrics:
+        np.testing.assert_allclose(metrics[key], full_metrics[key], rtol=1e-9)
+    assert n_delta >= 1  # the origin itself at least

@@ -513,20 +513,42 @@ def bind(u, q, u_mirror, q_mirror, t, p):
 
 
 @njit(cache=True)
-def masks_to_knots_serial(u, masks):
-    """``_kernel.masks_to_knots`` on one thread (no thread-pool start: for batches of a few)."""
+def mask_replacements(u, near, masks):
+    """Each row of ``masks`` (0/1 over the interior points ``u[1:-1]``) as a replacement of the
+    knots of the mask ``near``: the incumbent's knots between its first and last differing bit
+    by the row's knots there. Returns ``(starts, stops, inserted, offsets)``."""
     n_cand, n_var = masks.shape
-    total = 0
-    for b in range(n_cand):
-        for i in range(n_var):
-            total += masks[b, i]
-    knots = np.empty(total)
+    rank = np.zeros(n_var + 1, dtype=np.int64)  # knots of near before each bit
+    for i in range(n_var):
+        rank[i + 1] = rank[i] + (near[i] != 0)
+    starts = np.zeros(n_cand, dtype=np.int64)
+    stops = np.zeros(n_cand, dtype=np.int64)
+    lo = np.zeros(n_cand, dtype=np.int64)
+    hi = np.zeros(n_cand, dtype=np.int64)
     offsets = np.zeros(n_cand + 1, dtype=np.int64)
-    pos = 0
     for b in range(n_cand):
-        for i in range(n_var):
-            if masks[b, i]:
-                knots[pos] = u[i + 1]
+        first = 0
+        while first < n_var and (masks[b, first] != 0) == (near[first] != 0):
+            first += 1
+        last = n_var - 1
+        while last > first and (masks[b, last] != 0) == (near[last] != 0):
+            last -= 1
+        if first == n_var:  # the incumbent itself: an empty replacement
+            lo[b] = hi[b] = 0
+        else:
+            lo[b] = first
+            hi[b] = last + 1
+        starts[b] = rank[lo[b]]
+        stops[b] = rank[hi[b]]
+        count = 0
+        for i in range(lo[b], hi[b]):
+            count += masks[b, i] != 0
+        offsets[b + 1] = offsets[b] + count
+    inserted = np.empty(offsets[n_cand])
+    for b in range(n_cand):
+        pos = offsets[b]
+        for i in range(lo[b], hi[b]):
+            if masks[b, i] != 0:
+                inserted[pos] = u[i + 1]
                 pos += 1
-        offsets[b + 1] = pos
-    return knots, offsets
+    return starts, stops, inserted, offsets
