@@ -128,6 +128,18 @@ def _rotation_lines(p: int, d: int, i: int, indent: str) -> list[str]:
     return out
 
 
+def _row_rotation_lines(p: int, d: int, indent: str) -> list[str]:
+    """Rotate data row ``j`` (entries ``h0..hp`` from column ``first``, right-hand side
+    ``q[j]``, weight 1) into the factor and add what is left of it to ``sse``."""
+    lines = [*[f"{indent}y{k} = q[j, {k}]" for k in range(d)], f"{indent}big_w = 1.0"]
+    for i in range(p + 1):
+        lines += _rotation_lines(p, d, i, indent)
+    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
+    return [*lines,
+            f"{indent}# what the rotations leave of the row, with its weight, is its residual",
+            f"{indent}sse += ({left_over}) / big_w"]
+
+
 def render_rows(p: int, d: int) -> str:
     """Source of ``rows_p{p}_d{d}``."""
     ind = " " * 8
@@ -167,15 +179,9 @@ def render_rows(p: int, d: int) -> str:
         "        if store:",
         "            spans[j] = span",
         *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
-        *[f"        y{k} = q[j, {k}]" for k in range(d)],
-        "        big_w = 1.0",
     ]
-    for i in range(p + 1):
-        lines += _rotation_lines(p, d, i, ind)
-    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
+    lines += _row_rotation_lines(p, d, ind)
     lines += [
-        "        # what the rotations leave of the row, with its weight, is its residual",
-        f"        sse += ({left_over}) / big_w",
         "    ok = not unmatched and matched == last + U1 and before_last >= last",
         "    return sse, ok",
     ]

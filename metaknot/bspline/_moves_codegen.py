@@ -26,6 +26,7 @@ from pathlib import Path
 
 from ._codegen import _basis_lines as basis_lines
 from ._codegen import _rotation_lines as rotation_lines
+from ._codegen import _row_rotation_lines as row_rotation_lines
 
 MAX_DEGREE = 5
 MAX_DIMENSION = 3
@@ -43,6 +44,24 @@ from ._rows import EMPTY, FASTMATH, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
 
 __all__ = ["EMPTY", "FASTMATH", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
 '''
+
+
+def _row_lines(p: int, d: int, indent: str, first: str, guarded: bool) -> list[str]:
+    """One data row ``j``: its span (walking up to ``last``), basis values, column sums, the
+    stored basis and span (under ``if store:`` when ``guarded``), its rotation into ``st``."""
+    store = [f"{indent}spans[j] = span", *[f"{indent}basis[j, {i}] = h{i}" for i in range(p + 1)]]
+    if guarded:
+        store = [f"{indent}if store:", *("    " + line for line in store)]
+    return [
+        f"{indent}x = u[j]",
+        f"{indent}while t[span + U1] <= x and span < last:",
+        f"{indent}    span += U1",
+        *basis_lines(p, indent),
+        f"{indent}first = {first}",
+        *[f"{indent}colsum[first + U{i}] += h{i}" for i in range(p + 1)],
+        *store,
+        *row_rotation_lines(p, d, indent),
+    ]
 
 
 def render_window(p: int, d: int) -> str:
@@ -65,26 +84,7 @@ def render_window(p: int, d: int) -> str:
         "    col0 = np.uint64(col0)",
         "    sse = 0.0",
         "    for j in range(j0, j1):",
-        "        x = u[j]",
-        "        while t[span + U1] <= x and span < last:",
-        "            span += U1",
-    ]
-    lines += basis_lines(p, ind)
-    lines += [
-        f"        first = span - U{p} - col0",
-        *[f"        colsum[first + U{i}] += h{i}" for i in range(p + 1)],
-        "        if store:",
-        "            spans[j] = span",
-        *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
-        *[f"        y{k} = q[j, {k}]" for k in range(d)],
-        "        big_w = 1.0",
-    ]
-    for i in range(p + 1):
-        lines += rotation_lines(p, d, i, ind)
-    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
-    lines += [
-        "        # what the rotations leave of the row, with its weight, is its residual",
-        f"        sse += ({left_over}) / big_w",
+        *_row_lines(p, d, ind, f"span - U{p} - col0", guarded=True),
         "    return sse, span",
     ]
     return "\n".join(lines) + "\n"
@@ -117,24 +117,7 @@ def render_sweep(p: int, d: int) -> str:
         "        if s == steps:",
         "            break",
         "        for j in range(bounds[s], bounds[s + 1]):",
-        "            x = u[j]",
-        "            while t[span + U1] <= x and span < last:",
-        "                span += U1",
-    ]
-    lines += basis_lines(p, ind)
-    lines += [
-        f"            first = span - U{p}",
-        *[f"            colsum[first + U{i}] += h{i}" for i in range(p + 1)],
-        "            spans[j] = span",
-        *[f"            basis[j, {i}] = h{i}" for i in range(p + 1)],
-        *[f"            y{k} = q[j, {k}]" for k in range(d)],
-        "            big_w = 1.0",
-    ]
-    for i in range(p + 1):
-        lines += rotation_lines(p, d, i, ind)
-    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
-    lines += [
-        f"            sse += ({left_over}) / big_w",
+        *_row_lines(p, d, ind, f"span - U{p}", guarded=False),
     ]
     return "\n".join(lines) + "\n"
 

@@ -141,6 +141,7 @@ def sweep_p1_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U2] = cb * zk + sb * y0
             y0 = y0 - h1 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
 
 
@@ -322,6 +323,7 @@ def sweep_p1_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U3] = cb * zk + sb * y1
             y1 = y1 - h1 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
 
 
@@ -521,6 +523,7 @@ def sweep_p1_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U4] = cb * zk + sb * y2
             y2 = y2 - h1 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
 
 
@@ -757,6 +760,7 @@ def sweep_p2_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U3] = cb * zk + sb * y0
             y0 = y0 - h2 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
 
 
@@ -1064,6 +1068,7 @@ def sweep_p2_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U4] = cb * zk + sb * y1
             y1 = y1 - h2 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
 
 
@@ -1405,6 +1410,7 @@ def sweep_p2_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U5] = cb * zk + sb * y2
             y2 = y2 - h2 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
 
 
@@ -1793,6 +1799,7 @@ def sweep_p3_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U4] = cb * zk + sb * y0
             y0 = y0 - h3 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
 
 
@@ -2285,6 +2292,7 @@ def sweep_p3_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U5] = cb * zk + sb * y1
             y1 = y1 - h3 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
 
 
@@ -2833,6 +2841,7 @@ def sweep_p3_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U6] = cb * zk + sb * y2
             y2 = y2 - h3 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
 
 
@@ -3444,6 +3453,7 @@ def sweep_p4_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U5] = cb * zk + sb * y0
             y0 = y0 - h4 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
 
 
@@ -4189,6 +4199,7 @@ def sweep_p4_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U6] = cb * zk + sb * y1
             y1 = y1 - h4 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
 
 
@@ -5018,6 +5029,7 @@ def sweep_p4_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U7] = cb * zk + sb * y2
             y2 = y2 - h4 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
 
 
@@ -5932,6 +5944,7 @@ def sweep_p5_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U6] = cb * zk + sb * y0
             y0 = y0 - h5 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
 
 
@@ -7007,6 +7020,7 @@ def sweep_p5_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U7] = cb * zk + sb * y1
             y1 = y1 - h5 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
 
 
@@ -8200,6 +8214,7 @@ def sweep_p5_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             st[o + U8] = cb * zk + sb * y2
             y2 = y2 - h5 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
 
 
