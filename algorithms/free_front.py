@@ -44,7 +44,7 @@ from metaknot.registry import register
 
 from ._adapters import FinitePenalty
 from .knot_map import KnotMap
-from .nlopt_knots import LOCAL_ALGORITHMS, NLOPT_STOPS
+from .nlopt_knots import LOCAL_ALGORITHMS, NLOPT_STOPS, check_free_knots
 
 __all__ = ["FreeKnotFront"]
 
@@ -88,12 +88,7 @@ class FreeKnotFront(Optimizer):
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
 
     def setup(self, problem, rng: np.random.Generator) -> None:
-        if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots", "pad")):
-            raise ValueError(f"optimizer {self.name!r} needs a FreeKnots problem (continuous "
-                             f"knot positions); got {problem.name!r}")
-        if (problem.n_knots + 1) * self.min_gap >= 1:
-            raise ValueError(f"min_gap={self.min_gap} leaves no room for {problem.n_knots} knots; "
-                             f"it must be < 1 / {problem.n_knots + 1}")
+        check_free_knots(self.name, problem, self.min_gap)
         super().setup(problem, rng)
         self.box = KnotMap(problem.params, problem.degree, kind="sorted",
                            min_gap=self.min_gap, data_gap=0.0)

@@ -48,6 +48,17 @@ def _check_name(name: str, value: object, valid: tuple[str, ...]) -> str:
     return str(value)
 
 
+def check_free_knots(name: str, problem: FreeKnots, min_gap: float) -> None:
+    """Refuse a problem that is not a FreeKnots (duck-typed, so wrappers of one, counting or
+    logging, work as well) or has no room for its knots at gaps of ``min_gap``."""
+    if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots", "pad")):
+        raise ValueError(f"optimizer {name!r} needs a FreeKnots problem (continuous knot "
+                         f"positions); got {problem.name!r}")
+    if (problem.n_knots + 1) * min_gap >= 1:
+        raise ValueError(f"min_gap={min_gap} leaves no room for {problem.n_knots} knots; "
+                         f"it must be < 1 / {problem.n_knots + 1}")
+
+
 @register("nlopt")
 class NloptKnots(Optimizer):
     """nlopt on free knot positions; local runs start from the averaging knots (NURBS Book).
@@ -102,13 +113,7 @@ class NloptKnots(Optimizer):
         self.k_grid = check_param("k_grid", k_grid, low=2, integer=True)
 
     def setup(self, problem: FreeKnots, rng: np.random.Generator) -> None:
-        if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots", "pad")):
-            # duck-typed, so wrappers of a FreeKnots (counting, logging) work as well
-            raise ValueError(f"optimizer 'nlopt' needs a FreeKnots problem (continuous knot "
-                             f"positions); got {problem.name!r}")
-        if (problem.n_knots + 1) * self.min_gap >= 1:
-            raise ValueError(f"min_gap={self.min_gap} leaves no room for {problem.n_knots} knots; "
-                             f"it must be < 1 / {problem.n_knots + 1}")
+        check_free_knots(self.name, problem, self.min_gap)
         super().setup(problem, rng)
         self._worst_finite = -np.inf
         self._box = None
