@@ -38,7 +38,7 @@ from .bspline import (
     fit_spline,
     parameterize,
 )
-from .bspline.moves import PATH_DELTA, MoveEvaluator
+from .bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
 from .bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
 
 __all__ = ["ToleranceFit", "fit"]
@@ -214,15 +214,8 @@ class _Search:
 
     def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
         """The move evaluator bound to the knots ``near`` (None if they cannot be fitted)."""
-        if self._moves is not None and np.array_equal(self._moves.interior, near):
-            return self._moves
-        try:
-            if self._moves is None:
-                self._moves = MoveEvaluator(self.u, self.q, near, self.p)
-            else:
-                self._moves.rebind(near)
-        except ValueError:
-            self._moves = None
+        if self._moves is None or not np.array_equal(self._moves.interior, near):
+            self._moves = bound_to(self._moves, self.u, self.q, near, self.p)
         return self._moves
 
     def nudge(self, knots: np.ndarray, around: int, sweeps: int = 2) -> tuple[np.ndarray, float]:

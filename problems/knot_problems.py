@@ -35,7 +35,7 @@ from metaknot.bspline import (
 from metaknot.bspline._codegen import MAX_DIMENSION
 from metaknot.bspline._moves import mask_replacements
 from metaknot.bspline.knots import stack_indices, stack_positions
-from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
+from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
 from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
@@ -199,14 +199,8 @@ class KnotProblem(Problem):
             self._moves_key = key
             near = self.encoding.check(near)[0]
             interior = np.ascontiguousarray(self._interior_knots(near), dtype=np.float64)
-            try:
-                if self._moves is None:
-                    self._moves = MoveEvaluator(self.params, self.points, interior,
-                                                self.degree)
-                else:
-                    self._moves.rebind(interior)
-            except ValueError:  # an infeasible incumbent: every candidate is fitted in full
-                self._moves = None
+            # None for an infeasible incumbent: every candidate is then fitted in full
+            self._moves = bound_to(self._moves, self.params, self.points, interior, self.degree)
         return self._moves
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -44,7 +44,7 @@ TARGET = Path(__file__).with_name("_rows.py")
 
 HEADER = '''"""Row loops of the least-squares kernel, by degree, dimension. GENERATED: do not edit.
 
-Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_kernel._solve``.
+Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_kernel._solve_into``.
 """
 
 import numpy as np

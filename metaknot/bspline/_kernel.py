@@ -87,17 +87,6 @@ def reciprocal_differences(t, p):
 
 
 @njit(cache=True)
-def _solve(u, q, t, p, n, coef, basis, spans):
-    """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
-
-    Allocates its workspaces; see :func:`_solve_into`.
-    """
-    iv = np.empty(t.size * p)
-    st = np.empty(n * (1 + p + q.shape[1]))
-    return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st)
-
-
-@njit(cache=True)
 def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st):
     """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
 
@@ -218,14 +207,12 @@ def _max_deviation(q, p, coef, basis, spans):
 
 @njit(cache=True)
 def _fit_into(u, q, interior, p, t, coef, basis, spans):
-    """Fit one candidate into preallocated ``t`` and ``coef``; return (reason code, SSE)."""
+    """Fit one candidate into preallocated ``t`` and ``coef``; return (reason code, SSE).
+    Allocates the workspaces of :func:`_fit_ws`."""
     n = interior.size + p + 1
-    if n > u.size:
-        return TOO_MANY_CONTROL_POINTS, np.inf
-    reason = _build_knots(u, interior, p, t)
-    if reason != FEASIBLE:
-        return reason, np.inf
-    return _solve(u, q, t, p, n, coef, basis, spans)
+    iv = np.empty((n + p + 1) * p)
+    st = np.empty(n * (1 + p + q.shape[1]))
+    return _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st)
 
 
 @njit(cache=True)

@@ -1,6 +1,6 @@
 """Row loops of the least-squares kernel, by degree, dimension. GENERATED: do not edit.
 
-Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_kernel._solve``.
+Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_kernel._solve_into``.
 """
 
 import numpy as np

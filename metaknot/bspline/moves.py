@@ -44,14 +44,26 @@ from numpy.typing import ArrayLike
 
 from . import _kernel, _moves
 from .fit import BatchFit, _prepare
-from .knots import clamped_knot_vector
 
-__all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "bit_flips"]
+__all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "bit_flips", "bound_to"]
 
 PATH_DELTA = _moves.PATH_DELTA
 PATH_CHECKS = _moves.PATH_CHECKS
 PATH_FULL = _moves.PATH_FULL
 _NO_MOVES = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
+
+
+def bound_to(evaluator: MoveEvaluator | None, u: ArrayLike, points: ArrayLike,
+             interior_knots: np.ndarray, degree: int) -> MoveEvaluator | None:
+    """``evaluator`` moved to ``interior_knots`` (a new one if it is None), or None if those
+    knots cannot be fitted (their candidates must then be fitted in full)."""
+    try:
+        if evaluator is None:
+            return MoveEvaluator(u, points, interior_knots, degree)
+        evaluator.rebind(interior_knots)
+        return evaluator
+    except ValueError:
+        return None
 
 
 def bit_flips(u: ArrayLike, mask: ArrayLike, bits: ArrayLike
@@ -137,11 +149,6 @@ class MoveEvaluator:
         # largest column sum of the columns before c, and from c on (c = 0 .. n)
         self._col_before = np.concatenate(([0.0], np.maximum.accumulate(column_sums)))
         self._col_from = np.concatenate((np.maximum.accumulate(column_sums[::-1])[::-1], [0.0]))
-
-    @property
-    def knot_vector(self) -> np.ndarray:
-        """The incumbent's clamped knot vector."""
-        return clamped_knot_vector(self.u, self.interior, self.degree)
 
     def evaluate(self, knots: np.ndarray, offsets: np.ndarray, *, max_deviation: bool = False,
                  _replacing: tuple[np.ndarray, np.ndarray] | None = None
