@@ -14,10 +14,10 @@ Run: ``python benchmarks/bench_evaluate.py [--candidates 1000] [--repeats 3]``
 from __future__ import annotations
 
 import argparse
-import time
 
 import numba
 import numpy as np
+from _timing import best_time
 from scipy.interpolate import make_lsq_spline
 
 from metaknot.bspline import clamped_knot_vector, evaluate_masks, parameterize
@@ -34,15 +34,6 @@ def scipy_sse(u: np.ndarray, points: np.ndarray, masks: np.ndarray, degree: int)
         spline = make_lsq_spline(u, points, t, degree)
         out[b] = np.sum((points - spline(u)) ** 2)
     return out
-
-
-def best_time(func, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def main() -> None:

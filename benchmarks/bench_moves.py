@@ -25,10 +25,10 @@ Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5] [--second
 from __future__ import annotations
 
 import argparse
-import time
 
 import numba
 import numpy as np
+from _timing import best_time
 
 import metaknot as mk
 from metaknot.bspline import evaluate_knots, parameterize
@@ -60,15 +60,6 @@ def ea_at_fixed_wall_clock(seconds: float, seeds: int) -> None:
         (e0, f0), (e1, f1) = cells
         print(f"{name:12s} {e0:10.0f} evals {f0:9.4g} {e1:12.0f} evals {f1:9.4g}  "
               f"x{e1 / e0:.2f}")
-
-
-def best_time(func, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def main() -> None:
