@@ -3,7 +3,10 @@
 An optimizer never calls ``problem.evaluate`` itself (it is set up on a :class:`~metaknot.Task`,
 which cannot evaluate); it calls an :class:`Evaluator`, which truncates a batch to what is left of
 the budget, keeps the best candidate, runs the callbacks and raises :class:`BudgetExhausted` once
-nothing is left. So an optimizer cannot use more evaluations than it was given, whatever it does.
+nothing is left. So an optimizer that plays by the interface cannot use more evaluations than it
+was given. The evaluator's budget and counters are read-only properties, and the runner audits
+each run against the fits the model layer itself tallied (:mod:`metaknot.audit`): fits made
+behind the evaluator's back mark the run ``status="budget_violation"``.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from . import audit
 from .callbacks import Callback, Progress, as_callback
 from .front import ParetoArchive
 from .problem import Problem
@@ -53,6 +57,8 @@ class Evaluator:
     ----------
     task
         The optimizer's view of the problem (no evaluation), bound to this budget.
+    budget, n_evaluations, remaining
+        Evaluations allowed, used and left.
     best_x, best_f
         Best candidate so far and its value (``None`` and ``inf`` at first). With two
         objectives, ``best_f`` is the hypervolume gap of the front and ``best_x`` the front's
@@ -61,40 +67,78 @@ class Evaluator:
         With two objectives, the :class:`~metaknot.front.ParetoArchive` of the non-dominated
         candidates; else ``None``.
     external_fits
-        Fits the optimizer reported making on its own (:meth:`Task.count_fits`).
+        Fits the optimizer declared making on its own (:meth:`Task.count_fits`).
     delta_evaluations
         Evaluations the problem decided by exact delta evaluation (batches passed with
         ``near``; see :meth:`__call__`).
+    accounted_fits
+        The model fits this evaluator accounts for (see :mod:`metaknot.audit`): its
+        evaluations, the fits the problem made beyond one per candidate while evaluating them
+        (a move evaluator moved to a new incumbent), fits made by callbacks, and the declared
+        external fits.
+
+    Every attribute is read-only: the budget is fixed when the evaluator is made, and the
+    counters change only by evaluating.
     """
 
     def __init__(self, problem: Problem, budget: int,
                  callbacks: Sequence[Callback | Callable[[Progress], bool | None]] = ()):
-        self.problem = problem
-        self.budget = check_budget(budget)
-        self.callbacks = [as_callback(c) for c in callbacks]
-        self.n_evaluations = 0
-        self.best_x: np.ndarray | None = None
-        self.best_f = np.inf
-        self.external_fits = 0
-        self.delta_evaluations = 0
-        self.stop_requested = False
+        self._problem = problem
+        self._budget = check_budget(budget)
+        self._callbacks = tuple(as_callback(c) for c in callbacks)
+        self._n_evaluations = 0
+        self._best_x: np.ndarray | None = None
+        self._best_f = np.inf
+        self._external_fits = 0
+        self._delta_evaluations = 0
+        self._extra_fits = 0  # fits beyond one per candidate, made inside evaluations
+        self._callback_fits = 0
+        self._stop_requested = False
         n_objectives = getattr(problem, "n_objectives", 1)
         if n_objectives not in (1, 2):
             raise ValueError(f"problem {problem.name!r} has {n_objectives} objectives; metaknot "
                              "handles one, or two (a Pareto front)")
-        self.front = ParetoArchive(*reversed(problem.hypervolume_box)) \
+        self._front = ParetoArchive(*reversed(problem.hypervolume_box)) \
             if n_objectives == 2 else None
-        self.task = Task(problem, self)
+        self._task = Task(problem, self)
         self._start = time.perf_counter()
+
+    problem = property(lambda self: self._problem, doc="The problem evaluated.")
+    budget = property(lambda self: self._budget, doc="Evaluations allowed.")
+    n_evaluations = property(lambda self: self._n_evaluations, doc="Evaluations used.")
+    callbacks = property(lambda self: self._callbacks, doc="The run's callbacks.")
+    best_x = property(lambda self: self._best_x, doc="Best candidate so far (or None).")
+    best_f = property(lambda self: self._best_f, doc="Its objective value (inf at first).")
+    front = property(lambda self: self._front, doc="The Pareto archive (two objectives).")
+    task = property(lambda self: self._task, doc="The optimizer's view of the problem.")
+    external_fits = property(lambda self: self._external_fits,
+                             doc="Fits declared with :meth:`Task.count_fits`.")
+    delta_evaluations = property(lambda self: self._delta_evaluations,
+                                 doc="Evaluations decided by delta evaluation.")
+    stop_requested = property(lambda self: self._stop_requested,
+                              doc="True once a callback asked to stop.")
+
+    @property
+    def accounted_fits(self) -> int:
+        """Model fits this evaluator accounts for (evaluations, fits made inside them beyond one
+        per candidate, fits made by callbacks, declared external fits)."""
+        return self._n_evaluations + self._extra_fits + self._callback_fits + self._external_fits
 
     @property
     def remaining(self) -> int:
-        return self.budget - self.n_evaluations
+        """Evaluations left."""
+        return self._budget - self._n_evaluations
 
     @property
     def done(self) -> bool:
         """True once the budget is spent or a callback asked to stop."""
-        return self.remaining <= 0 or self.stop_requested
+        return self.remaining <= 0 or self._stop_requested
+
+    def _declare_external_fits(self, n: int) -> None:
+        """Record ``n`` fits an optimizer made outside the evaluator (:meth:`Task.count_fits`)."""
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 0:
+            raise ValueError(f"count_fits takes a whole number of fits >= 0; got {n!r}")
+        self._external_fits += int(n)
 
     def __call__(self, X: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
         """Evaluate ``X`` (shape ``(B, n_var)``) or the leading part that fits the budget.
@@ -114,42 +158,47 @@ class Evaluator:
             If the budget is already spent or a stop was requested.
         """
         if self.done:
-            raise BudgetExhausted(f"evaluation budget of {self.budget} spent")
-        X = self.problem.encoding.check(X)
+            raise BudgetExhausted(f"evaluation budget of {self._budget} spent")
+        problem = self._problem
+        X = problem.encoding.check(X)
         X = X[: self.remaining]
         if X.shape[0] == 0:
             return np.empty(0)
-        evaluate_near = getattr(self.problem, "evaluate_near", None)
+        fits_before = audit.fits()
+        evaluate_near = getattr(problem, "evaluate_near", None)
         if near is not None and evaluate_near is not None:
             F, metrics, n_delta = evaluate_near(X, np.asarray(near))
-            self.delta_evaluations += int(n_delta)
+            self._delta_evaluations += int(n_delta)
         else:
-            F, metrics = self.problem.evaluate_with_metrics(X)
+            F, metrics = problem.evaluate_with_metrics(X)
+        self._extra_fits += max(0, audit.fits() - fits_before - X.shape[0])
         F = np.asarray(F, dtype=np.float64)
-        expected = (X.shape[0],) if self.front is None else (X.shape[0], 2)
+        expected = (X.shape[0],) if self._front is None else (X.shape[0], 2)
         if F.shape != expected:
             raise ValueError(
-                f"{type(self.problem).__name__}.evaluate returned shape {F.shape}; "
+                f"{type(problem).__name__}.evaluate returned shape {F.shape}; "
                 f"expected {expected}"
             )
         if np.isnan(F).any():
             warnings.warn(
-                f"{type(self.problem).__name__}.evaluate returned NaN; counted as +inf",
+                f"{type(problem).__name__}.evaluate returned NaN; counted as +inf",
                 RuntimeWarning, stacklevel=2,
             )
             F = np.where(np.isnan(F), np.inf, F)
-        self.n_evaluations += len(F)
-        scalar = F if self.front is None else self.front.add(X, F, metrics)
-        if self.front is not None and not len(self.front):
+        self._n_evaluations += len(F)
+        front = self._front
+        scalar = F if front is None else front.add(X, F, metrics)
+        if front is not None and not len(front):
             scalar = np.full(len(F), np.inf)  # nothing feasible yet: no front, no incumbent
         best = int(np.argmin(scalar))
-        if scalar[best] < self.best_f:
-            self.best_f = float(scalar[best])
-            self.best_x = X[best].copy() if self.front is None else \
-                self.front.X[self.front.knee()].copy()
-        progress = Progress(self.n_evaluations, self.budget, self.best_f, scalar,
+        if scalar[best] < self._best_f:
+            self._best_f = float(scalar[best])
+            self._best_x = X[best].copy() if front is None else front.X[front.knee()].copy()
+        progress = Progress(self._n_evaluations, self._budget, self._best_f, scalar,
                             time.perf_counter() - self._start, metrics)
-        for callback in self.callbacks:
+        fits_before = audit.fits()
+        for callback in self._callbacks:
             if callback.on_batch(progress):
-                self.stop_requested = True
+                self._stop_requested = True
+        self._callback_fits += audit.fits() - fits_before
         return F

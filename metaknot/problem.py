@@ -151,6 +151,11 @@ class Problem(ABC):
     n_objectives: int = 1
     #: Ideal and reference points of the hypervolume of a two-objective problem.
     hypervolume_box: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (1.0, 1.0))
+    #: What an optimizer may read through its :class:`~metaknot.Task`, besides the encoding,
+    #: ``sample`` and ``repair`` that every task offers: read-only settings, and methods that
+    #: do not evaluate. Subclasses extend it with their own settings.
+    public_attributes: ClassVar[frozenset[str]] = frozenset(
+        {"name", "n_objectives", "hypervolume_box"})
 
     @abstractmethod
     def evaluate(self, X: np.ndarray) -> np.ndarray:

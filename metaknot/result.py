@@ -45,7 +45,13 @@ class RunResult:
         Evaluations decided by exact delta evaluation of local moves (the rest were full fits
         or knot checks); every one counts against the budget like a full fit.
     status, error
-        ``"ok"``, or ``"failed"`` with the error (a partial result of a crashed run).
+        ``"ok"``; ``"failed"`` with the error (a partial result of a crashed run); or
+        ``"budget_violation"`` with the reason, when the run's audit found more model fits than
+        the run accounts for, or a changed budget (see :func:`metaknot.minimize`).
+    audited_fits, accounted_fits
+        The audit's counts: model fits tallied while the optimizer was set up and ran
+        (:mod:`metaknot.audit`), and the fits the run accounts for (evaluations, fits the
+        evaluator and callbacks made beyond one per candidate, declared external fits).
     front
         Two-objective problems: the final Pareto front as columns (``objective_0``,
         ``objective_1`` and the members' metrics, e.g. ``n_control_points`` and ``rmse``),
@@ -74,6 +80,8 @@ class RunResult:
     status: str = "ok"
     error: str | None = None
     front: dict[str, list[float]] | None = None
+    audited_fits: int = 0
+    accounted_fits: int = 0
 
     @property
     def trace_evaluations(self) -> np.ndarray:
@@ -113,10 +121,11 @@ class RunResult:
         ``degree``, ``parameterization``, ``encoding``, ``n_knots``, ...), ``objective`` (its
         name) with ``objective.<option>``, ``algorithm`` with ``algorithm.<hyperparameter>``,
         the seed (``seed``, ``seed_spawn_key``), budget and evaluations used, ``best_f`` and the
-        fit metrics, the timings, ``external_fits``, ``delta_evaluations``, ``status`` /
-        ``error``. A two-objective run adds ``hypervolume`` (``1 - best_f``), ``front_size``
-        and ``front``, the front's columns as JSON (``metaknot.experiments.Study.fronts`` makes
-        a long table of them). The study layer adds the run id, study name, versions and time stamp.
+        fit metrics, the timings, ``external_fits``, ``delta_evaluations``, the audit's
+        ``audited_fits`` and ``accounted_fits``, ``status`` / ``error``. A two-objective run
+        adds ``hypervolume`` (``1 - best_f``), ``front_size`` and ``front``, the front's columns
+        as JSON (``metaknot.experiments.Study.fronts`` makes a long table of them). The study
+        layer adds the run id, study name, versions and time stamp.
         """
         params = {f"algorithm.{k}": _plain(v) for k, v in self.optimizer_params.items()}
         front = {} if self.front is None else {
@@ -139,6 +148,8 @@ class RunResult:
             **{k: float(v) for k, v in self.timings.items()},
             "external_fits": int(self.external_fits),
             "delta_evaluations": int(self.delta_evaluations),
+            "audited_fits": int(self.audited_fits),
+            "accounted_fits": int(self.accounted_fits),
             "status": self.status,
             "error": self.error,
             **front,

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from .audit import fits as fits_tallied
 from .budget import BudgetExhausted, Evaluator
 from .callbacks import Callback, Progress, ProgressBar, RunStart, TraceRecorder, as_callback
 from .optimizer import Optimizer
@@ -70,7 +71,11 @@ def minimize(
     Returns
     -------
     RunResult
-        Best solution, its decoded spline, the trace and the timings.
+        Best solution, its decoded spline, the trace and the timings. The run is audited: if
+        the model layer made more fits while the optimizer was set up and ran than the run
+        accounts for (its evaluations, fits made inside them, declared external fits), or the
+        budget changed, the result has ``status="budget_violation"``, the reason in ``error``
+        and both counts (``audited_fits``, ``accounted_fits``).
 
     Raises
     ------
@@ -90,6 +95,7 @@ def minimize(
     for hook in hooks:
         hook.on_start(RunStart(problem, optimizer, evaluator.budget))
     clock = _Clock()
+    audit = _Audit(evaluator)
     result = None
     try:
         with clock("setup_seconds"):
@@ -99,11 +105,13 @@ def minimize(
                 optimizer.run(evaluator)
             except BudgetExhausted:
                 pass
-        result = _record(problem, optimizer, seed, evaluator, recorder, clock)
+        audit.close()
+        result = _record(problem, optimizer, seed, evaluator, recorder, clock, audit)
     except Exception as exc:
         # keep what was computed: the best so far rides on the exception
+        audit.close()
         if evaluator.n_evaluations:
-            result = _record(problem, optimizer, seed, evaluator, recorder, clock,
+            result = _record(problem, optimizer, seed, evaluator, recorder, clock, audit,
                              error=f"{type(exc).__name__}: {exc}")
             exc.partial_result = result
             exc.add_note(f"metaknot: the run stopped after {evaluator.n_evaluations} "
@@ -113,6 +121,45 @@ def minimize(
         for hook in hooks:
             hook.on_end(result)
     return result
+
+
+class _Audit:
+    """The run's audit: the model fits tallied while the optimizer was set up and ran
+    (:mod:`metaknot.audit`) against the fits the evaluator accounts for, and the budget
+    against its value at the start.
+
+    The audit's own state lives here, in the runner, where neither the optimizer nor the
+    evaluator it is handed can reach it by attribute access.
+    """
+
+    def __init__(self, evaluator: Evaluator) -> None:
+        self._evaluator = evaluator
+        self.budget = evaluator.budget  # as given: the record keeps it whatever happens
+        self._fits_at_start = fits_tallied()
+        self.audited_fits = 0
+        self.accounted_fits = 0
+        self.violation: str | None = None
+
+    def close(self) -> None:
+        """Take the counts at the end of the run and decide whether it kept its budget."""
+        evaluator = self._evaluator
+        self.audited_fits = fits_tallied() - self._fits_at_start
+        self.accounted_fits = evaluator.accounted_fits
+        problems = []
+        if evaluator.budget != self.budget:
+            problems.append(f"the budget changed from {self.budget} to {evaluator.budget} "
+                            "during the run")
+        if evaluator.n_evaluations > self.budget:
+            problems.append(f"{evaluator.n_evaluations} evaluations were recorded against a "
+                            f"budget of {self.budget}")
+        if self.audited_fits > self.accounted_fits:
+            problems.append(
+                f"the model layer made {self.audited_fits} fits during the run, the run accounts "
+                f"for {self.accounted_fits} ({evaluator.n_evaluations} evaluations, "
+                f"{evaluator.external_fits} declared external fits and "
+                f"{self.accounted_fits - evaluator.n_evaluations - evaluator.external_fits} "
+                "made by the evaluator and callbacks)")
+        self.violation = "; ".join(problems) or None
 
 
 class _Clock:
@@ -132,7 +179,8 @@ class _Clock:
 
 
 def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evaluator,
-            recorder: TraceRecorder, clock: _Clock, error: str | None = None) -> RunResult:
+            recorder: TraceRecorder, clock: _Clock, audit: _Audit,
+            error: str | None = None) -> RunResult:
     best_x = evaluator.best_x
     with clock("decode_seconds"):
         try:
@@ -148,11 +196,16 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         seed_value, spawn_key = entropy, tuple(int(k) for k in seed.spawn_key)
     else:
         seed_value, spawn_key = (None if seed is None else int(seed)), ()
+    status = "ok" if error is None else "failed"
+    if audit.violation is not None:
+        status = "budget_violation"
+        error = f"budget violation: {audit.violation}" + ("" if error is None else
+                                                          f"; the run also failed: {error}")
     return RunResult(
         problem=problem.name,
         optimizer=optimizer.name,
         seed=seed_value,
-        budget=evaluator.budget,
+        budget=audit.budget,
         n_evaluations=evaluator.n_evaluations,
         best_x=best_x,
         best_f=evaluator.best_f,
@@ -165,7 +218,9 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         timings=timings,
         external_fits=evaluator.external_fits,
         delta_evaluations=evaluator.delta_evaluations,
-        status="ok" if error is None else "failed",
+        status=status,
         error=error,
+        audited_fits=audit.audited_fits,
+        accounted_fits=audit.accounted_fits,
         front=None if evaluator.front is None else evaluator.front.table(),
     )

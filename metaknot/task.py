@@ -1,32 +1,66 @@
-"""The optimizer's view of a problem: everything but evaluation.
+"""The optimizer's view of a problem: an allowlist of what it may read, and the budget.
 
 An optimizer set up by :func:`metaknot.minimize` (or on :attr:`Evaluator.task`) receives a
-:class:`Task`, not the problem. The task forwards what an optimizer needs — the encoding,
-``sample``, ``repair`` through the encoding, and the problem's read-only settings (``params``,
-``points``, ``degree``, ``n_knots``, ``pad``, ...) — and adds the budget, but it has no way to
-evaluate or decode candidates: every evaluation goes through the :class:`~metaknot.Evaluator`,
-which counts it. Fits an optimizer makes on its own (a baseline's FITPACK scan) are reported with
-:meth:`Task.count_fits` and end up in the run record.
+:class:`Task`, not the problem. A task offers the encoding, :meth:`Task.sample`,
+:meth:`Task.repair`, the budget (:attr:`Task.budget`, :attr:`Task.remaining`,
+:attr:`Task.n_evaluations`, all read-only) and the settings the problem lists in its
+``public_attributes`` (for the knot problems: ``params``, ``points``, ``degree``, ``n_knots``,
+``pad``, ...), arrays among them as read-only views. Nothing else of the problem is reachable by
+attribute access: no way to evaluate or decode candidates, no private attribute, and no method
+whose ``__self__`` is the problem. Every evaluation goes through the
+:class:`~metaknot.Evaluator`, which counts it. Fits an optimizer makes on its own (a baseline's
+FITPACK scan) are declared with :meth:`Task.count_fits` and end up in the run record.
+
+This is what an optimizer is *given*; it is not a sandbox (Python has none). What keeps a run
+honest beyond it is the audit of :func:`metaknot.minimize` (see :mod:`metaknot.audit`).
 """
 
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING, Any
 
-from .problem import Problem
+import numpy as np
+
+from .problem import Encoding, Problem
 
 if TYPE_CHECKING:
     from .budget import Evaluator
 
 __all__ = ["Task", "problem_type"]
 
-#: Problem members an optimizer may not reach through a task.
+#: Problem members whose absence from a task deserves its own explanation.
 HIDDEN = frozenset({"evaluate", "evaluate_details", "evaluate_with_metrics", "evaluate_near",
                     "decode"})
 
 
+class _Binding:
+    """What a task is bound to, kept out of the task's own attributes."""
+
+    __slots__ = ("_evaluator", "problem", "views")
+
+    def __init__(self, problem: Problem, evaluator: Evaluator) -> None:
+        self.problem = problem
+        # weak: the evaluator holds its task, and an entry of the weak-keyed table must not
+        # hold its own key
+        self._evaluator = weakref.ref(evaluator)
+        self.views: dict[str, Any] = {}  # read-only arrays and wrapped methods, by name
+
+    @property
+    def evaluator(self) -> Evaluator:
+        evaluator = self._evaluator()
+        if evaluator is None:
+            raise RuntimeError("this task's evaluator no longer exists (the run has ended)")
+        return evaluator
+
+
+# task -> binding; a task has no instance attributes (its ``__slots__`` holds only a weak
+# reference slot), so nothing behind it is reachable as ``task.<name>``
+_BINDINGS: weakref.WeakKeyDictionary[Task, _Binding] = weakref.WeakKeyDictionary()
+
+
 class Task:
-    """What an optimizer sees: the problem without its objective, plus the budget.
+    """What an optimizer sees: the problem's encoding and public settings, plus the budget.
 
     Parameters
     ----------
@@ -36,52 +70,105 @@ class Task:
         The evaluator that owns the budget.
     """
 
+    __slots__ = ("__weakref__",)
+
     def __init__(self, problem: Problem, evaluator: Evaluator) -> None:
-        object.__setattr__(self, "_problem", problem)
-        object.__setattr__(self, "_evaluator", evaluator)
+        _BINDINGS[self] = _Binding(problem, evaluator)
 
     def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        binding = _BINDINGS[self]
         if name in HIDDEN:
             raise AttributeError(
                 f"an optimizer cannot call problem.{name}(): candidates are evaluated only "
                 "through the evaluator, which enforces the budget"
             )
-        if name.startswith("__"):
-            raise AttributeError(name)
-        return getattr(self._problem, name)
+        if name in binding.views:
+            return binding.views[name]
+        problem = binding.problem
+        public = type(problem).public_attributes
+        if name.startswith("_") or name not in public:
+            raise AttributeError(
+                f"an optimizer sees only the encoding, sample, repair, the budget and the "
+                f"problem's public settings ({', '.join(sorted(public))}); "
+                f"{name!r} is not one of them"
+            )
+        value = getattr(problem, name)
+        view = _read_only(value)
+        if view is not value:  # arrays and methods: one view each, made once
+            binding.views[name] = view
+        return view
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"a task is read-only; cannot set {name!r}")
 
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"a task is read-only; cannot delete {name!r}")
+
     def __repr__(self) -> str:
-        return f"Task({self._problem.name!r}, budget={self.budget})"
+        return f"Task({_BINDINGS[self].problem.name!r}, budget={self.budget})"
+
+    @property
+    def encoding(self) -> Encoding:
+        """How candidates are represented."""
+        return _BINDINGS[self].problem.encoding
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """``n`` random candidates, drawn as the problem draws them."""
+        return _BINDINGS[self].problem.sample(rng, n)
+
+    def repair(self, X: np.ndarray) -> np.ndarray:
+        """The nearest valid candidates (:meth:`Encoding.repair`)."""
+        return _BINDINGS[self].problem.encoding.repair(X)
 
     @property
     def problem_type(self) -> type:
         """The class of the problem behind the task (for ``issubclass`` checks)."""
-        return type(self._problem)
+        return type(_BINDINGS[self].problem)
 
     @property
     def budget(self) -> int:
         """Evaluations allowed in this run."""
-        return self._evaluator.budget
+        return _BINDINGS[self].evaluator.budget
 
     @property
     def n_evaluations(self) -> int:
         """Evaluations used so far."""
-        return self._evaluator.n_evaluations
+        return _BINDINGS[self].evaluator.n_evaluations
 
     @property
     def remaining(self) -> int:
         """Evaluations left."""
-        return self._evaluator.remaining
+        return _BINDINGS[self].evaluator.remaining
 
     def count_fits(self, n: int = 1) -> None:
-        """Report ``n`` fits the optimizer made outside the evaluator (recorded in the run's
-        ``external_fits``; they are not objective evaluations and do not use the budget)."""
-        self._evaluator.external_fits += int(n)
+        """Declare ``n`` fits the optimizer made outside the evaluator (recorded in the run's
+        ``external_fits``; they are not objective evaluations and do not use the budget, but
+        the run's audit accepts them)."""
+        _BINDINGS[self].evaluator._declare_external_fits(n)
+
+
+def _read_only(value: Any) -> Any:
+    """``value`` as an optimizer may hold it: arrays as read-only views, the problem's own
+    methods as plain functions (whose ``__self__`` is not the problem)."""
+    if isinstance(value, np.ndarray):
+        view = value.view()
+        view.flags.writeable = False
+        return view
+    if callable(value) and isinstance(getattr(value, "__self__", None), Problem):
+        method = value
+
+        def call(*args: Any, **kwargs: Any) -> Any:
+            return method(*args, **kwargs)
+
+        call.__doc__ = method.__doc__
+        call.__name__ = getattr(method, "__name__", "method")
+        return call
+    return value
 
 
 def problem_type(problem: Problem | Task) -> type:
     """The class of a problem, seen directly or through a :class:`Task`."""
     return problem.problem_type if isinstance(problem, Task) else type(problem)
+

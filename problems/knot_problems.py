@@ -105,6 +105,10 @@ class KnotProblem(Problem):
         curves do) is dropped.
     """
 
+    public_attributes = Problem.public_attributes | {
+        "data", "points", "params", "degree", "closed", "parameterization", "objective",
+        "info", "last_candidate_point"}
+
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
                  parameterization: str = "centripetal", objective: str | Objective = "paper",
                  objective_options: dict[str, Any] | None = None, closed: bool = False) -> None:
@@ -265,6 +269,8 @@ class KnotSelection(KnotProblem):
     ``density`` is the probability that a random candidate selects a point (the seed: 0.5).
     """
 
+    public_attributes = KnotProblem.public_attributes | {"density"}
+
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
                  density: float = 0.5, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
@@ -321,6 +327,8 @@ class KnotIndices(KnotProblem):
     and a repeated index (coincident knots) makes it infeasible.
     """
 
+    public_attributes = KnotProblem.public_attributes | {"n_knots"}
+
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
                  n_knots: int = 20, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
@@ -357,6 +365,8 @@ class FreeKnots(KnotProblem):
     means "no knot": a search over the number of knots (as the objectives ``paper``, ``bic`` and
     ``error_bounded`` need) pads its candidates with NaN.
     """
+
+    public_attributes = KnotProblem.public_attributes | {"n_knots", "variable_count", "pad"}
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
                  n_knots: int = 20, variable_count: bool = False, **kwargs: Any) -> None:

@@ -60,6 +60,7 @@ def test_budget_is_never_exceeded(name: str, kind: str, budget: int) -> None:
     result = mk.minimize(problem, name, budget=budget, seed=11)
     assert problem.seen == result.n_evaluations <= budget
     assert result.n_evaluations >= 1
+    assert result.status == "ok" and result.audited_fits <= result.accounted_fits
     if result.best_x is not None:
         assert np.isfinite(result.best_f)
         assert result.best_f == pytest.approx(float(make_problem(kind).evaluate(result.best_x)[0]))

@@ -84,12 +84,21 @@ def prepare(study: Study | str | Path) -> Comparison:
         raise ReportError(f"{study.path}: the study has no runs yet")
     ok = runs[runs["status"] == "ok"].copy()
     notes = []
-    failed = len(runs) - len(ok)
+    violations = runs[runs["status"] == "budget_violation"]
+    if len(violations):
+        listed = ", ".join(sorted(violations["run_id"].astype(str))[:5])
+        more = f" and {len(violations) - 5} more" if len(violations) > 5 else ""
+        notes.append(
+            f"{len(violations)} run(s) are left out because their audit found fits beyond "
+            f"their budget (status budget_violation: {listed}{more}); their records keep both "
+            "counts (audited_fits, accounted_fits) and the reason (error).")
+    failed = len(runs) - len(ok) - len(violations)
     if failed:
         notes.append(f"{failed} run(s) failed and are left out (see the study's failed/ "
                      "folder); the tables count the runs each cell has.")
     if ok.empty:
-        raise ReportError(f"{study.path}: none of the {len(runs)} runs finished (all failed)")
+        raise ReportError(f"{study.path}: none of the {len(runs)} runs finished (all failed or "
+                          "left out by the budget audit)")
     ok["method"] = _methods(ok)
     ok["instance"] = _instances(ok)
     ok["budget"] = ok["budget"].astype(int)

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
+from .. import audit
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from .knots import stack_indices, stack_masks, stack_positions
@@ -111,6 +112,7 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
 def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray, p: int,
               max_deviation: bool) -> BatchFit:
     b = offsets.size - 1
+    audit.add_fits(b)
     out = BatchFit(
         sse=np.empty(b),
         max_deviation=np.empty(b if max_deviation else 0),
@@ -276,6 +278,7 @@ def fit_spline(
     interior = np.asarray(interior_knots, dtype=np.float64)
     if interior.ndim != 1:
         raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
+    audit.add_fits(1)
     code, t, coef = _kernel.fit_one(u, q, np.ascontiguousarray(interior), int(degree))
     if code != Infeasibility.FEASIBLE:
         raise ValueError(f"cannot fit these knots: {Infeasibility(code).message}")

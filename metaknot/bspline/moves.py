@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .. import audit
 from . import _kernel, _moves
 from .fit import BatchFit, _prepare
 
@@ -131,6 +132,7 @@ class MoveEvaluator:
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
+        audit.add_fits(1)
         code, t, _ = _kernel.fit_one(u, q, interior, p)
         if code != _kernel.FEASIBLE:
             from .fit import Infeasibility
@@ -174,6 +176,7 @@ class MoveEvaluator:
         if offsets.dtype != np.int64 or not offsets.flags.c_contiguous:
             offsets = np.ascontiguousarray(offsets, dtype=np.int64)
         b = offsets.size - 1
+        audit.add_fits(b)
         sse = np.empty(b)
         max_dev = np.empty(b if max_deviation else 0)
         n_ctrl = np.empty(b, dtype=np.int64)

@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
+from .. import audit
 from . import _periodic_kernel
 from .fit import BatchFit, Infeasibility
 from .parameterize import check_degree
@@ -154,6 +155,7 @@ def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
     q = q[:, None] if q.ndim == 1 else q
     t = periodic_knot_vector(interior, p)
     m = t.size - 2 * p - 1
+    audit.add_fits(1)
     if m > len(u):
         raise ValueError(f"{m} control points for {len(u)} data points")
     design = _wrapped_design(u, t, p)
@@ -186,6 +188,7 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     knots = np.ascontiguousarray(pos[present])
     offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
     b = pos.shape[0]
+    audit.add_fits(b)
     fit = BatchFit(sse=np.empty(b), max_deviation=np.empty(b if max_deviation else 0),
                    n_control_points=np.empty(b, dtype=np.int64),
                    reason=np.empty(b, dtype=np.int8))
