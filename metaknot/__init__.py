@@ -9,10 +9,11 @@ The public API::
 """
 
 from .budget import BudgetExhausted, Evaluator
-from .callbacks import Callback, Progress, ProgressBar, RunStart, Trace, TraceRecorder
+from .callbacks import Callback, ProgressBar, RunStart, TraceRecorder
 from .front import ParetoArchive, hypervolume_2d, nondominated_mask
 from .optimizer import Optimizer, check_param
 from .problem import Encoding, Problem
+from .progress import Progress, Trace
 from .registry import (
     available_optimizers,
     available_problems,

@@ -13,17 +13,19 @@ from __future__ import annotations
 
 import time
 import warnings
+import weakref
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 from . import audit
-from .callbacks import Callback, Progress, as_callback
 from .front import ParetoArchive
 from .problem import Problem
+from .progress import Progress
 from .task import Task
 
-__all__ = ["BudgetExhausted", "Evaluator", "Progress"]
+__all__ = ["BudgetExhausted", "Evaluator"]
 
 
 class BudgetExhausted(Exception):
@@ -49,9 +51,10 @@ class Evaluator:
     budget
         Maximum number of candidate evaluations (>= 1).
     callbacks
-        :class:`~metaknot.callbacks.Callback` objects or plain callables; their ``on_batch`` is
-        called with a :class:`Progress` after every batch, and returning ``True`` stops the run
-        (the next request raises :class:`BudgetExhausted`).
+        Plain callables, or objects with an ``on_batch`` method (a
+        :class:`~metaknot.callbacks.Callback`): called with a :class:`~metaknot.Progress` after
+        every batch; returning ``True`` stops the run (the next request raises
+        :class:`BudgetExhausted`).
 
     Attributes
     ----------
@@ -82,10 +85,11 @@ class Evaluator:
     """
 
     def __init__(self, problem: Problem, budget: int,
-                 callbacks: Sequence[Callback | Callable[[Progress], bool | None]] = ()):
+                 callbacks: Sequence[Callable[[Progress], bool | None] | Any] = ()):
         self._problem = problem
         self._budget = check_budget(budget)
-        self._callbacks = tuple(as_callback(c) for c in callbacks)
+        self._callbacks = tuple(callbacks)
+        self._on_batch = tuple(_batch_hook(c) for c in self._callbacks)
         self._n_evaluations = 0
         self._best_x: np.ndarray | None = None
         self._best_f = np.inf
@@ -100,7 +104,7 @@ class Evaluator:
                              "handles one, or two (a Pareto front)")
         self._front = ParetoArchive(*reversed(problem.hypervolume_box)) \
             if n_objectives == 2 else None
-        self._task = Task(problem, self)
+        self._task: weakref.ref[Task] | None = None
         self._start = time.perf_counter()
 
     problem = property(lambda self: self._problem, doc="The problem evaluated.")
@@ -110,13 +114,25 @@ class Evaluator:
     best_x = property(lambda self: self._best_x, doc="Best candidate so far (or None).")
     best_f = property(lambda self: self._best_f, doc="Its objective value (inf at first).")
     front = property(lambda self: self._front, doc="The Pareto archive (two objectives).")
-    task = property(lambda self: self._task, doc="The optimizer's view of the problem.")
     external_fits = property(lambda self: self._external_fits,
                              doc="Fits declared with :meth:`Task.count_fits`.")
     delta_evaluations = property(lambda self: self._delta_evaluations,
                                  doc="Evaluations decided by delta evaluation.")
     stop_requested = property(lambda self: self._stop_requested,
                               doc="True once a callback asked to stop.")
+
+    @property
+    def task(self) -> Task:
+        """The optimizer's view of the problem, bound to this budget.
+
+        The task keeps its evaluator alive, not the other way round (the evaluator holds it
+        weakly, making a new one when the last was dropped), so neither outlives its use.
+        """
+        task = None if self._task is None else self._task()
+        if task is None:
+            task = Task(self._problem, self)
+            self._task = weakref.ref(task)
+        return task
 
     @property
     def accounted_fits(self) -> int:
@@ -148,9 +164,9 @@ class Evaluator:
         shape ``(len, 2)``, and callbacks see the hypervolume gap after each candidate.
 
         ``near`` is a candidate the rows of ``X`` were made from by local moves (the parent of
-        a (1+1) EA, the incumbent of a local search). A problem with ``evaluate_near`` (the
-        knot problems) then scores them by exact delta evaluation where it can: the values are
-        the same, each row still counts as one evaluation.
+        a (1+1) EA, the incumbent of a local search). They are then scored by
+        :meth:`Problem.evaluate_near` (the knot problems use exact delta evaluation where they
+        can): the values are the same, each row still counts as one evaluation.
 
         Raises
         ------
@@ -165,9 +181,8 @@ class Evaluator:
         if X.shape[0] == 0:
             return np.empty(0)
         fits_before = audit.fits()
-        evaluate_near = getattr(problem, "evaluate_near", None)
-        if near is not None and evaluate_near is not None:
-            F, metrics, n_delta = evaluate_near(X, np.asarray(near))
+        if near is not None:
+            F, metrics, n_delta = problem.evaluate_near(X, np.asarray(near))
             self._delta_evaluations += int(n_delta)
         else:
             F, metrics = problem.evaluate_with_metrics(X)
@@ -197,8 +212,17 @@ class Evaluator:
         progress = Progress(self._n_evaluations, self._budget, self._best_f, scalar,
                             time.perf_counter() - self._start, metrics)
         fits_before = audit.fits()
-        for callback in self._callbacks:
-            if callback.on_batch(progress):
+        for on_batch in self._on_batch:
+            if on_batch(progress):
                 self._stop_requested = True
         self._callback_fits += audit.fits() - fits_before
         return F
+
+
+def _batch_hook(callback: Any) -> Callable[[Progress], bool | None]:
+    """What the evaluator calls after every batch: ``callback.on_batch`` if it has one, else the
+    callable itself."""
+    hook = getattr(callback, "on_batch", callback)
+    if not callable(hook):
+        raise TypeError(f"a callback must be a Callback or a callable; got {callback!r}")
+    return hook

@@ -9,12 +9,14 @@ callbacks like any other.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from tqdm.auto import tqdm
+
+from .progress import Progress, Trace
 
 if TYPE_CHECKING:
     from .optimizer import Optimizer
@@ -23,45 +25,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Callback",
-    "Progress",
     "ProgressBar",
     "RunStart",
-    "Trace",
     "TraceRecorder",
     "as_callback",
     "checkpoint_grid",
 ]
-
-
-@dataclass(frozen=True)
-class Progress:
-    """What callbacks see after every evaluated batch.
-
-    Attributes
-    ----------
-    n_evaluations
-        Evaluations used so far (this batch included).
-    budget
-        Evaluations allowed.
-    best_f
-        Best objective value so far.
-    batch_f
-        Objective values of this batch (evaluations ``n_evaluations - len(batch_f) + 1`` to
-        ``n_evaluations``); for a two-objective problem, the front's hypervolume gap after
-        each candidate.
-    elapsed
-        Seconds since the evaluator was created.
-    batch_metrics
-        Per-candidate metrics of this batch that the problem provides (knot problems:
-        ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``).
-    """
-
-    n_evaluations: int
-    budget: int
-    best_f: float
-    batch_f: np.ndarray
-    elapsed: float
-    batch_metrics: Mapping[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -156,41 +125,6 @@ def checkpoint_grid(budget: int, per_decade: int = 10) -> np.ndarray:
     top = int(np.ceil(np.log10(budget) * per_decade)) + 1
     grid = np.unique(np.round(10.0 ** (np.arange(top) / per_decade)).astype(np.int64))
     return np.union1d(grid[grid <= budget], [budget])
-
-
-@dataclass(frozen=True, eq=False)
-class Trace:
-    """Best-so-far history of a run, one row per recorded evaluation count.
-
-    A row is recorded at every improvement of the best value and at every checkpoint of
-    :func:`checkpoint_grid` (and at the run's last evaluation, marked as a checkpoint).
-
-    Attributes
-    ----------
-    evaluations
-        Evaluation count (1-based) of the row, increasing.
-    best_f
-        Best objective value after that many evaluations.
-    metrics
-        The incumbent's metrics after that many evaluations (``rmse``, ``n_control_points``,
-        ... as the problem provides them; NaN while nothing feasible was found).
-    improvement, checkpoint
-        Whether the row is an improvement, a checkpoint, or both.
-    """
-
-    evaluations: np.ndarray
-    best_f: np.ndarray
-    metrics: dict[str, np.ndarray]
-    improvement: np.ndarray
-    checkpoint: np.ndarray
-
-    def columns(self) -> dict[str, np.ndarray]:
-        """The trace as named columns (for a table)."""
-        return {"evaluations": self.evaluations, "best_f": self.best_f, **self.metrics,
-                "improvement": self.improvement, "checkpoint": self.checkpoint}
-
-    def __len__(self) -> int:
-        return int(self.evaluations.size)
 
 
 class TraceRecorder(Callback):

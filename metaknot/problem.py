@@ -156,6 +156,9 @@ class Problem(ABC):
     #: do not evaluate. Subclasses extend it with their own settings.
     public_attributes: ClassVar[frozenset[str]] = frozenset(
         {"name", "n_objectives", "hypervolume_box"})
+    #: Metrics every run record of this problem has (NaN when the run found nothing feasible),
+    #: as its solution's ``metrics()`` gives them.
+    metric_names: ClassVar[tuple[str, ...]] = ()
 
     @abstractmethod
     def evaluate(self, X: np.ndarray) -> np.ndarray:
@@ -171,6 +174,18 @@ class Problem(ABC):
         ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``). The default has
         no metrics; override to provide some without a second evaluation."""
         return self.evaluate(X), {}
+
+    def evaluate_near(self, X: np.ndarray, near: np.ndarray
+                      ) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
+        """:meth:`evaluate_with_metrics` for candidates made from ``near`` by local moves, plus
+        how many of them were decided by a cheaper path than a full evaluation.
+
+        The evaluator calls this when an optimizer names the origin of its batch
+        (:meth:`~metaknot.Optimizer.move_origin`). The default evaluates in full (and returns
+        0); a problem that can score local moves incrementally overrides it (the knot problems
+        do, by exact delta evaluation). The values must be those of a full evaluation.
+        """
+        return (*self.evaluate_with_metrics(X), 0)
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """``n`` random candidates; the default draws uniformly from the encoding."""

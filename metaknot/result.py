@@ -8,13 +8,9 @@ from typing import Any
 
 import numpy as np
 
-from .callbacks import Trace
+from .progress import Trace
 
 __all__ = ["RunResult"]
-
-#: Fit metrics every knot-problem record has (NaN when nothing feasible was found).
-METRICS = ("n_control_points", "sse", "rmse", "euclidean_distance", "max_deviation")
-
 
 @dataclass(frozen=True, eq=False)
 class RunResult:
@@ -35,7 +31,7 @@ class RunResult:
         found).
     trace
         Best-so-far history: improvements and log-spaced checkpoints, with the incumbent's
-        metrics (:class:`~metaknot.callbacks.Trace`).
+        metrics (:class:`~metaknot.Trace`).
     elapsed
         Wall-clock seconds of the whole run; ``timings`` splits them into ``setup_seconds``,
         ``optimize_seconds`` and ``decode_seconds``.
@@ -59,6 +55,8 @@ class RunResult:
         single-objective runs.
     solution
         ``problem.decode(best_x)`` (for knot problems: the fitted spline and its metrics).
+    metric_names
+        The problem's ``metric_names``: the metrics every record of it has.
     """
 
     problem: str
@@ -82,6 +80,7 @@ class RunResult:
     front: dict[str, list[float]] | None = None
     audited_fits: int = 0
     accounted_fits: int = 0
+    metric_names: tuple[str, ...] = ()
 
     @property
     def trace_evaluations(self) -> np.ndarray:
@@ -100,10 +99,11 @@ class RunResult:
         return rows
 
     def metrics(self) -> dict[str, float]:
-        """The solution's fit metrics (NaN for each if there is no solution)."""
+        """The solution's metrics: its ``metrics()``, with NaN for each of the problem's
+        ``metric_names`` it lacks (all of them if there is no solution)."""
         found = getattr(self.solution, "metrics", None)
         values = found() if callable(found) else {}
-        return {**dict.fromkeys(METRICS, np.nan), **values}
+        return {**dict.fromkeys(self.metric_names, np.nan), **values}
 
     def summary(self) -> dict[str, Any]:
         """Flat dictionary of the scalar outcome: names, seed, budget, ``best_f`` (the objective

@@ -11,9 +11,10 @@ import numpy as np
 
 from .audit import fits as fits_tallied
 from .budget import BudgetExhausted, Evaluator
-from .callbacks import Callback, Progress, ProgressBar, RunStart, TraceRecorder, as_callback
+from .callbacks import Callback, ProgressBar, RunStart, TraceRecorder, as_callback
 from .optimizer import Optimizer
 from .problem import Problem
+from .progress import Progress
 from .registry import get_optimizer, get_problem
 from .result import RunResult
 
@@ -61,7 +62,7 @@ def minimize(
         entropy and spawn key are recorded); the same seed gives the same result.
     callbacks
         :class:`~metaknot.callbacks.Callback` objects (start / batch / end) or plain callables
-        called after every evaluated batch with a :class:`~metaknot.callbacks.Progress`;
+        called after every evaluated batch with a :class:`~metaknot.Progress`;
         returning ``True`` stops the run.
     progress
         Show a progress bar over the evaluations (hidden when the output is not a terminal).
@@ -222,5 +223,6 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         error=error,
         audited_fits=audit.audited_fits,
         accounted_fits=audit.accounted_fits,
+        metric_names=tuple(problem.metric_names),
         front=None if evaluator.front is None else evaluator.front.table(),
     )

@@ -18,40 +18,43 @@ honest beyond it is the audit of :func:`metaknot.minimize` (see :mod:`metaknot.a
 from __future__ import annotations
 
 import weakref
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from .problem import Encoding, Problem
 
-if TYPE_CHECKING:
-    from .budget import Evaluator
-
 __all__ = ["Task", "problem_type"]
 
-#: Problem members whose absence from a task deserves its own explanation.
-HIDDEN = frozenset({"evaluate", "evaluate_details", "evaluate_with_metrics", "evaluate_near",
-                    "decode"})
+#: Problem members whose absence from a task deserves its own explanation: ``evaluate*`` and
+#: ``decode*`` (``evaluate``, ``evaluate_with_metrics``, ``evaluate_near``, ``decode``, ...).
+EVALUATING = ("evaluate", "decode")
+
+
+class BudgetOwner(Protocol):
+    """What a task reads of the :class:`~metaknot.Evaluator` that owns it."""
+
+    @property
+    def budget(self) -> int: ...
+
+    @property
+    def n_evaluations(self) -> int: ...
+
+    @property
+    def remaining(self) -> int: ...
+
+    def _declare_external_fits(self, n: int) -> None: ...
 
 
 class _Binding:
     """What a task is bound to, kept out of the task's own attributes."""
 
-    __slots__ = ("_evaluator", "problem", "views")
+    __slots__ = ("evaluator", "problem", "views")
 
-    def __init__(self, problem: Problem, evaluator: Evaluator) -> None:
+    def __init__(self, problem: Problem, evaluator: BudgetOwner) -> None:
         self.problem = problem
-        # weak: the evaluator holds its task, and an entry of the weak-keyed table must not
-        # hold its own key
-        self._evaluator = weakref.ref(evaluator)
+        self.evaluator = evaluator
         self.views: dict[str, Any] = {}  # read-only arrays and wrapped methods, by name
-
-    @property
-    def evaluator(self) -> Evaluator:
-        evaluator = self._evaluator()
-        if evaluator is None:
-            raise RuntimeError("this task's evaluator no longer exists (the run has ended)")
-        return evaluator
 
 
 # task -> binding; a task has no instance attributes (its ``__slots__`` holds only a weak
@@ -72,14 +75,14 @@ class Task:
 
     __slots__ = ("__weakref__",)
 
-    def __init__(self, problem: Problem, evaluator: Evaluator) -> None:
+    def __init__(self, problem: Problem, evaluator: BudgetOwner) -> None:
         _BINDINGS[self] = _Binding(problem, evaluator)
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("__"):
             raise AttributeError(name)
         binding = _BINDINGS[self]
-        if name in HIDDEN:
+        if name.startswith(EVALUATING):
             raise AttributeError(
                 f"an optimizer cannot call problem.{name}(): candidates are evaluated only "
                 "through the evaluator, which enforces the budget"

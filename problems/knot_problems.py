@@ -108,6 +108,7 @@ class KnotProblem(Problem):
     public_attributes = Problem.public_attributes | {
         "data", "points", "params", "degree", "closed", "parameterization", "objective",
         "info", "last_candidate_point"}
+    metric_names = ("n_control_points", "sse", "rmse", "euclidean_distance", "max_deviation")
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
                  parameterization: str = "centripetal", objective: str | Objective = "paper",

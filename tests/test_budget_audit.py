@@ -319,8 +319,14 @@ def test_evaluators_and_their_tasks_are_freed():
     import weakref
 
     problem = KnotSelection(SPIRAL)
+    task = mk.Evaluator(problem, 10).task
+    assert task.budget == 10  # the task keeps its evaluator
     evaluator = mk.Evaluator(problem, 10)
-    gone = weakref.ref(evaluator), weakref.ref(evaluator.task)
-    del evaluator
-    gc.collect()
-    assert gone[0]() is None and gone[1]() is None
+    assert evaluator.task is evaluator.task
+    gone = weakref.ref(evaluator), weakref.ref(evaluator.task), weakref.ref(task)
+    gc.disable()  # freed by reference counting alone: no cycle between evaluator and task
+    try:
+        del evaluator, task
+        assert [ref() for ref in gone] == [None, None, None]
+    finally:
+        gc.enable()

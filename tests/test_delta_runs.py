@@ -129,7 +129,7 @@ def test_the_default_move_origin_is_none():
 
 
 def test_a_trace_recorded_one_candidate_at_a_time_equals_one_recorded_in_batches():
-    from metaknot.callbacks import Progress, TraceRecorder
+    from metaknot import Progress, TraceRecorder
 
     rng = np.random.default_rng(3)
     values = np.where(rng.random(400) < 0.1, np.inf, rng.random(400) * 10)
