@@ -99,7 +99,15 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
 
 
 @pytest.mark.parametrize(("points", "kwargs", "message"), [
-    (np.array([[0.0, 0], [1, 1], [np.nan, 2], [3, 3], [4, 5], [5, 1]]), {}, "row 3"),
+    (np.array([[0.0, 0], [1, 1], [np.nan, 2], [3, 3], [4, 5], [5, 1]]), {},
+     r"NaN or infinite values \(first at row 2\)"),
+    # the words of every entry point (as_points), not a knot error of the periodic fit
+    (np.array([[0.0, 0], [1, 1], [1e308, 2], [3, 3], [4, 5], [5, 1]]), {},
+     r"magnitude above 1e\+100 \(first at row 2\)"),
+    (np.column_stack((PEAK_X, np.full(300, 1e200))), {"function": True},
+     r"magnitude above 1e\+100"),
+    (np.column_stack((PEAK_X * 1e200, PEAK[:, 1])), {"function": True},
+     r"parameter values \(x\) has values of magnitude above 1e\+100"),
     (np.array([[0.0, 0], [1, 1], [2, 0], [3, 3]]), {}, "too few for degree 3"),
     (np.array([[0.0, 0], [1, 1], [1, 1], [3, 3], [4, 5], [5, 1]]), {}, "repeats the point"),
     (PEAK, {"tol": 0.0}, "tolerance must be a number > 0"),
@@ -175,6 +183,7 @@ def test_function_data_as_a_plane_curve_in_dxf(tmp_path) -> None:
     ("x,y\n0,0\n1,1\n2,zero\n3,1\n4,0\n", [], "line 4, column 2: 'zero' is not a number"),
     ("0,0\n1,1\n2\n3,1\n4,0\n", [], "line 3 has 1 columns, line 1 has 2"),
     ("0,0\n1,1\n2,nan\n3,1\n4,0\n5,2\n", [], "line 3, column 2: 'nan' is not a finite"),
+    ("0,0\n1,1\n2,1e308\n3,1\n4,0\n5,2\n", [], "magnitude above 1e+100 (first at row 2)"),
     ("\0" * 10_000_000, [], "pts.csv: binary data (a NUL byte at offset 0)"),
     ("0\n1\n2\n3\n4\n5\n", ["--function"], "--function"),
     ("0,0\n1,1\n2,0\n3,1\n4,0\n5,2\n", ["--tol", "0"], "tolerance must be a number > 0"),
@@ -200,6 +209,19 @@ def test_a_file_that_is_no_npy_array_is_named(tmp_path, capsys) -> None:
         (tmp_path / "scan.npy").write_bytes(content)
         assert main(["fit", str(tmp_path / "scan.npy"), "--tol", "0.01"]) == 2
         assert "scan.npy: not a .npy file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("kwargs", "tol"), [({"tol": 1e6}, 1e6), ({"tol": 1.0, "relative": True},
+                                                                  None)])
+def test_a_tolerance_beyond_the_extent_is_an_error_not_a_closed_curve(kwargs, tol) -> None:
+    spiral = get_curve("archimedean").points  # open: its ends lie 2 pi apart
+    diagonal = float(np.linalg.norm(np.ptp(spiral, axis=0)))
+    tol = diagonal if tol is None else tol
+    with pytest.raises(ValueError) as info:
+        mk.fit(spiral, **kwargs)
+    assert str(info.value) == (f"the tolerance {tol:.3g} is not below the extent of the points "
+                               f"(their bounding-box diagonal, {diagonal:.3g}); give a smaller "
+                               "one")
 
 
 def arc_file(folder: Path) -> Path:
