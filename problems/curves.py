@@ -321,7 +321,7 @@ def _data_rows(path: Path) -> Iterator[tuple[int, list[str]]]:
     """Line number and fields of each data row of a text table: blank lines, ``#`` comments
     and a first row without a number (a header) are skipped."""
     first = True
-    with path.open(encoding="utf-8") as file:
+    with path.open(encoding="utf-8-sig") as file:  # a byte-order mark (spreadsheets) is dropped
         for number in itertools.count(1):
             try:
                 line = file.readline(MAX_LINE_CHARS + 1)

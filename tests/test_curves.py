@@ -373,6 +373,12 @@ def test_values_separated_by_whitespace(tmp_path):
     np.testing.assert_array_equal(load_points(path).points, [[1, 2], [3, 4], [5, 6], [7, 8]])
 
 
+def test_a_byte_order_mark_is_dropped(tmp_path):
+    path = tmp_path / "spreadsheet.csv"
+    path.write_bytes(b"\xef\xbb\xbf1,2\r\n3,4\r\n5,6\r\n")  # as spreadsheets save "CSV UTF-8"
+    np.testing.assert_array_equal(load_points(path).points, [[1, 2], [3, 4], [5, 6]])
+
+
 @pytest.mark.parametrize("suffix", [".json", ".xlsx", ""])
 def test_load_unsupported_suffix(tmp_path, suffix):
     path = tmp_path / f"points{suffix}"
