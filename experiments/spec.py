@@ -498,6 +498,12 @@ def _check_fingerprint(points: str | None, stored: Any) -> str | None:
     match it, or the file changed since the run."""
     if points is None:
         return None
+    from metaknot.problems import check_points_file
+
+    try:  # its kind and size from its first bytes, before the digest reads it through
+        check_points_file(points)
+    except ValueError as exc:
+        raise ConfigError(f"problem.points: {exc}") from None
     digest = _file_digest(points)
     if stored is not None and stored != digest:
         raise ConfigError(f"problem.points: {points} changed since the run was configured "
@@ -506,8 +512,9 @@ def _check_fingerprint(points: str | None, stored: Any) -> str | None:
 
 
 def _file_digest(path: str) -> str:
-    """Short SHA-256 of a data file: a changed file gives new run ids."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16]
+    """Short SHA-256 of a data file (read in blocks): a changed file gives new run ids."""
+    with open(path, "rb") as file:
+        return hashlib.file_digest(file, "sha256").hexdigest()[:16]
 
 
 def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | None):

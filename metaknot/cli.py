@@ -10,8 +10,6 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-import numpy as np
-
 from .registry import available_optimizers, available_problems
 from .runner import minimize
 
@@ -73,7 +71,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Fit a clamped B-spline with the fewest control points whose error stays "
                     "within the tolerance (never more than FITPACK's splprep needs), and write "
                     "knots, control points, metrics, a figure and a DXF file.")
-    fit.add_argument("points", help="a .csv (numbers only, one point per row) or .npy file")
+    fit.add_argument("points", help="a .csv/.txt table (one point per row, values separated "
+                                    "by commas or spaces; a header row and # comments are "
+                                    "skipped) or a .npy array; see docs/input-files.md")
     fit.add_argument("--tol", type=float, required=True, help="the tolerance")
     fit.add_argument("--relative", action="store_true",
                      help="--tol is a fraction of the bounding-box diagonal")
@@ -98,6 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="evaluations of the GA at each count of the fixed-count search")
     fit.add_argument("--seed", type=int, default=0, help="seed of the searches")
     fit.add_argument("--out", default=None, help="output folder (default: <points>-fit)")
+    fit.add_argument("--force", action="store_true",
+                     help="replace the files of a previous fit in the --out folder (only "
+                          "those its fit.json lists)")
     fit.set_defaults(func=_fit)
     report = sub.add_parser("report", help="statistical comparison report of a stored study",
                             description="Tables, tests and figures of a study in the results "
@@ -122,69 +125,21 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def read_points(path: str) -> np.ndarray:
-    """Points from a ``.npy`` file or a CSV file of numbers only (comma- or
-    whitespace-separated, one point per row).
-
-    Raises
-    ------
-    ValueError
-        Naming the file, and the row and column of a cell that is not a number.
-    """
-    from pathlib import Path
-
-    file = Path(path)
-    if not file.is_file():
-        raise ValueError(f"{path}: no such file")
-    if file.suffix.lower() == ".npy":
-        try:
-            data = np.load(file, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
-            raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
-        if not np.issubdtype(data.dtype, np.number):
-            raise ValueError(f"{path}: values must be numbers; got dtype {data.dtype}")
-        return np.asarray(data, dtype=np.float64)
-    try:
-        lines = file.read_text().splitlines()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: cannot be read as text ({exc})") from None
-    rows = []
-    for number, line in enumerate(lines, start=1):
-        if not line.strip():
-            continue
-        cells = line.replace(",", " ").split()
-        try:
-            rows.append([float(cell) for cell in cells])
-        except ValueError:
-            bad = next(c for c in cells if not _is_number(c))
-            hint = " (a header line? remove it)" if number == 1 else ""
-            raise ValueError(f"{path}: row {number}: {bad!r} is not a number{hint}") from None
-        if len(rows[-1]) != len(rows[0]):
-            raise ValueError(f"{path}: row {number} has {len(rows[-1])} columns, the first "
-                             f"row {len(rows[0])}")
-    if not rows:
-        raise ValueError(f"{path}: no points")
-    return np.array(rows)
-
-
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
-
-
 def _fit(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from .fit_output import write_fit
+    from metaknot.problems import load_points
+
+    from .fit_output import check_destination, write_fit
     from .tolerance_fit import fit
 
-    points = read_points(args.points)
-    if args.function and (points.ndim != 2 or points.shape[1] < 2):
+    out = Path(args.out) if args.out else Path(args.points).with_name(
+        Path(args.points).stem + "-fit")
+    check_destination(out, force=args.force)
+    points = load_points(args.points).points
+    if args.function and points.shape[1] < 2:
         raise ValueError(f"--function: {args.points} needs two or more columns (x, f(x)); it "
-                         f"has {1 if points.ndim == 1 else points.shape[1]}")
+                         f"has {points.shape[1]}")
     n, dims = points.shape[0], points.shape[1] - (1 if args.function else 0)
     print(f"read {n} points ({dims}-D{', function of x' if args.function else ''}) from "
           f"{args.points}", flush=True)
@@ -194,9 +149,8 @@ def _fit(args: argparse.Namespace) -> int:
                  method=args.method, budget=args.budget, seed=args.seed, progress=True)
     for stage in result.stages:
         print(stage, flush=True)
-    out = Path(args.out) if args.out else Path(args.points).with_name(
-        Path(args.points).stem + "-fit")
-    written = write_fit(result, result.points if not args.function else points[:, 1:], out)
+    written = write_fit(result, result.points if not args.function else points[:, 1:], out,
+                        force=args.force)
     m = result.metrics
     print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
           f"{result.fitpack['n_control_points']}), max deviation {m['max_deviation']:.4g}, "

@@ -4,12 +4,14 @@
 ``knots.csv``, ``control_points.csv``, ``metrics.json``, ``fit.png`` / ``fit.svg`` (the data,
 the fitted curve and its knots) and ``fit.dxf`` (the curve as a DXF SPLINE entity, for CAD
 tools). All files are written to a temporary folder first and moved into place together, so a
-failure leaves no partial output.
+failure leaves no partial output. ``fit.json`` lists the files (``"files"``): with ``force`` a
+later fit replaces those, and only those.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -18,10 +20,11 @@ import numpy as np
 
 from .tolerance_fit import ToleranceFit
 
-__all__ = ["FILES", "write_fit"]
+__all__ = ["FILES", "check_destination", "write_fit"]
 
 FILES = ("fit.json", "knots.csv", "control_points.csv", "metrics.json", "fit.png", "fit.svg",
          "fit.dxf")
+_MAX_SUMMARY_BYTES = 2**26  # a larger fit.json is not one a fit wrote
 
 
 def _summary(result: ToleranceFit) -> dict:
@@ -30,7 +33,7 @@ def _summary(result: ToleranceFit) -> dict:
         "metric": result.metric,
         "tolerance": result.tolerance, "knots": result.knots.tolist(),
         "control_points": result.control_points.tolist(), "metrics": result.metrics,
-        "fitpack": result.fitpack,
+        "fitpack": result.fitpack, "files": list(FILES),
     }
 
 
@@ -93,20 +96,65 @@ def _dxf(result: ToleranceFit, path: Path) -> None:
     doc.saveas(path)
 
 
-def write_fit(result: ToleranceFit, points: np.ndarray, out: str | Path) -> list[Path]:
+def check_destination(out: str | Path, *, force: bool = False) -> Path:
+    """Check that :func:`write_fit` can write into ``out``, before anything is computed.
+
+    ``out`` must be a folder, or not exist yet under a folder (not a file), and hold none of
+    ``FILES``; with ``force`` it may hold those a previous fit wrote (the ones its
+    ``fit.json`` lists), which are then replaced. Other files are never touched.
+
+    Raises
+    ------
+    ValueError
+        Naming ``out`` and what is in the way, in one line.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out}: a file of that name exists; give a folder")
+    parent = next(folder for folder in (out, *out.parents) if folder.exists())
+    if not parent.is_dir():
+        raise ValueError(f"--out {out}: {parent} is a file, not a folder")
+    clash = [name for name in FILES if os.path.lexists(out / name)]
+    if not clash:
+        return out
+    if not force:
+        raise ValueError(f"--out {out} already holds {clash[0]}; --force replaces a previous "
+                         "fit's files, or choose another --out folder")
+    previous = _previous_fit_files(out)
+    foreign = [name for name in clash if name not in previous or not (out / name).is_file()]
+    if foreign:
+        raise ValueError(f"--out {out}: {foreign[0]} is not a file of a previous fit (its "
+                         "fit.json does not list it); --force replaces only those: move it or "
+                         "choose another --out folder")
+    return out
+
+
+def _previous_fit_files(out: Path) -> set[str]:
+    """The files a previous fit in ``out`` wrote, from its ``fit.json`` (empty if it has none
+    a fit wrote)."""
+    summary = out / "fit.json"
+    try:
+        if summary.stat().st_size > _MAX_SUMMARY_BYTES:
+            return set()
+        files = json.loads(summary.read_text()).get("files")
+    except (OSError, ValueError, AttributeError):  # missing, unreadable, not a JSON object
+        return set()
+    return {name for name in files if name in FILES} if isinstance(files, list) else set()
+
+
+def write_fit(result: ToleranceFit, points: np.ndarray, out: str | Path, *,
+              force: bool = False) -> list[Path]:
     """Write every output file of ``result`` into ``out`` (created if needed). A closed
     curve's ``knots.csv`` and DXF hold the periodic (extended) knot vector, its
     ``control_points.csv`` the distinct control points.
 
     Raises
     ------
-    FileExistsError
-        If ``out`` already holds one of the files (nothing is overwritten).
+    ValueError
+        If ``out`` cannot take the files (:func:`check_destination`): nothing is overwritten
+        but, with ``force``, a previous fit's files.
     """
-    out = Path(out)
-    clash = [name for name in FILES if (out / name).exists()]
-    if clash:
-        raise FileExistsError(f"{out} already holds {clash[0]}; choose another --out folder")
+    out = check_destination(out, force=force)
     out.mkdir(parents=True, exist_ok=True)
     points = np.asarray(points, dtype=np.float64)
     points = points[:, None] if points.ndim == 1 else points

@@ -39,6 +39,7 @@ from .bspline import (
     parameterize,
 )
 from .bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
+from .bspline.parameterize import check_coordinates
 from .bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
 
 __all__ = ["ToleranceFit", "fit"]
@@ -330,16 +331,15 @@ def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
         if q.shape[1] < 2:
             raise ValueError("function data needs at least two columns: x, then f(x)")
         params, q = q[:, 0].copy(), q[:, 1:].copy()
-    bad = np.flatnonzero(~np.isfinite(q).all(axis=1))
-    if bad.size:
-        raise ValueError(f"point {bad[0]} (row {bad[0] + 1}) is not finite (NaN or inf)")
+    check_coordinates(q, "points")
     if q.shape[0] < degree + 2:
         raise ValueError(f"{q.shape[0]} points are too few for degree {degree}: at least "
                          f"{degree + 2} needed")
     if params is not None:
         params = np.asarray(params, dtype=np.float64)
-        if params.shape != (q.shape[0],) or not np.isfinite(params).all():
-            raise ValueError("the parameter values (x) must be finite, one per point")
+        if params.shape != (q.shape[0],):
+            raise ValueError("the parameter values (x) must be one per point")
+        check_coordinates(params, "the parameter values (x)")
         steps = np.flatnonzero(np.diff(params) <= 0)
         if steps.size:
             raise ValueError(f"x must increase strictly: row {steps[0] + 2} has x "
@@ -399,8 +399,9 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     Raises
     ------
     ValueError
-        For bad points (NaN, too few, repeated consecutive points, x not increasing), a
-        tolerance <= 0 or below what interpolation reaches, or a bad option.
+        For bad points (NaN, magnitudes above 1e100, too few, repeated consecutive points, x
+        not increasing), a tolerance <= 0, below what interpolation reaches or not below the
+        extent of the points (their bounding-box diagonal), or a bad option.
     """
     start = time.perf_counter()
     p = check_degree(degree)
@@ -418,6 +419,9 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         raise ValueError("a relative tolerance needs points that are not all equal (their "
                          "bounding box has zero size); give an absolute tolerance")
     tol_abs = float(tol) * (diagonal if relative else 1.0)
+    if 0 < diagonal <= tol_abs:  # every curve in the bounding box would do, and the ends "meet"
+        raise ValueError(f"the tolerance {tol_abs:.3g} is not below the extent of the points "
+                         f"(their bounding-box diagonal, {diagonal:.3g}); give a smaller one")
     ends_meet = bool(np.linalg.norm(q[-1] - q[0]) <= tol_abs)
     if closed is None:
         closed = ends_meet and not function and params is None and len(q) > p + 2

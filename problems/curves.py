@@ -2,25 +2,45 @@
 
 from __future__ import annotations
 
+import codecs
 import hashlib
-from collections.abc import Callable
+import itertools
+from array import array
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
 from metaknot.bspline import as_points
+from metaknot.bspline._codegen import MAX_DIMENSION
 
 __all__ = [
     "CURVES",
+    "MAX_COLUMNS",
+    "MAX_LINE_CHARS",
+    "MAX_POINTS",
+    "MAX_TEXT_BYTES",
     "PointSet",
     "add_noise",
     "archimedean_spiral",
+    "check_points_file",
     "epitrochoid",
     "get_curve",
     "load_points",
     "vivaldi",
 ]
+
+#: Limits of a point file (:func:`load_points`, docs/input-files.md): the most points (rows),
+#: values per row (the coordinates the compiled kernels take and a parameter column),
+#: characters per line and bytes of a text file. One million points is the largest size
+#: measured (benchmarks/bench_input.py).
+MAX_POINTS = 1_000_000
+MAX_COLUMNS = MAX_DIMENSION + 1
+MAX_LINE_CHARS = 4096
+MAX_TEXT_BYTES = 2**28
+_HEAD_BYTES = 65536  # what check_points_file reads of a text file
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +150,13 @@ def get_curve(name: str, **kwargs: float) -> PointSet:
 
 
 def load_points(path: str | Path, *, params_column: int | None = None) -> PointSet:
-    """Load points from a ``.npy`` file or a CSV file (comma-separated, optional header row).
+    """Load points from a ``.npy`` file or a text table (``.csv``/``.txt``).
+
+    A text table has one point per line, its values separated by commas or else by
+    whitespace; blank lines and ``#`` comments are skipped, and so is a first row with no
+    number in it (a header). A file may hold at most ``MAX_POINTS`` points of at most
+    ``MAX_COLUMNS`` values; :func:`check_points_file` is checked first, so a file of another
+    kind is refused after reading its first bytes (docs/input-files.md).
 
     Parameters
     ----------
@@ -143,27 +169,13 @@ def load_points(path: str | Path, *, params_column: int | None = None) -> PointS
     Raises
     ------
     ValueError
-        If the file is missing, empty, ragged, not numeric or holds NaN/inf.
+        Naming the file (and the line of a text file) if it is missing, of another kind,
+        empty, ragged, not numeric, beyond the limits or holds NaN/inf.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"point file not found: {path}")
-    if path.suffix.lower() == ".npy":
-        try:
-            data = np.load(path, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
-            raise ValueError(f"{path}: not a readable .npy array ({exc})") from None
-    elif path.suffix.lower() in (".csv", ".txt"):
-        data = _read_csv(path)
-    else:
-        raise ValueError(f"{path}: unsupported file type {path.suffix!r} (use .csv or .npy)")
-    data = np.asarray(data)
+    path = check_points_file(path)
+    data = _read_npy(path) if path.suffix.lower() == ".npy" else _read_text(path)
     if data.ndim == 1:
         data = data[:, None]
-    if data.ndim != 2 or data.size == 0:
-        raise ValueError(f"{path}: expected a 2-D table of points; got shape {data.shape}")
-    if not (np.issubdtype(data.dtype, np.integer) or np.issubdtype(data.dtype, np.floating)):
-        raise ValueError(f"{path}: values must be real numbers; got dtype {data.dtype}")
     params = None
     if params_column is not None:
         if not -data.shape[1] <= params_column < data.shape[1] or data.shape[1] < 2:
@@ -176,23 +188,159 @@ def load_points(path: str | Path, *, params_column: int | None = None) -> PointS
         raise ValueError(f"{path}: {exc}") from None
 
 
-def _read_csv(path: Path) -> np.ndarray:
-    lines = [ln.strip() for ln in path.read_text().splitlines()]
-    lines = [ln for ln in lines if ln and not ln.startswith("#")]
-    if not lines:
-        raise ValueError(f"{path}: the file holds no data rows")
-    rows = [ln.split(",") for ln in lines]
-    if not any(_is_number(v) for v in rows[0]):
-        rows = rows[1:]  # a header row: no field is a number
-    if not rows:
-        raise ValueError(f"{path}: the file holds a header but no data rows")
-    widths = {len(r) for r in rows}
-    if len(widths) != 1:
-        raise ValueError(f"{path}: rows have different numbers of columns {sorted(widths)}")
+def check_points_file(path: str | Path) -> Path:
+    """Check a point file from its size and first bytes, before anything reads it whole.
+
+    The file must exist and be a ``.npy`` file whose header describes a real-valued table
+    within the limits that the file is long enough to hold, or a ``.csv``/``.txt`` file of at
+    most ``MAX_TEXT_BYTES`` that starts as UTF-8 text (no NUL byte).
+
+    Returns
+    -------
+    Path
+        ``path`` as a :class:`~pathlib.Path`.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and what is wrong with it.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"point file not found: {path}")
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        with path.open("rb") as file:
+            _npy_header(path, file)
+    elif suffix in (".csv", ".txt"):
+        size = path.stat().st_size
+        if size > MAX_TEXT_BYTES:
+            raise ValueError(f"{path}: {size:,} bytes; a text file of points may have at most "
+                             f"{MAX_TEXT_BYTES:,} (and {MAX_POINTS:,} points)")
+        with path.open("rb") as file:
+            head = file.read(_HEAD_BYTES)
+        if b"\0" in head:
+            raise ValueError(f"{path}: binary data (a NUL byte at offset {head.index(0):,}), "
+                             "not a text table of numbers")
+        try:
+            codecs.getincrementaldecoder("utf-8")().decode(head, final=False)
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: not UTF-8 text (byte {exc.start:,}); a text table of "
+                             "numbers is expected") from None
+    else:
+        raise ValueError(f"{path}: unsupported file type {suffix!r} (use .csv or .npy)")
+    return path
+
+
+def _npy_header(path: Path, file: BinaryIO) -> None:
+    """Check the header of a ``.npy`` file: a real-valued table within the limits, and a file
+    long enough to hold it."""
+    fmt = np.lib.format
     try:
-        return np.array([[float(v) for v in r] for r in rows])
+        version = fmt.read_magic(file)
+    except ValueError:
+        raise ValueError(f"{path}: not a .npy file (it does not start with the .npy "
+                         "signature)") from None
+    readers = {(1, 0): fmt.read_array_header_1_0, (2, 0): fmt.read_array_header_2_0}
+    if version not in readers:
+        raise ValueError(f"{path}: .npy format version {version[0]}.{version[1]} is not "
+                         "supported (use 1.0 or 2.0)")
+    try:
+        shape, _, dtype = readers[version](file)
     except ValueError as exc:
-        raise ValueError(f"{path}: non-numeric value ({exc})") from None
+        raise ValueError(f"{path}: not a readable .npy header ({_quote(str(exc))})") from None
+    if dtype.hasobject or dtype.kind not in "iuf":
+        raise ValueError(f"{path}: values must be real numbers; got dtype "
+                         f"{_quote(str(dtype))}")
+    _check_table_shape(path, shape)
+    data_bytes = int(np.prod(shape)) * dtype.itemsize
+    held = path.stat().st_size - file.tell()
+    if held < data_bytes:
+        raise ValueError(f"{path}: truncated: its header describes a {shape} {dtype} array "
+                         f"of {data_bytes:,} bytes; the file holds {held:,}")
+
+
+def _check_table_shape(path: Path, shape: tuple[int, ...]) -> None:
+    if len(shape) not in (1, 2) or 0 in shape:
+        raise ValueError(f"{path}: expected a 2-D table of points; got shape {shape}")
+    if shape[0] > MAX_POINTS:
+        raise ValueError(f"{path}: {shape[0]:,} points; a file may hold at most "
+                         f"{MAX_POINTS:,} points")
+    if len(shape) == 2 and shape[1] > MAX_COLUMNS:
+        raise ValueError(f"{path}: {shape[1]:,} columns; a file may have at most "
+                         f"{MAX_COLUMNS} ({MAX_DIMENSION} coordinates and a parameter column)")
+
+
+def _read_npy(path: Path) -> np.ndarray:
+    with path.open("rb") as file:
+        _npy_header(path, file)
+        file.seek(0)
+        try:
+            return np.lib.format.read_array(file, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise ValueError(f"{path}: not a readable .npy array ({_quote(str(exc))})") \
+                from None
+
+
+def _read_text(path: Path) -> np.ndarray:
+    """The table of a text file, read a line at a time into one growing float buffer."""
+    values = array("d")
+    width = rows = width_line = 0
+    for number, cells in _data_rows(path):
+        if not width:
+            width, width_line = len(cells), number
+            _check_table_shape(path, (1, width))  # the limit on columns
+        elif len(cells) != width:
+            raise ValueError(f"{path}: line {number} has {len(cells)} columns, line "
+                             f"{width_line} has {width}")
+        if rows == MAX_POINTS:
+            raise ValueError(f"{path}: more than {MAX_POINTS:,} points; a file may hold at "
+                             f"most {MAX_POINTS:,} points")
+        try:
+            values.extend(map(float, cells))
+        except ValueError:
+            column = next(i for i, cell in enumerate(cells) if not _is_number(cell))
+            raise ValueError(f"{path}: line {number}, column {column + 1}: "
+                             f"{_quote(cells[column].strip())} is not a number") from None
+        rows += 1
+    if not rows:
+        raise ValueError(f"{path}: the file holds no data rows")
+    data = np.frombuffer(values, dtype=np.float64).reshape(rows, width)
+    finite = np.isfinite(data).all(axis=1)
+    if not finite.all():  # found again to name its line
+        row = int(np.argmin(finite))
+        number, cells = next(itertools.islice(_data_rows(path), row, None))
+        column = int(np.argmin(np.isfinite(data[row])))
+        raise ValueError(f"{path}: line {number}, column {column + 1}: "
+                         f"{_quote(cells[column].strip())} is not a finite number (NaN or "
+                         "infinite)")
+    return data
+
+
+def _data_rows(path: Path) -> Iterator[tuple[int, list[str]]]:
+    """Line number and fields of each data row of a text table: blank lines, ``#`` comments
+    and a first row without a number (a header) are skipped."""
+    first = True
+    with path.open(encoding="utf-8-sig") as file:  # a byte-order mark (spreadsheets) is dropped
+        for number in itertools.count(1):
+            try:
+                line = file.readline(MAX_LINE_CHARS + 1)
+            except UnicodeDecodeError:
+                raise ValueError(f"{path}: not UTF-8 text (near line {number})") from None
+            if not line:
+                return
+            if len(line) > MAX_LINE_CHARS and not line.endswith("\n"):
+                raise ValueError(f"{path}: line {number} is longer than {MAX_LINE_CHARS:,} "
+                                 "characters; a text table of points is expected")
+            text = line.strip()
+            if not text or text.startswith("#"):
+                continue
+            cells = text.split(",") if "," in text else text.split()
+            if first:
+                first = False
+                if not any(map(_is_number, cells)):
+                    continue  # a header row: no field is a number
+            yield number, cells
 
 
 def _is_number(text: str) -> bool:
@@ -201,6 +349,13 @@ def _is_number(text: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+def _quote(text: str, limit: int = 80) -> str:
+    """``repr`` of user data, cut to ``limit`` characters: error messages stay short."""
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[:limit]!r}... ({len(text):,} characters)"
 
 
 def add_noise(data: PointSet, sigma: float,

@@ -177,6 +177,7 @@ def test_explicit_parameters_of_wrong_shape(values):
         (np.r_[0.0, 0.0, np.arange(2.0, N)], r"strictly increasing; values\[0\]"),
         (np.r_[np.nan, np.arange(1.0, N)], "NaN or infinite"),
         (np.r_[np.arange(N - 1.0), np.inf], "NaN or infinite"),
+        (np.r_[np.arange(N - 1.0), 1e200], r"values of magnitude above 1e\+100 \(first at row"),
         (["a"] * N, "numeric"),
     ],
 )

@@ -14,6 +14,8 @@ from metaknot.problems import (
     PointSet,
     add_noise,
     archimedean_spiral,
+    check_points_file,
+    curves,
     epitrochoid,
     get_curve,
     load_points,
@@ -258,11 +260,11 @@ def test_load_ragged_rows(tmp_path):
 def test_load_non_numeric(tmp_path):
     path = tmp_path / "words.csv"
     path.write_text("x,y\n1,2\n3,four\n5,6\n7,8\n")
-    with pytest.raises(ValueError, match="non-numeric"):
+    with pytest.raises(ValueError, match=r"words\.csv: line 3, column 2: 'four' is not a number"):
         load_points(path)
     npy = tmp_path / "words.npy"
     np.save(npy, np.array([["a", "b"], ["c", "d"], ["e", "f"]]))
-    with pytest.raises(ValueError, match="numeric"):
+    with pytest.raises(ValueError, match="values must be real numbers; got dtype '<U1'"):
         load_points(npy)
 
 
@@ -272,7 +274,7 @@ def test_load_csv_nan(tmp_path, bad):
     path.write_text(f"1,2\n3,{bad}\n5,6\n7,8\n")
     with pytest.raises(ValueError, match="NaN") as info:
         load_points(path)
-    assert "holes.csv" in str(info.value)  # the message names the file
+    assert f"holes.csv: line 2, column 2: '{bad}'" in str(info.value)  # the file and line
 
 
 def test_load_npy_nan(tmp_path, table):
@@ -291,11 +293,90 @@ def test_load_complex_npy_is_rejected(tmp_path):
         load_points(path)
 
 
-def test_load_corrupt_npy(tmp_path):
+@pytest.mark.parametrize("content", [b"this is not an npy file at all", bytes(4096),
+                                     np.random.default_rng(0).bytes(4096)],
+                         ids=["text", "zeros", "random"])
+def test_load_corrupt_npy(tmp_path, content):
     path = tmp_path / "corrupt.npy"
-    path.write_bytes(b"this is not an npy file at all")
-    with pytest.raises(ValueError, match=r"\.npy"):
+    path.write_bytes(content)  # not "pickled (object) data": no .npy signature at all
+    with pytest.raises(ValueError, match=r"corrupt\.npy: not a \.npy file \(it does not start"):
         load_points(path)
+
+
+def _npy_header(path, shape, data=b""):
+    with path.open("wb") as file:
+        np.lib.format.write_array_header_1_0(
+            file, {"descr": "<f8", "fortran_order": False, "shape": shape})
+        file.write(data)
+
+
+@pytest.mark.parametrize(("shape", "message"), [
+    ((1_000_001, 2), "1,000,001 points; a file may hold at most 1,000,000 points"),
+    ((10, 5), "5 columns; a file may have at most 4 (3 coordinates and a parameter column)"),
+    ((10, 2), "truncated: its header describes a (10, 2) float64 array of 160 bytes; the file "
+              "holds 8"),
+    ((2, 5, 2), r"expected a 2-D table of points; got shape (2, 5, 2)"),
+])
+def test_a_npy_header_is_checked_before_the_data_is_read(tmp_path, shape, message):
+    path = tmp_path / "claims.npy"
+    _npy_header(path, shape, data=bytes(8))
+    for check in (check_points_file, load_points):
+        with pytest.raises(ValueError) as info:
+            check(path)
+        assert str(info.value) == f"{path}: {message}"
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    (b"1,2\n" + bytes(range(256)) * 4, "binary data (a NUL byte at offset 4), not a text table"),
+    ("x (\u00b5m),y\n1,2\n".encode("latin-1"), "not UTF-8 text (byte 3)"),
+    (b"1" * 10_000_000, "line 1 is longer than 4,096 characters"),
+    (b"1,2\n3," + b"x" * 4000 + b"\n5,6\n",
+     "line 2, column 2: '" + "x" * 80 + "'... (4,000 characters) is not a number"),
+])
+def test_a_file_that_is_no_text_table_is_refused_in_a_short_line(tmp_path, content, message):
+    path = tmp_path / "scan.csv"
+    path.write_bytes(content)
+    with pytest.raises(ValueError) as info:
+        load_points(path)
+    assert str(info.value).startswith(f"{path}: {message}")
+    assert len(str(info.value)) < 150 + len(str(path))
+
+
+def test_only_the_first_bytes_are_checked_before_reading(tmp_path):
+    path = tmp_path / "late.csv"
+    path.write_bytes(b"1,2\n" * 20_000 + b"3,\0\n")  # the NUL lies beyond the first 64 KiB
+    check_points_file(path)
+    with pytest.raises(ValueError, match=r"line 20001, column 2: '\\x00' is not a number"):
+        load_points(path)
+
+
+def test_the_limits_of_a_text_file(tmp_path, monkeypatch):
+    monkeypatch.setattr(curves, "MAX_POINTS", 5)
+    path = tmp_path / "many.csv"
+    path.write_text("x,y\n" + "".join(f"{i},{i * i}\n" for i in range(5)))
+    assert load_points(path).n_points == 5
+    path.write_text("x,y\n" + "".join(f"{i},{i * i}\n" for i in range(6)))
+    with pytest.raises(ValueError, match="more than 5 points; a file may hold at most 5 points"):
+        load_points(path)
+    path.write_text("1,2,3,4,5\n" * 5)
+    with pytest.raises(ValueError, match="5 columns; a file may have at most 4"):
+        load_points(path)
+    monkeypatch.setattr(curves, "MAX_TEXT_BYTES", 20)
+    path.write_text("1,2\n" * 6)  # 24 bytes
+    with pytest.raises(ValueError, match="24 bytes; a text file of points may have at most 20"):
+        check_points_file(path)
+
+
+def test_values_separated_by_whitespace(tmp_path):
+    path = tmp_path / "columns.txt"
+    path.write_text("x y\n1 2\n3\t4\n  5   6  \n7, 8\n")
+    np.testing.assert_array_equal(load_points(path).points, [[1, 2], [3, 4], [5, 6], [7, 8]])
+
+
+def test_a_byte_order_mark_is_dropped(tmp_path):
+    path = tmp_path / "spreadsheet.csv"
+    path.write_bytes(b"\xef\xbb\xbf1,2\r\n3,4\r\n5,6\r\n")  # as spreadsheets save "CSV UTF-8"
+    np.testing.assert_array_equal(load_points(path).points, [[1, 2], [3, 4], [5, 6]])
 
 
 @pytest.mark.parametrize("suffix", [".json", ".xlsx", ""])

@@ -14,6 +14,8 @@ from scipy.interpolate import make_lsq_spline, splev, splprep
 
 import metaknot as mk
 from metaknot.bspline import parameterize
+from metaknot.cli import main
+from metaknot.fit_output import FILES
 from metaknot.problems import get_curve
 
 PEAK_X = np.linspace(0.0, 1.0, 300)
@@ -97,7 +99,15 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
 
 
 @pytest.mark.parametrize(("points", "kwargs", "message"), [
-    (np.array([[0.0, 0], [1, 1], [np.nan, 2], [3, 3], [4, 5], [5, 1]]), {}, "row 3"),
+    (np.array([[0.0, 0], [1, 1], [np.nan, 2], [3, 3], [4, 5], [5, 1]]), {},
+     r"NaN or infinite values \(first at row 2\)"),
+    # the words of every entry point (as_points), not a knot error of the periodic fit
+    (np.array([[0.0, 0], [1, 1], [1e308, 2], [3, 3], [4, 5], [5, 1]]), {},
+     r"magnitude above 1e\+100 \(first at row 2\)"),
+    (np.column_stack((PEAK_X, np.full(300, 1e200))), {"function": True},
+     r"magnitude above 1e\+100"),
+    (np.column_stack((PEAK_X * 1e200, PEAK[:, 1])), {"function": True},
+     r"parameter values \(x\) has values of magnitude above 1e\+100"),
     (np.array([[0.0, 0], [1, 1], [2, 0], [3, 3]]), {}, "too few for degree 3"),
     (np.array([[0.0, 0], [1, 1], [1, 1], [3, 3], [4, 5], [5, 1]]), {}, "repeats the point"),
     (PEAK, {"tol": 0.0}, "tolerance must be a number > 0"),
@@ -124,7 +134,7 @@ def test_command_writes_every_file(tmp_path) -> None:
     import ezdxf
 
     points = get_curve("vivaldi").points
-    np.savetxt(tmp_path / "curve.csv", points, delimiter=",")
+    np.savetxt(tmp_path / "curve.csv", points, delimiter=",", header="x,y,z", comments="")
     done = run_fit("curve.csv", "--tol", "1e-3", "--relative", "--open", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "FITPACK:" in done.stdout and "result:" in done.stdout
@@ -170,10 +180,11 @@ def test_function_data_as_a_plane_curve_in_dxf(tmp_path) -> None:
 
 
 @pytest.mark.parametrize(("content", "args", "message"), [
-    ("x,y\n0,0\n1,1\n2,0\n3,1\n4,0\n", [], "row 1: 'x' is not a number (a header line?"),
-    ("0,0\n1,1\n2,zero\n3,1\n4,0\n", [], "row 3: 'zero' is not a number"),
-    ("0,0\n1,1\n2\n3,1\n4,0\n", [], "row 3 has 1 columns"),
-    ("0,0\n1,1\n2,nan\n3,1\n4,0\n5,2\n", [], "row 3"),
+    ("x,y\n0,0\n1,1\n2,zero\n3,1\n4,0\n", [], "line 4, column 2: 'zero' is not a number"),
+    ("0,0\n1,1\n2\n3,1\n4,0\n", [], "line 3 has 1 columns, line 1 has 2"),
+    ("0,0\n1,1\n2,nan\n3,1\n4,0\n5,2\n", [], "line 3, column 2: 'nan' is not a finite"),
+    ("0,0\n1,1\n2,1e308\n3,1\n4,0\n5,2\n", [], "magnitude above 1e+100 (first at row 2)"),
+    ("\0" * 10_000_000, [], "pts.csv: binary data (a NUL byte at offset 0)"),
     ("0\n1\n2\n3\n4\n5\n", ["--function"], "--function"),
     ("0,0\n1,1\n2,0\n3,1\n4,0\n5,2\n", ["--tol", "0"], "tolerance must be a number > 0"),
 ])
@@ -184,13 +195,88 @@ def test_bad_files_are_one_line_errors_and_leave_nothing(tmp_path, content, args
     done = run_fit("pts.csv", *tol, *args, cwd=tmp_path)
     assert done.returncode == 2
     (line,) = done.stderr.strip().splitlines()
-    assert message in line
+    assert message in line and len(line) < 200
     assert not (tmp_path / "pts-fit").exists() or not any((tmp_path / "pts-fit").iterdir())
 
 
 def test_a_missing_file_is_named(tmp_path) -> None:
     done = run_fit("nothing.csv", "--tol", "0.01", cwd=tmp_path)
-    assert done.returncode == 2 and "nothing.csv: no such file" in done.stderr
+    assert done.returncode == 2 and "point file not found: nothing.csv" in done.stderr
+
+
+def test_a_file_that_is_no_npy_array_is_named(tmp_path, capsys) -> None:
+    for content in (bytes(4096), np.random.default_rng(1).bytes(4096)):
+        (tmp_path / "scan.npy").write_bytes(content)
+        assert main(["fit", str(tmp_path / "scan.npy"), "--tol", "0.01"]) == 2
+        assert "scan.npy: not a .npy file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("kwargs", "tol"), [({"tol": 1e6}, 1e6), ({"tol": 1.0, "relative": True},
+                                                                  None)])
+def test_a_tolerance_beyond_the_extent_is_an_error_not_a_closed_curve(kwargs, tol) -> None:
+    spiral = get_curve("archimedean").points  # open: its ends lie 2 pi apart
+    diagonal = float(np.linalg.norm(np.ptp(spiral, axis=0)))
+    tol = diagonal if tol is None else tol
+    with pytest.raises(ValueError) as info:
+        mk.fit(spiral, **kwargs)
+    assert str(info.value) == (f"the tolerance {tol:.3g} is not below the extent of the points "
+                               f"(their bounding-box diagonal, {diagonal:.3g}); give a smaller "
+                               "one")
+
+
+def arc_file(folder: Path) -> Path:
+    path = folder / "arc.csv"
+    np.savetxt(path, get_curve("archimedean").points, delimiter=",")
+    return path
+
+
+@pytest.mark.parametrize(("out", "message"), [
+    ("taken", "taken: a file of that name exists; give a folder"),
+    ("taken/sub", "taken/sub: {tmp}/taken is a file, not a folder"),
+    ("taken/sub/deeper", "taken/sub/deeper: {tmp}/taken is a file, not a folder"),
+])
+def test_the_destination_is_checked_before_the_fit(tmp_path, capsys, out, message) -> None:
+    (tmp_path / "taken").write_text("mine")
+    assert main(["fit", str(arc_file(tmp_path)), "--tol", "0.01",
+                 "--out", str(tmp_path / out)]) == 2
+    captured = capsys.readouterr()
+    (line,) = captured.err.strip().splitlines()
+    assert line.endswith(message.format(tmp=tmp_path)) and line.startswith("metaknot: error: --out")
+    assert captured.out == ""  # refused before the points were read or anything was fitted
+    assert (tmp_path / "taken").read_text() == "mine"
+
+
+def test_force_replaces_a_previous_fits_files_and_only_those(tmp_path, capsys) -> None:
+    out = tmp_path / "fit"
+    command = ["fit", str(arc_file(tmp_path)), "--out", str(out), "--method", "fitpack"]
+    assert main([*command, "--tol", "0.01"]) == 0
+    (out / "notes.txt").write_text("mine")
+    capsys.readouterr()
+    assert main([*command, "--tol", "0.001"]) == 2
+    captured = capsys.readouterr()
+    assert "already holds fit.json; --force replaces a previous fit's files" in captured.err
+    assert captured.out == ""  # refused before fitting
+    assert json.loads((out / "metrics.json").read_text())["tolerance"] == 0.01
+    assert main([*command, "--tol", "0.001", "--force"]) == 0
+    assert json.loads((out / "metrics.json").read_text())["tolerance"] == 0.001
+    assert json.loads((out / "fit.json").read_text())["files"] == list(FILES)
+    assert sorted(p.name for p in out.iterdir()) == sorted([*FILES, "notes.txt"])
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("summary", [None, "[1, 2]", '{"files": ["fit.json"]}'])
+def test_force_never_replaces_a_file_no_fit_wrote(tmp_path, capsys, summary) -> None:
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / "metrics.json").write_text("my own metrics")
+    if summary is not None:
+        (out / "fit.json").write_text(summary)
+    assert main(["fit", str(arc_file(tmp_path)), "--tol", "0.01", "--out", str(out),
+                 "--force"]) == 2
+    assert "is not a file of a previous fit (its fit.json does not list it)" in \
+        capsys.readouterr().err
+    assert (out / "metrics.json").read_text() == "my own metrics"
+    assert summary is None or (out / "fit.json").read_text() == summary
 
 
 def star(n: int = 240) -> np.ndarray:

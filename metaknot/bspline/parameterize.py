@@ -7,7 +7,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["PARAMETERIZATIONS", "as_points", "check_degree", "parameterize"]
+__all__ = ["PARAMETERIZATIONS", "as_points", "check_coordinates", "check_degree", "parameterize"]
 
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 MIN_DEGREE, MAX_DEGREE = 1, 5
@@ -32,6 +32,27 @@ def check_degree(degree: int) -> int:
     return int(degree)
 
 
+def check_coordinates(values: np.ndarray, name: str = "points") -> None:
+    """Check that every value is finite and at most ``MAX_COORDINATE`` in magnitude: the check
+    of coordinates and explicit parameter values (:func:`as_points`, :func:`parameterize`,
+    :func:`metaknot.fit`).
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` and the first row (index along the first axis) at fault.
+    """
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row = int(np.argwhere(bad)[0, 0])
+        raise ValueError(f"{name} contains NaN or infinite values (first at row {row})")
+    big = np.abs(values) > MAX_COORDINATE
+    if big.any():
+        row = int(np.argwhere(big)[0, 0])
+        raise ValueError(f"{name} has values of magnitude above {MAX_COORDINATE:g} (first at "
+                         f"row {row}); rescale the data (squared errors would overflow)")
+
+
 def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np.ndarray:
     """Validate data points and return them as a float64 array of shape ``(N, d)``.
 
@@ -54,15 +75,7 @@ def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np
         raise ValueError(f"{name} must have shape (N, d); got an array with shape {arr.shape}")
     if arr.shape[1] < 1:
         raise ValueError(f"{name} must have at least one coordinate; got shape {arr.shape}")
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row = int(np.argwhere(bad)[0, 0])
-        raise ValueError(f"{name} contains NaN or infinite values (first at row {row})")
-    if arr.size and np.abs(arr).max() > MAX_COORDINATE:
-        raise ValueError(
-            f"{name} has coordinates of magnitude above {MAX_COORDINATE:g}; rescale the data "
-            "(squared errors would overflow)"
-        )
+    check_coordinates(arr, name)
     need = check_degree(degree) + 2
     if arr.shape[0] < need:
         raise ValueError(
@@ -116,11 +129,7 @@ def parameterize(
                 f"explicit parameter values must have shape ({n},) to match the points; "
                 f"got {values.shape}"
             )
-        if not np.isfinite(values).all():
-            raise ValueError("explicit parameter values contain NaN or infinite values")
-        if np.abs(values).max() > MAX_COORDINATE:
-            raise ValueError(f"explicit parameter values above {MAX_COORDINATE:g} in magnitude; "
-                             "rescale them")
+        check_coordinates(values, "explicit parameter values")
         steps = np.diff(values)
         if (steps <= 0).any():
             i = int(np.argmax(steps <= 0))
