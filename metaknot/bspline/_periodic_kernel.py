@@ -63,8 +63,9 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
                 first = col
         for c in range(d):
             row_rhs[c] = q[i, c]
-        # eliminate the band columns, left to right
-        for col in range(first, nb):
+        # eliminate the band columns, left to right: the data are sorted, so the row's band
+        # entries (and what the rotations fill in) stay within first .. first + p
+        for col in range(first, min(first + p + 1, nb)):
             w = row[col]
             if w == 0.0:
                 continue

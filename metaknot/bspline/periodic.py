@@ -7,11 +7,11 @@ breakpoints extended by p periodic copies on each side (``m + 2p + 1`` knots, FI
 ``splprep(per=1)`` layout) and its ``m + p`` coefficients repeat the first p at the end, so the
 curve and its first p - 1 derivatives are continuous across the seam.
 
-:func:`fit_periodic` is the reference (dense least squares on the wrapped design matrix,
-checked against FITPACK's periodic least-squares spline, ``splprep(per=1, task=-1)``);
-:func:`evaluate_periodic` fits a whole batch of knot vectors in compiled code (Givens rotations
-on the band-plus-corner structure, :mod:`metaknot.bspline._periodic_kernel`), checked against
-it.
+:func:`fit_periodic` fits one knot vector and :func:`evaluate_periodic` a whole batch, both in
+compiled code (Givens rotations on the band-plus-corner structure,
+:mod:`metaknot.bspline._periodic_kernel`); the tests check them against FITPACK's periodic
+least-squares spline (``splprep(per=1, task=-1)``) and against dense least squares on the
+wrapped design matrix.
 """
 
 from __future__ import annotations
@@ -131,17 +131,24 @@ class PeriodicFit:
                 "max_deviation": self.max_deviation}
 
 
-def _wrapped_design(u: np.ndarray, t: np.ndarray, p: int) -> np.ndarray:
-    m = t.size - 2 * p - 1
-    full = BSpline.design_matrix(u, t, p).toarray()  # (N, m + p)
-    wrapped = full[:, :m].copy()
-    wrapped[:, :p] += full[:, m:]
-    return wrapped
+def _prepare(u: ArrayLike, points: ArrayLike, degree: int
+             ) -> tuple[int, np.ndarray, np.ndarray]:
+    """Degree, parameters and points of a closed outline, checked, as the compiled kernel
+    takes them."""
+    p = check_degree(degree)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    q = np.asarray(points, dtype=np.float64)
+    q = np.ascontiguousarray(q[:, None] if q.ndim == 1 else q)
+    if u.shape != (q.shape[0],) or not np.isfinite(u).all() or (np.diff(u) <= 0).any() \
+            or u[0] < 0 or u[-1] >= 1:
+        raise ValueError("parameter values must be finite, strictly increasing and in [0, 1)")
+    return p, u, q
 
 
 def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
                  degree: int = 3) -> PeriodicFit:
-    """Least-squares periodic spline through a closed outline.
+    """Least-squares periodic spline through a closed outline (the compiled kernel's fit:
+    O(N p^2) time and O(m p) memory, for any number of points).
 
     Raises
     ------
@@ -149,21 +156,17 @@ def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
         If the knots give more control points than data points or a rank-deficient system
         (knot spans without data).
     """
-    p = check_degree(degree)
-    u = np.asarray(u, dtype=np.float64)
-    q = np.asarray(points, dtype=np.float64)
-    q = q[:, None] if q.ndim == 1 else q
+    p, u, q = _prepare(u, points, degree)
     t = periodic_knot_vector(interior, p)
     m = t.size - 2 * p - 1
     audit.add_fits(1)
     if m > len(u):
         raise ValueError(f"{m} control points for {len(u)} data points")
-    design = _wrapped_design(u, t, p)
-    coef, _, rank, singular = np.linalg.lstsq(design, q, rcond=None)
-    if rank < m or singular[-1] < 1e-11 * singular[0]:
+    coef = np.zeros((m, q.shape[1]))
+    _, code = _periodic_kernel.fit_one(u, q, t, p, coef)
+    if code != Infeasibility.FEASIBLE:
         raise ValueError("the least-squares system is singular: some knot spans have no data")
-    c = np.vstack((coef, coef[:p]))
-    return PeriodicFit(BSpline(t, c, p), u, q)
+    return PeriodicFit(BSpline(t, np.vstack((coef, coef[:p])), p), u, q)
 
 
 def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
@@ -175,13 +178,7 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     row; NaN means "no knot" (``nan_is_absent``); knots outside (0, 1), coincident knots and
     rank-deficient systems come back infeasible with their reason, never raised.
     """
-    p = check_degree(degree)
-    u = np.ascontiguousarray(u, dtype=np.float64)
-    q = np.asarray(points, dtype=np.float64)
-    q = np.ascontiguousarray(q[:, None] if q.ndim == 1 else q)
-    if u.shape != (q.shape[0],) or not np.isfinite(u).all() or (np.diff(u) <= 0).any() \
-            or u[0] < 0 or u[-1] >= 1:
-        raise ValueError("parameter values must be finite, strictly increasing and in [0, 1)")
+    p, u, q = _prepare(u, points, degree)
     pos = np.sort(np.atleast_2d(np.asarray(positions, dtype=np.float64)), axis=1)
     present = ~np.isnan(pos) if nan_is_absent else np.ones(pos.shape, dtype=bool)
     counts = present.sum(axis=1)
