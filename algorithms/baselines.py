@@ -17,54 +17,15 @@ from abc import abstractmethod
 from collections.abc import Iterator
 
 import numpy as np
-from scipy.interpolate import splprep
 
-from metaknot.bspline import averaging_knots, fit_spline
+from metaknot.bspline import averaging_knots, fit_spline, fitpack
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Encoding, Problem
 from metaknot.problems import KnotProblem
 from metaknot.registry import register
 from metaknot.task import problem_type
 
-__all__ = ["AveragingKnots", "FitpackKnots", "UniformKnots", "fitpack_front", "fitpack_knots",
-           "knots_to_candidate", "with_count"]
-
-
-def fitpack_knots(u: np.ndarray, points: np.ndarray, degree: int, s: float) -> np.ndarray:
-    """Interior knots of FITPACK's smoothing spline (``splprep``) for smoothing factor ``s``."""
-    (t, _, _), _ = splprep(points.T, u=u, k=degree, s=s, full_output=1, quiet=1)[0]
-    return t[degree + 1 : -(degree + 1)]
-
-
-def fitpack_front(problem: KnotProblem, n_smoothing: int = 200) -> dict[str, np.ndarray]:
-    """FITPACK's own front: its smoothing splines (``splprep``, the problem's parameters and
-    degree) over ``n_smoothing`` smoothing factors s spaced geometrically from 1e-14 to 1/2 of
-    the data's total sum of squares, reduced to the best fit per control-point count.
-
-    Returns
-    -------
-    dict
-        ``n_control_points``, ``rmse`` and ``max_deviation`` (arrays, by control points); for
-        each count the fit with the lowest RMSE (FITPACK gives up on some s: those are left out).
-    """
-    from scipy.interpolate import splev
-
-    points, u, k = problem.points, problem.params, problem.degree
-    total = float(((points - points.mean(axis=0)) ** 2).sum())
-    best: dict[int, tuple[float, float]] = {}
-    for s in np.geomspace(total * 1e-14, total * 0.5, n_smoothing):
-        try:
-            (t, c, _), _ = splprep(points.T, u=u, k=k, s=s, full_output=1, quiet=1)[0]
-        except Exception:  # FITPACK refuses some s: the front has a point less
-            continue
-        distance = np.linalg.norm(points - np.column_stack(splev(u, (t, c, k))), axis=1)
-        rmse, count = float(np.sqrt(np.mean(distance**2))), len(t) - k - 1
-        if count not in best or rmse < best[count][0]:
-            best[count] = (rmse, float(distance.max()))
-    counts = np.array(sorted(best), dtype=np.int64)
-    return {"n_control_points": counts,
-            "rmse": np.array([best[c][0] for c in counts]),
-            "max_deviation": np.array([best[c][1] for c in counts])}
+__all__ = ["AveragingKnots", "FitpackKnots", "UniformKnots", "knots_to_candidate", "with_count"]
 
 
 def with_count(knots: np.ndarray, k: int, lower: float, upper: float) -> np.ndarray:
@@ -218,7 +179,8 @@ class FitpackKnots(_KnotCountBaseline):
         """FITPACK's interior knots at smoothing ``s`` (one ``splprep`` call, counted as an
         external fit: it is not an evaluation of the problem's objective)."""
         self.count_fits(1)
-        return fitpack_knots(self.problem.params, self.problem.points, self.problem.degree, s)
+        return fitpack.interior_knots(self.problem.params, self.problem.points,
+                                      self.problem.degree, s)
 
     def _probe(self, log_s: float) -> int:
         if log_s not in self._counts_at:

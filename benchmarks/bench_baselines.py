@@ -57,7 +57,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import rankdata, wilcoxon
 
-from metaknot.algorithms.baselines import fitpack_front
+from metaknot.bspline import fitpack
 from metaknot.experiments import load_study
 from metaknot.front import nondominated_mask
 from metaknot.problems import KnotSelection, get_curve
@@ -160,12 +160,12 @@ def front_ratios(runs: pd.DataFrame) -> dict[str, tuple[float, float]]:
           "FITPACK's front, median over seeds")
     for curve, part in runs.groupby("data"):
         problem = KnotSelection(get_curve(curve), objective="pareto")
-        fp = fitpack_front(problem, n_smoothing=400)
-        fitpack = problem.objective.scale(fp["n_control_points"], fp["rmse"], problem.info)
+        fp = fitpack.front(problem.params, problem.points, problem.degree, n_smoothing=400)
+        scaled_fitpack = problem.objective.scale(fp["n_control_points"], fp["rmse"], problem.info)
         fronts = {(r.label, r.seed): np.column_stack([json.loads(r.front)["objective_0"],
                                                       json.loads(r.front)["objective_1"]])
                   for r in part.itertuples()}
-        union = np.vstack([fitpack, *fronts.values()])
+        union = np.vstack([scaled_fitpack, *fronts.values()])
         union = union[nondominated_mask(union)]
         ideal, nadir = union.min(axis=0), union.max(axis=0)
         indicator = HV(ref_point=np.full(2, 1.1))
@@ -173,8 +173,9 @@ def front_ratios(runs: pd.DataFrame) -> dict[str, tuple[float, float]]:
         def hv(F, ideal=ideal, nadir=nadir, indicator=indicator):
             return float(indicator((F - ideal) / (nadir - ideal)))
 
-        reference_hv = hv(fitpack)
-        reference_unit = float(HV(ref_point=np.ones(2))(fitpack[(fitpack < 1).all(axis=1)]))
+        reference_hv = hv(scaled_fitpack)
+        inside = scaled_fitpack[(scaled_fitpack < 1).all(axis=1)]
+        reference_unit = float(HV(ref_point=np.ones(2))(inside))
         line = []
         for label in sorted(part.label.unique()):
             ratios = [hv(F) / reference_hv for (lab, _), F in fronts.items() if lab == label]

@@ -30,9 +30,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import splev, splprep
 
-from metaknot.bspline import parameterize
+from metaknot.bspline import fitpack, parameterize
 from metaknot.experiments import load_study
 from metaknot.problems import get_curve
 
@@ -45,9 +44,8 @@ def fitpack_rmse(curve: str, factor: float) -> float:
     """RMSE of FITPACK's own smoothing spline at ``s = N * factor``."""
     points = get_curve(curve).points
     u = parameterize(points, "centripetal")
-    tck, _ = splprep(points.T, u=u, k=DEGREE, s=points.shape[0] * factor)
-    fitted = np.column_stack(splev(u, tck))
-    return float(np.sqrt(np.mean(np.sum((points - fitted) ** 2, axis=1))))
+    spline = fitpack.smoothing_spline(u, points, DEGREE, points.shape[0] * factor)
+    return float(np.sqrt(np.mean(spline.distances(u, points) ** 2)))
 
 
 def run_study(results: Path, budget: int, seeds: int, workers: int) -> None:

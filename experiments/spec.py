@@ -570,10 +570,9 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
 
 def fitpack_count(data, factor: float, common: Mapping[str, Any]) -> int:
     """Interior knots FITPACK (``splprep``) places at smoothing ``s = N * factor`` (at least 1)."""
-    from metaknot.algorithms.baselines import fitpack_knots
-    from metaknot.bspline import parameterize
+    from metaknot.bspline import fitpack, parameterize
 
     method = data.params if data.params is not None else common["parameterization"]
     u = parameterize(data.points, method, degree=common["degree"])
-    knots = fitpack_knots(u, data.points, common["degree"], data.n_points * factor)
+    knots = fitpack.interior_knots(u, data.points, common["degree"], data.n_points * factor)
     return max(1, int(knots.size))

@@ -25,17 +25,18 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.interpolate import BSpline, make_interp_spline, splev, splprep
+from scipy.interpolate import BSpline, make_interp_spline
 
 from .bspline import (
     averaging_knots,
     check_degree,
     evaluate_positions,
     fit_spline,
+    fitpack,
     parameterize,
 )
 from .bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
@@ -120,65 +121,6 @@ def _pad(rows: list[np.ndarray]) -> np.ndarray:
     for i, r in enumerate(rows):
         out[i, : len(r)] = r
     return out
-
-
-def _fitpack_errors(u: np.ndarray, q: np.ndarray, p: int, s: float,
-                    closed: bool = False) -> tuple[np.ndarray, ...]:
-    """FITPACK's smoothing spline at ``s``: (t, c, max deviation, rmse), or None. Closed
-    outlines get FITPACK's periodic spline (``per=1``, the first point repeated at u = 1)."""
-    try:
-        if closed:
-            (t, c, k), _ = splprep(np.vstack((q, q[:1])).T, u=np.append(u, 1.0), k=p, s=s,
-                                   per=1, full_output=1, quiet=1)[0]
-        else:
-            (t, c, k), _ = splprep(q.T, u=u, k=p, s=s, full_output=1, quiet=1)[0]
-    except Exception:  # FITPACK refuses some s
-        return None
-    distance = np.linalg.norm(q - np.column_stack(splev(u, (t, c, k))), axis=1)
-    return np.asarray(t), np.asarray(c).T, float(distance.max()), \
-        float(np.sqrt(np.mean(distance**2)))
-
-
-def fitpack_answer(u: np.ndarray, q: np.ndarray, p: int, tol: float,
-                   metric: Metric, closed: bool = False) -> dict[str, Any]:
-    """The fewest control points FITPACK's own smoothing spline needs to stay within ``tol``
-    (a scan over s, then bisection on log s between the last fit within and the first beyond)."""
-    start = time.perf_counter()
-    total = float(((q - q.mean(axis=0)) ** 2).sum())
-    index = 2 if metric == "max_deviation" else 3
-    best = None
-    log_s = np.linspace(np.log(total * 1e-14), np.log(total), 60)
-    within, beyond = None, None
-    for x in log_s:
-        found = _fitpack_errors(u, q, p, float(np.exp(x)), closed)
-        if found is None:
-            continue
-        if found[index] <= tol:
-            if best is None or len(found[0]) <= len(best[0]):
-                best, within = found, x
-        elif within is not None and beyond is None:
-            beyond = x
-    if best is None:  # interpolation (s = 0)
-        best, within = _fitpack_errors(u, q, p, 0.0, closed), None
-        if best is None or best[index] > tol:
-            raise ValueError("FITPACK finds no spline within the tolerance")
-    elif beyond is not None:
-        lo, hi = within, beyond
-        for _ in range(25):
-            mid = 0.5 * (lo + hi)
-            found = _fitpack_errors(u, q, p, float(np.exp(mid)), closed)
-            if found is not None and found[index] <= tol:
-                lo = mid
-                if len(found[0]) <= len(best[0]):
-                    best, within = found, mid
-            else:
-                hi = mid
-    t, c, max_dev, rmse = best
-    count = len(t) - p - 1 - (p if closed else 0)  # periodic: the last p repeat the first p
-    return {"spline": BSpline(t, c, p), "n_control_points": count,
-            "max_deviation": max_dev, "rmse": rmse,
-            "s": float(np.exp(within)) if within is not None else 0.0,
-            "seconds": time.perf_counter() - start}
 
 
 class _Search:
@@ -445,7 +387,7 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         raise ValueError(f"the tolerance {tol_abs:.3g} is below what interpolation reaches "
                          f"({floor:.3g}); raise it")
     stages = [f"{'closed (periodic)' if closed else 'open (clamped)'} curve of {len(q)} points"]
-    reference = fitpack_answer(u, q, p, tol_abs, metric, closed)
+    reference = fitpack.fewest_within(u, q, p, tol_abs, metric, closed=closed)
     stages.append(f"FITPACK: {reference['n_control_points']} control points (s = "
                   f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
     t_fp = reference["spline"].t
@@ -484,7 +426,8 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         spline, method = reference["spline"], "fitpack"
         metrics = {k: reference[k] for k in ("n_control_points", "max_deviation", "rmse")}
     metrics["seconds"] = seconds
-    fitpack = {k: v for k, v in reference.items() if k != "spline"}
     return ToleranceFit(spline=spline, params=u, tolerance=tol_abs, metric=metric,
-                        method=method, metrics=metrics, fitpack=fitpack, stages=stages,
+                        method=method, metrics=metrics,
+                        fitpack={k: v for k, v in reference.items() if k != "spline"},
+                        stages=stages,
                         closed=closed, points=q)

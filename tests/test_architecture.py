@@ -97,3 +97,18 @@ def test_the_core_loads_no_application_library():
         capture_output=True, text=True, check=True, cwd=ROOT).stdout.split()
     heavy = {"pandas", "optuna", "hydra", "matplotlib", "seaborn", "pyarrow"}
     assert not heavy & {m.split(".")[0] for m in loaded}
+
+
+FITPACK_NAMES = {"splprep", "splrep", "splev", "make_splrep", "make_splprep", "UnivariateSpline"}
+
+
+def test_fitpack_is_called_from_one_module():
+    users = set()
+    for folder in ("metaknot", "problems", "algorithms", "experiments", "benchmarks"):
+        for path in (ROOT / folder).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                names = {a.name for a in node.names} if isinstance(node, ast.ImportFrom) else \
+                    {node.attr} if isinstance(node, ast.Attribute) else set()
+                if names & FITPACK_NAMES:
+                    users.add(path.relative_to(ROOT).as_posix())
+    assert users == {"metaknot/bspline/fitpack.py"}

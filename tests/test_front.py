@@ -217,10 +217,10 @@ def test_free_knot_optimizers_refuse_a_front(optimizer: str) -> None:
 def test_fitpack_front_holds_the_best_fit_per_count() -> None:
     from scipy.interpolate import splev, splprep
 
-    from metaknot.algorithms.baselines import fitpack_front
+    from metaknot.bspline import fitpack
 
     problem = KnotSelection(DATA)
-    front = fitpack_front(problem, n_smoothing=60)
+    front = fitpack.front(problem.params, problem.points, 3, n_smoothing=60)
     assert np.all(np.diff(front["n_control_points"]) > 0)
     assert np.all(front["max_deviation"] >= front["rmse"])
     total = float(((DATA.points - DATA.points.mean(axis=0)) ** 2).sum())

@@ -34,7 +34,7 @@ from metaknot.algorithms.ga import index_mutation, two_point_crossover
 from metaknot.algorithms.knot_map import KnotMap
 from metaknot.algorithms.local_search import index_neighbours, mask_neighbours
 from metaknot.algorithms.one_plus_one import step_at_least_one
-from metaknot.bspline import averaging_knots, fit_spline
+from metaknot.bspline import averaging_knots, fit_spline, fitpack
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
 from tests.test_local_methods import OneMax
 
@@ -675,7 +675,7 @@ def test_fitpack_knots_at_the_problems_degree_are_splprep_s():
     s = 1e-3
     ((t, _, _), _), _, _, _ = splprep(problem.points.T, u=problem.params, k=2, s=s,
                                       full_output=1, quiet=1)
-    np.testing.assert_array_equal(bl.fitpack_knots(problem.params, problem.points, 2, s),
+    np.testing.assert_array_equal(fitpack.interior_knots(problem.params, problem.points, 2, s),
                                   t[3:-3])
 
 
@@ -694,13 +694,13 @@ def test_fitpack_max_knots_bounds_the_scan():
 
 def test_fitpack_counts_each_splprep_run_as_one_external_fit(monkeypatch):
     calls = []
-    original = bl.fitpack_knots
+    original = fitpack.interior_knots
 
     def counted(*args):
         calls.append(args)
         return original(*args)
 
-    monkeypatch.setattr(bl, "fitpack_knots", counted)
+    monkeypatch.setattr(fitpack, "interior_knots", counted)
     problem = KnotSelection(SPIRAL)
     evaluator = mk.Evaluator(problem, 10)
     opt = FitpackKnots(max_knots=4)
@@ -718,7 +718,7 @@ def test_fitpack_tolerance_cut_to_max_knots(curve, n_points, n_knots, tolerance)
     opt = FitpackKnots(target="tolerance", tolerance=tolerance)
     set_up(opt, problem)
     u = problem.params
-    knots = bl.fitpack_knots(u, problem.points, 3, u.size * tolerance**2)
+    knots = fitpack.interior_knots(u, problem.points, 3, u.size * tolerance**2)
     assert knots.size > n_knots  # the cut applies
     (candidate,) = opt.ask()
     np.testing.assert_allclose(candidate, bl.with_count(knots, n_knots, u[0], u[-1]))

@@ -191,9 +191,9 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
 def fitpack_front(problem: Any, n: int = 40) -> pd.DataFrame:
     """FITPACK's own smoothing fits (``splprep``) over ``n`` smoothing factors: control points
     and RMSE (one row per control-point count, the best RMSE)."""
-    from metaknot.algorithms.baselines import fitpack_front as front
+    from metaknot.bspline import fitpack
 
-    columns = front(problem, n)
+    columns = fitpack.front(problem.params, problem.points, problem.degree, n)
     return pd.DataFrame({"n_control_points": columns["n_control_points"],
                          "rmse": columns["rmse"]})
 
