@@ -24,6 +24,7 @@ from .front import ParetoArchive
 from .problem import Problem
 from .progress import Progress
 from .task import Task
+from .validate import is_integer
 
 __all__ = ["BudgetExhausted", "Evaluator"]
 
@@ -35,7 +36,7 @@ class BudgetExhausted(Exception):
 
 def check_budget(budget: object) -> int:
     """``budget`` as an int, or a ``ValueError`` unless it is a positive integer."""
-    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 1:
+    if not is_integer(budget) or budget < 1:
         raise ValueError(f"budget must be a positive integer number of evaluations; "
                          f"got {budget!r}")
     return int(budget)
@@ -152,7 +153,7 @@ class Evaluator:
 
     def _declare_external_fits(self, n: int) -> None:
         """Record ``n`` fits an optimizer made outside the evaluator (:meth:`Task.count_fits`)."""
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or n < 0:
+        if not is_integer(n) or n < 0:
             raise ValueError(f"count_fits takes a whole number of fits >= 0; got {n!r}")
         self._external_fits += int(n)
 

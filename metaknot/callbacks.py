@@ -17,6 +17,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from .progress import Progress, Trace
+from .validate import is_integer
 
 if TYPE_CHECKING:
     from .optimizer import Optimizer
@@ -137,7 +138,7 @@ class TraceRecorder(Callback):
     """
 
     def __init__(self, per_decade: int = 10) -> None:
-        if isinstance(per_decade, bool) or not isinstance(per_decade, int) or per_decade < 1:
+        if not is_integer(per_decade) or per_decade < 1:
             raise ValueError(f"per_decade must be a positive integer; got {per_decade!r}")
         self.per_decade = per_decade
         self._grid: np.ndarray | None = None

@@ -28,6 +28,7 @@ import numpy as np
 from .budget import BudgetExhausted, Evaluator
 from .problem import Problem
 from .task import Task
+from .validate import is_real
 
 __all__ = ["Optimizer", "check_param"]
 
@@ -35,7 +36,7 @@ __all__ = ["Optimizer", "check_param"]
 def check_param(name: str, value: Any, *, low: float | None = None, high: float | None = None,
                 integer: bool = False, low_open: bool = False) -> Any:
     """Validate a numeric hyperparameter; raise ``ValueError`` naming it if out of range."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+    if not is_real(value):
         raise ValueError(f"{name} must be a number; got {value!r}")
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite; got {value!r}")

@@ -17,13 +17,14 @@ from .problem import Problem
 from .progress import Progress
 from .registry import get_optimizer, get_problem
 from .result import RunResult
+from .validate import is_integer
 
 __all__ = ["ProgressBar", "make_rng", "minimize"]
 
 
 def _check_seed(seed: object) -> None:
     if seed is not None and not isinstance(seed, np.random.SeedSequence) and (
-            isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0):
+            not is_integer(seed) or seed < 0):
         raise ValueError(f"seed must be a non-negative integer, a numpy SeedSequence or None; "
                          f"got {seed!r}")
 

@@ -42,6 +42,7 @@ from .bspline import (
 from .bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
 from .bspline.parameterize import check_coordinates
 from .bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
+from .validate import is_integer
 
 __all__ = ["ToleranceFit", "fit"]
 
@@ -349,7 +350,7 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     p = check_degree(degree)
     if method not in ("auto", "removal", "fitpack"):
         raise ValueError(f"method must be 'auto', 'removal' or 'fitpack'; got {method!r}")
-    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
+    if not is_integer(budget) or budget < 1:
         raise ValueError(f"budget must be a positive integer; got {budget!r}")
     if metric not in ("max_deviation", "rmse"):
         raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")

@@ -15,6 +15,7 @@ import numpy as np
 
 from metaknot.bspline import as_points
 from metaknot.bspline._codegen import MAX_DIMENSION
+from metaknot.validate import is_integer
 
 __all__ = [
     "CURVES",
@@ -378,6 +379,6 @@ def describe_seed(seed: object) -> str | None:
     if isinstance(seed, np.random.SeedSequence):
         key = ",".join(str(k) for k in seed.spawn_key)
         return f"{seed.entropy}/{key}" if key else str(seed.entropy)
-    if isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+    if is_integer(seed):
         return str(int(seed))
     return None

@@ -39,6 +39,7 @@ from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
 from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
+from metaknot.validate import is_integer
 
 from .curves import PointSet, get_curve
 from .objectives import DataInfo, Objective, get_objective
@@ -311,7 +312,7 @@ class KnotSelection(KnotProblem):
 def _check_n_knots(n_knots: int, n_points: int, degree: int, closed: bool = False) -> int:
     upper = n_points - 1 if closed else n_points - degree - 1
     rule = "N - 1, closed" if closed else "N - degree - 1"
-    if isinstance(n_knots, bool) or not isinstance(n_knots, int | np.integer) \
+    if not is_integer(n_knots) \
             or not 1 <= n_knots <= upper:
         raise ValueError(
             f"n_knots must be an integer in 1..{upper} ({rule}) for {n_points} points "

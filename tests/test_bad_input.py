@@ -621,3 +621,31 @@ def test_fuzz_knot_selection(data):
     assert out.shape == (b,)
     assert not np.isnan(out).any(), f"objective values {out}"
     assert (out > -np.inf).all(), f"objective values {out}"
+
+
+def test_integer_settings_agree_about_numpy_integers_and_bools():
+    """Every integer setting takes numpy integers and refuses bools (one rule:
+    metaknot.validate)."""
+    import metaknot as mk
+    from metaknot.bspline import check_degree
+    from metaknot.callbacks import TraceRecorder
+    from metaknot.validate import is_integer, is_real
+
+    assert is_integer(np.int32(3)) and not is_integer(True) and not is_integer(np.bool_(True))
+    assert not is_integer(3.0) and is_real(3.0) and is_real(np.float32(1)) and not is_real(False)
+    from metaknot.problems import KnotIndices, get_curve
+
+    data = get_curve("archimedean", n_points=30)
+    assert check_degree(np.int64(3)) == 3
+    assert TraceRecorder(np.int64(4)).per_decade == 4
+    assert KnotIndices(data, n_knots=np.int16(5)).n_knots == 5
+    result = mk.minimize(KnotIndices(data, n_knots=3), "random_search", budget=np.int64(7),
+                         seed=np.uint8(2))
+    assert result.n_evaluations == 7
+    for make in (lambda: check_degree(True), lambda: TraceRecorder(True),
+                 lambda: KnotIndices(data, n_knots=np.bool_(True)),
+                 lambda: mk.minimize(KnotIndices(data, n_knots=3), "random_search", budget=True),
+                 lambda: mk.minimize(KnotIndices(data, n_knots=3), "random_search", budget=5,
+                                     seed=False)):
+        with pytest.raises(ValueError):
+            make()

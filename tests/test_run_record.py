@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import metaknot as mk
-import metaknot.algorithms.baselines as baselines_module
+import metaknot.bspline.fitpack as fitpack_module
 from metaknot.algorithms import DolphinEcholocation, FitpackKnots, GeneticAlgorithm
 from metaknot.problems import KnotIndices, KnotSelection, add_noise, get_curve
 
@@ -168,13 +168,13 @@ def test_a_subclass_overriding_evaluate_is_respected():
 
 def test_fitpack_scan_is_counted_as_external_fits(monkeypatch):
     calls = []
-    real = baselines_module.splprep
+    real = fitpack_module.splprep
 
     def counting_splprep(*args, **kwargs):
         calls.append(1)
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(baselines_module, "splprep", counting_splprep)
+    monkeypatch.setattr(fitpack_module, "splprep", counting_splprep)
     result = mk.minimize(KnotSelection(SPIRAL), FitpackKnots(), budget=200, seed=0)
     assert len(calls) > 5
     assert result.external_fits == len(calls) + 1  # + the fit without interior knots

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import audit
+from ..validate import is_integer
 from . import _kernel, _moves
 from .fit import BatchFit, _prepare
 
@@ -119,8 +120,8 @@ class MoveEvaluator:
         # reversed)
         self._u_mirror = np.ascontiguousarray(-self.u[::-1])
         self._q_mirror = np.ascontiguousarray(self.q[::-1])
-        if max_window_rows is not None and (isinstance(max_window_rows, bool) or not isinstance(
-                max_window_rows, int | np.integer) or max_window_rows < 0):
+        if max_window_rows is not None and (not is_integer(max_window_rows)
+                                            or max_window_rows < 0):
             raise ValueError(f"max_window_rows must be a whole number >= 0; got "
                              f"{max_window_rows!r}")
         self.max_window_rows = m if max_window_rows is None else int(max_window_rows)

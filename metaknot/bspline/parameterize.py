@@ -7,6 +7,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..validate import is_integer
+
 __all__ = ["PARAMETERIZATIONS", "as_points", "check_coordinates", "check_degree", "parameterize"]
 
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
@@ -25,7 +27,7 @@ def check_degree(degree: int) -> int:
     ValueError
         If the degree is not an integer between 1 and 5.
     """
-    if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
+    if not is_integer(degree):
         raise ValueError(f"degree must be an integer between 1 and 5, got {degree!r}")
     if not MIN_DEGREE <= int(degree) <= MAX_DEGREE:
         raise ValueError(f"degree must be between {MIN_DEGREE} and {MAX_DEGREE}, got {degree}")
