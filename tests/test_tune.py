@@ -335,6 +335,7 @@ def test_resuming_fails_and_retries_a_dead_worker_s_trial(tmp_path) -> None:
     finally:
         doomed.kill()
         doomed.wait(timeout=60)
+    time.sleep(3)  # the grace period passes before the study is resumed
     spec = spec_of(tmp_path, "n_trials=2", *settings)
     tune(spec, progress=False)
     trials = stored_trials(spec)

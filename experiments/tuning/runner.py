@@ -269,45 +269,50 @@ def work(spec: TuneSpec, worker_index: int = 0, progress: bool = False,
         if _wants_trials(study, spec.n_trials) and (left is None or left > 0):
             study.optimize(objective, timeout=left, callbacks=callbacks, catch=(ValueError,),
                            gc_after_trial=False)
-        failed = wait_for_running_trials(spec, study, storage)
-        if not failed or (deadline is not None and time.monotonic() >= deadline):
+        wait_for_running_trials(spec, study, storage)  # may leave retries waiting
+        if not _wants_trials(study, spec.n_trials) or (
+                deadline is not None and time.monotonic() >= deadline):
             break
     for callback in callbacks[1:]:
         callback.close()
 
 
-def wait_for_running_trials(spec: TuneSpec, study: Any, storage: Any) -> list[int]:
+def wait_for_running_trials(spec: TuneSpec, study: Any, storage: Any) -> None:
     """On a storage with a heartbeat (RDB), wait until no trial of the study is running: a
     live worker's trial finishes, a dead worker's is failed once its heartbeat is
     ``grace_period`` old, and retried (``max_retry``). A trial whose worker died before its
     first heartbeat gets one from here after ``grace_period + heartbeat_interval`` s of
-    waiting, so it, too, is failed in the end. Returns the numbers of the trials failed (by
-    this worker or another) while it waited; without a heartbeat it returns at once.
+    waiting, so it, too, is failed in the end; their retries may then be waiting. Without a
+    heartbeat it returns at once.
     """
     import optuna
     from optuna.storages import RDBStorage, fail_stale_trials
     from optuna.trial import TrialState
 
     if not isinstance(storage, RDBStorage):
-        return []
+        return
     first_seen: dict[int, float] = {}
     given_a_heartbeat: set[int] = set()
+    waiting = False
     while True:
+        now = time.monotonic()
+        for trial in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
+            first_seen.setdefault(trial.number, now)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
             fail_stale_trials(study)
         running = study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
         if not running:
             break
-        now = time.monotonic()
-        if not first_seen:
+        if not waiting:
             print(f"tune {spec.study}: waiting for {_trials([t.number for t in running])} of "
                   f"other workers; a dead worker's trial is failed {spec.grace_period} s after "
                   "its last heartbeat", flush=True)
+            waiting = True
         for trial in running:
-            seen = first_seen.setdefault(trial.number, now)
+            waited = now - first_seen[trial.number]
             if trial.number not in given_a_heartbeat \
-                    and now - seen > spec.grace_period + spec.heartbeat_interval:
+                    and waited > spec.grace_period + spec.heartbeat_interval:
                 storage.record_heartbeat(trial._trial_id)  # the storage knows trials by id
                 given_a_heartbeat.add(trial.number)
         time.sleep(spec.heartbeat_interval)
@@ -318,11 +323,8 @@ def wait_for_running_trials(spec: TuneSpec, study: Any, storage: Any) -> list[in
                    for t in study.get_trials(deepcopy=False) if t.system_attrs.get(
                        "retry_history")}
         retries = [f"{n} as {retried[n]}" for n in failed if n in retried]
-        print(f"tune {spec.study}: {_trials(failed)} marked FAIL (no heartbeat for "
-              f"{spec.grace_period} s: the worker died); "
-              + (f"retried: {', '.join(retries)}" if retries else "not retried (max_retry)"),
-              flush=True)
-    return failed
+        print(f"tune {spec.study}: {_trials(failed)} ended FAIL meanwhile"
+              + (f"; retried: {', '.join(retries)}" if retries else ""), flush=True)
 
 
 def _trials(numbers: list[int]) -> str:
