@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import optuna
 import pytest
+import yaml
 from optuna.trial import TrialState
 
 from metaknot.experiments.spec import ConfigError, run_spec
@@ -248,9 +249,10 @@ def test_same_seed_same_study(tmp_path) -> None:
 
 # --- outputs and the held-out judgement ------------------------------------------------------
 
-def test_outputs_and_held_out_study(tmp_path) -> None:
+def test_outputs_and_held_out_study(tmp_path, capsys) -> None:
     spec = spec_of(tmp_path, "n_trials=4", "pruner=none")
     written = tune(spec, progress=False)
+    printed = capsys.readouterr().out
     study_dir = tmp_path / "tune-dolphin"
     import pandas as pd
 
@@ -269,11 +271,17 @@ def test_outputs_and_held_out_study(tmp_path) -> None:
     tuned = runs[runs.label == "dolphin-tuned"].iloc[0]
     best = written["best_params"]
     assert tuned["algorithm.population"] == best["population"]
-    # the preset runs through metaknot run and gives the same record as the held-out run
+    # the preset is data, named with the command that runs it; it gives the same record as the
+    # held-out run
+    preset = study_dir / "dolphin_tuned.yaml"
+    assert written["best_config"] == preset and not (study_dir / "conf").exists()
+    assert set(yaml.safe_load(preset.read_text())) == {"algorithm", "encoding", "label"}
+    for text in (preset.read_text(), report, printed):
+        assert f"metaknot run --preset {preset} " in text and "--config-dir" not in text
     done = subprocess.run(
-        [sys.executable, "-m", "metaknot.cli", "run", "--config-dir", str(study_dir / "conf"),
-         "method=dolphin_tuned", "problem=epitrochoid", "seed=0", "budget=300",
-         f"results_dir={tmp_path}", "study=again"], capture_output=True, text=True, timeout=300)
+        [sys.executable, "-m", "metaknot.cli", "run", "--preset", str(preset),
+         "problem=epitrochoid", "seed=0", "budget=300", f"results_dir={tmp_path}",
+         "study=again"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     again = load_study(tmp_path / "again").runs.iloc[0]
     first = runs[(runs.label == "dolphin-tuned") & (runs.seed == 0)].iloc[0]

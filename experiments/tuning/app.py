@@ -64,6 +64,7 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     written["report"] = outputs.write_report(spec, study, figures, written["best_config"],
                                              test_dir)
     print(f"best: trial {best.number}, value {best.value:.4g}, {best.params}")
+    print(f"run it: {outputs.run_command(written['best_config'])}")
     print(f"report: {written['report']}")
     return {**written, "best_value": best.value, "best_params": best.params}
 
