@@ -21,6 +21,7 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
+from .preset import expand_preset
 from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
 from .store import Store
 
@@ -193,13 +194,18 @@ def _check_single_run(overrides: list[str]) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep) to Hydra."""
+    """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep, ``--preset FILE`` for a method
+    preset read as data: :mod:`.preset`) to Hydra."""
 
     from metaknot.environment import git_commit
 
     register_hydra_plugins()
     git_commit()  # once here; run workers inherit it through the environment
-    args = list(sys.argv[1:] if argv is None else argv)
+    try:
+        args = expand_preset(list(sys.argv[1:] if argv is None else argv))
+    except ConfigError as exc:
+        print(f"metaknot run: error: {exc}", file=sys.stderr)
+        return 2
     if not any(a.startswith("-") for a in args):  # a single run: check it before Hydra starts
         error = _check_single_run(args)
         if error:

@@ -232,3 +232,75 @@ def test_batching_seeds_into_jobs_changes_no_result(tmp_path):
     bad = metaknot(*common, "hydra.sweeper.runs_per_job=0", f"results_dir={tmp_path / 'c'}",
                    cwd=tmp_path)
     assert bad.returncode != 0 and "hydra.sweeper.runs_per_job" in bad.stderr
+
+
+# --- method presets: data, never code ---------------------------------------------------------
+
+#: A preset that, loaded as a Hydra config (``--config-dir``), would run a Python callable when
+#: the job starts: a Hydra callback whose ``_target_`` opens (creates) a file.
+CALLBACK_PRESET = """\
+# @package _global_
+algorithm: {_name_: ga, population: 20}
+hydra:
+  callbacks:
+    evil: {_target_: builtins.open, _args_: ["{marker}", "w"]}
+"""
+
+
+def test_a_preset_runs_as_its_overrides_and_the_command_line_wins(tmp_path):
+    preset = tmp_path / "ga_tuned.yaml"
+    preset.write_text("# tuned\nalgorithm: {_name_: ga, population: 20, mutation_rate: 0.05}\n"
+                      "encoding: {kind: indices, n_knots: 12}\nlabel: ga-tuned\n")
+    common = ("problem=vivaldi", "budget=150", f"results_dir={tmp_path}")
+    by_preset = metaknot("--preset", str(preset), *common, "seed=1", "algorithm.population=30",
+                         cwd=tmp_path)
+    assert by_preset.returncode == 0, by_preset.stderr
+    by_hand = metaknot("algorithm=ga", "algorithm.population=30", "algorithm.mutation_rate=0.05",
+                       "encoding=indices", "encoding.n_knots=12", "label=ga-tuned", *common,
+                       "seed=1", cwd=tmp_path)
+    assert "already stored" in by_hand.stdout  # the very same run
+    sweep = metaknot("-m", f"--preset={preset}", *common, "seed=2,3", cwd=tmp_path)
+    assert sweep.returncode == 0, sweep.stderr
+    runs = load_study(tmp_path / "default").runs.set_index("seed")
+    assert list(runs.loc[[2, 3], "algorithm.population"]) == [20, 20]
+    assert runs.loc[1, "algorithm.population"] == 30
+    assert set(runs.label) == {"ga-tuned"} and set(runs.encoding) == {"integer"}
+
+
+@pytest.mark.parametrize(("body", "key"), [
+    (CALLBACK_PRESET, "hydra"),
+    ('algorithm: {_name_: ga}\n"hydra.callbacks.evil._target_": builtins.open\n',
+     "hydra.callbacks.evil._target_"),
+    ("algorithm: {_name_: ga, _target_: builtins.open}\n", "algorithm._target_"),
+    ("defaults: [{override /algorithm: ga}]\nalgorithm: {population: 20}\n", "defaults"),
+    ("algorithm: {_name_: ga}\nproblem: {curve: vivaldi}\n", "problem: unknown setting"),
+    ("algorithm: {_name_: ga, speed: 3}\n", "algorithm.speed: unknown setting"),
+    ("algorithm: {_name_: ga, population: [10, 20]}\n", "algorithm.population"),
+    ("algorithm: {_name_: ga}\nlabel: '${oc.env:HOME}'\n", "label"),
+    ("algorithm: {_name_: warp}\n", "algorithm._name_"),
+    ("algorithm: {_name_: ga}\nencoding: {kind: warp}\n", "encoding.kind"),
+    ("encoding: {kind: mask}\n", "algorithm: missing"),
+    ("algorithm: {_name_: ga\n", "not valid YAML"),
+])
+def test_a_preset_is_read_as_data_and_anything_else_is_refused(tmp_path, capsys, body, key):
+    from metaknot.experiments.app import main
+
+    marker = tmp_path / "pwned"
+    preset = tmp_path / "preset.yaml"
+    preset.write_text(body.replace("{marker}", str(marker)))
+    assert main(["--preset", str(preset), "problem=vivaldi", "budget=100",
+                 f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"metaknot run: error: {preset}: ") and key in line, line
+    assert not marker.exists() and not (tmp_path / "default").exists()
+
+
+def test_a_missing_or_repeated_preset_is_one_line(tmp_path, capsys):
+    from metaknot.experiments.app import main
+
+    for args, message in ((["--preset", str(tmp_path / "none.yaml")], "no such file"),
+                          (["--preset"], "give the preset file"),
+                          (["--preset=a.yaml", "--preset=b.yaml"], "given twice")):
+        assert main([f"results_dir={tmp_path}", *args]) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert line.startswith("metaknot run: error: --preset: ") and message in line

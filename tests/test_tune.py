@@ -3,13 +3,19 @@ evaluation, several workers and bad configurations."""
 
 from __future__ import annotations
 
+import json
+import os
+import re
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import optuna
 import pytest
+import yaml
 from optuna.trial import TrialState
 
 from metaknot.experiments.spec import ConfigError, run_spec
@@ -17,6 +23,7 @@ from metaknot.experiments.store import load_study
 from metaknot.experiments.tuning import TRAIN_SEED_OFFSET, tune, tune_spec
 from metaknot.experiments.tuning.app import CONFIG_DIR
 from metaknot.experiments.tuning.runner import (
+    HOLD_WORKER_ENV,
     evaluate_setting,
     open_storage,
     open_study,
@@ -46,6 +53,20 @@ def spec_of(tmp_path: Path, *overrides: str):
 
 def stored_trials(spec):
     return optuna.load_study(study_name=spec.study, storage=open_storage(spec)).trials
+
+
+def wait_until_held(study_dir: Path, worker_index: int, process: subprocess.Popen,
+                    timeout: float = 300) -> dict:
+    """The trial and pid of the worker ``worker_index`` once it holds inside a trial
+    (``HOLD_WORKER_ENV``); fails if ``process`` (the command that runs it) ends first."""
+    marker = study_dir / f"worker-{worker_index}.held"
+    deadline = time.monotonic() + timeout
+    while not marker.exists():
+        assert process.poll() is None, f"worker {worker_index} ended before it held in a " \
+                                       f"trial:\n{process.stdout.read()}"
+        assert time.monotonic() < deadline, f"worker {worker_index} never held in a trial"
+        time.sleep(0.05)
+    return json.loads(marker.read_text())
 
 
 # --- search spaces ------------------------------------------------------------------------
@@ -228,9 +249,10 @@ def test_same_seed_same_study(tmp_path) -> None:
 
 # --- outputs and the held-out judgement ------------------------------------------------------
 
-def test_outputs_and_held_out_study(tmp_path) -> None:
+def test_outputs_and_held_out_study(tmp_path, capsys) -> None:
     spec = spec_of(tmp_path, "n_trials=4", "pruner=none")
     written = tune(spec, progress=False)
+    printed = capsys.readouterr().out
     study_dir = tmp_path / "tune-dolphin"
     import pandas as pd
 
@@ -249,11 +271,17 @@ def test_outputs_and_held_out_study(tmp_path) -> None:
     tuned = runs[runs.label == "dolphin-tuned"].iloc[0]
     best = written["best_params"]
     assert tuned["algorithm.population"] == best["population"]
-    # the preset runs through metaknot run and gives the same record as the held-out run
+    # the preset is data, named with the command that runs it; it gives the same record as the
+    # held-out run
+    preset = study_dir / "dolphin_tuned.yaml"
+    assert written["best_config"] == preset and not (study_dir / "conf").exists()
+    assert set(yaml.safe_load(preset.read_text())) == {"algorithm", "encoding", "label"}
+    for text in (preset.read_text(), report, printed):
+        assert f"metaknot run --preset {preset} " in text and "--config-dir" not in text
     done = subprocess.run(
-        [sys.executable, "-m", "metaknot.cli", "run", "--config-dir", str(study_dir / "conf"),
-         "method=dolphin_tuned", "problem=epitrochoid", "seed=0", "budget=300",
-         f"results_dir={tmp_path}", "study=again"], capture_output=True, text=True, timeout=300)
+        [sys.executable, "-m", "metaknot.cli", "run", "--preset", str(preset),
+         "problem=epitrochoid", "seed=0", "budget=300", f"results_dir={tmp_path}",
+         "study=again"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     again = load_study(tmp_path / "again").runs.iloc[0]
     first = runs[(runs.label == "dolphin-tuned") & (runs.seed == 0)].iloc[0]
@@ -270,6 +298,61 @@ def test_two_workers_on_a_journal_storage(tmp_path) -> None:
     finished = [t for t in trials if t.state == TrialState.COMPLETE]
     assert 8 <= len(finished) <= 9  # the other worker may finish the trial it was running
     assert len({t.number for t in trials}) == len(trials)
+
+
+@pytest.mark.slow
+def test_a_killed_worker_s_trial_is_failed_by_the_parent_on_a_journal_storage(tmp_path):
+    """The journal storage has no heartbeat: the parent, which knows which worker died, marks
+    that worker's trial FAIL and says so."""
+    command = [sys.executable, "-m", "metaknot.cli", "tune", f"results_dir={tmp_path}", *SMALL,
+               "n_trials=3", "workers=2", "evaluate=false", "pruner=none"]
+    parent = subprocess.Popen(command, env={**os.environ, HOLD_WORKER_ENV: "1"},
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    held = {}
+    try:
+        held = wait_until_held(tmp_path / "tune-dolphin", 1, parent)
+        os.kill(held["pid"], signal.SIGKILL)
+        output, _ = parent.communicate(timeout=300)
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+    assert parent.returncode == 0, output
+    trials = stored_trials(spec_of(tmp_path, "workers=2"))
+    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
+    (failed,) = [t for t in trials if t.state == TrialState.FAIL]
+    assert failed.number == held["trial"]
+    assert len([t for t in trials if t.state == TrialState.COMPLETE]) == 3
+    assert re.search(rf"worker 1 \(pid {held['pid']}\) was killed by SIGKILL.* trial "
+                     rf"{held['trial']}\b.*FAIL", output), output
+    assert "retried by the heartbeat" not in output
+
+
+@pytest.mark.slow
+def test_resuming_fails_and_retries_a_dead_worker_s_trial(tmp_path) -> None:
+    """A study holds its n_trials finished trials and one that a worker killed inside it left
+    RUNNING. Re-running the study fails that trial once its heartbeat is grace_period old and
+    runs the retry, instead of returning at once."""
+    settings = ["evaluate=false", "pruner=none", "heartbeat_interval=1", "grace_period=2"]
+    tune(spec_of(tmp_path, "n_trials=2", *settings), progress=False)
+    doomed = subprocess.Popen(
+        [sys.executable, "-m", "metaknot.cli", "tune", f"results_dir={tmp_path}", *SMALL,
+         "n_trials=3", *settings], env={**os.environ, HOLD_WORKER_ENV: "0"},
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        held = wait_until_held(tmp_path / "tune-dolphin", 0, doomed)
+    finally:
+        doomed.kill()
+        doomed.wait(timeout=60)
+    time.sleep(3)  # the grace period passes before the study is resumed
+    spec = spec_of(tmp_path, "n_trials=2", *settings)
+    tune(spec, progress=False)
+    trials = stored_trials(spec)
+    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
+    (failed,) = [t for t in trials if t.state == TrialState.FAIL]
+    assert failed.number == held["trial"] == 2
+    complete = [t for t in trials if t.state == TrialState.COMPLETE]
+    (retry,) = [t for t in complete if t.system_attrs.get("failed_trial") == failed.number]
+    assert retry.params == failed.params and len(complete) == 3
 
 
 @pytest.mark.parametrize("pruner", ["median", "percentile", "successive_halving", "hyperband",

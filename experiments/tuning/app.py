@@ -28,7 +28,14 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     Returns the paths written and the best trial's value and parameters.
     """
     from . import outputs
-    from .runner import open_storage, open_study, references, run_workers, storage_description
+    from .runner import (
+        fail_trials_of_dead_workers,
+        open_storage,
+        open_study,
+        references,
+        run_workers,
+        storage_description,
+    )
 
     storage = open_storage(spec)  # errors here stop everything before a trial starts
     study = open_study(spec, storage, spec.worker_index)
@@ -36,10 +43,8 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
           f"{len(spec.train_seeds)} seeds, {spec.budget:,} evaluations per run; storage "
           f"{storage_description(spec)}", flush=True)
     references(spec, study)
-    exit_codes = run_workers(spec, progress=progress)
-    if any(code != 0 for code in exit_codes):
-        print(f"tune: {sum(c != 0 for c in exit_codes)} worker(s) ended abnormally (exit "
-              f"codes {exit_codes}); their trials are retried by the heartbeat", flush=True)
+    for line in fail_trials_of_dead_workers(study, run_workers(spec, progress=progress)):
+        print(line, flush=True)
     try:
         best = study.best_trial
     except ValueError:
@@ -59,6 +64,7 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     written["report"] = outputs.write_report(spec, study, figures, written["best_config"],
                                              test_dir)
     print(f"best: trial {best.number}, value {best.value:.4g}, {best.params}")
+    print(f"run it: {outputs.run_command(written['best_config'])}")
     print(f"report: {written['report']}")
     return {**written, "best_value": best.value, "best_params": best.params}
 

@@ -1,5 +1,5 @@
-"""What a tuning study leaves behind: the best configuration as a ``metaknot run`` preset, the
-trials as a table, Optuna's figures, the held-out comparison and a short report."""
+"""What a tuning study leaves behind: the best configuration as a ``metaknot run --preset``
+file, the trials as a table, Optuna's figures, the held-out comparison and a short report."""
 
 from __future__ import annotations
 
@@ -22,27 +22,26 @@ def best_setting(spec: TuneSpec, study: Any) -> tuple[dict[str, Any], dict[str, 
 
 
 def write_best_config(spec: TuneSpec, study: Any) -> Path:
-    """The best configuration as a method preset: ``conf/method/<algorithm>_tuned.yaml`` in the
-    study directory, for ``metaknot run --config-dir <study dir>/conf method=<algorithm>_tuned``.
-    """
+    """The best configuration as a method preset, ``<algorithm>_tuned.yaml`` in the study
+    directory: plain data, for ``metaknot run --preset FILE`` (:mod:`..preset`)."""
     import yaml
 
     params, encoding = best_setting(spec, study)
     trial = study.best_trial
-    path = spec.study_dir / "conf" / "method" / f"{spec.algorithm}_tuned.yaml"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    encoding_keys = {k: v for k, v in encoding.items() if k != "kind"}
-    body = {"defaults": [{"override /algorithm": spec.algorithm},
-                         {"override /encoding": encoding["kind"]}],
-            "algorithm": {k: _plain(v) for k, v in params.items()},
-            **({"encoding": encoding_keys} if encoding_keys else {}),
+    path = spec.study_dir / f"{spec.algorithm}_tuned.yaml"
+    body = {"algorithm": {"_name_": spec.algorithm, **{k: _plain(v) for k, v in params.items()}},
+            "encoding": {k: _plain(v) for k, v in encoding.items()},
             "label": f"{spec.algorithm}-tuned"}
-    header = (f"# @package _global_\n# {spec.algorithm} tuned by study {spec.study!r}: trial "
-              f"{trial.number}, mean ratio to {spec.reference} {trial.value:.4g} on the training "
-              f"instances.\n# metaknot run --config-dir {spec.study_dir / 'conf'} "
-              f"method={spec.algorithm}_tuned ...\n")
+    header = (f"# {spec.algorithm} tuned by study {spec.study!r}: trial {trial.number}, mean "
+              f"ratio to {spec.reference} {trial.value:.4g} on the training instances.\n"
+              f"# {run_command(path)}\n")
     path.write_text(header + yaml.safe_dump(body, sort_keys=False))
     return path
+
+
+def run_command(preset: Path) -> str:
+    """The ``metaknot run`` command line that runs a written preset."""
+    return f"metaknot run --preset {preset} problem=... seed=..."
 
 
 def _plain(value: Any) -> Any:
@@ -194,9 +193,8 @@ def write_report(spec: TuneSpec, study: Any, figures: list[Path], best_config: P
              f"## Best configuration (trial {best.number}, value {best.value:.4g})", "",
              "| parameter | value |", "|---|---|",
              *(f"| {k} | {v!r} |" for k, v in best.params.items()), "",
-             f"As a preset: `{best_config}` —", "",
-             f"    metaknot run --config-dir {best_config.parent.parent} "
-             f"method={spec.algorithm}_tuned problem=... seed=...", ""]
+             f"As a preset: `{best_config}` (plain data; see docs/tuning.md) —", "",
+             f"    {run_command(best_config)}", ""]
     if test_dir is not None:
         table, _ = held_out_summary(spec)
         lines += ["## Held out: tuned against the defaults", "",

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
+import signal
+import socket
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -15,11 +19,23 @@ import numpy as np
 from ..spec import ConfigError, run_spec
 from .spec import Instance, TuneSpec
 
-__all__ = ["evaluate_setting", "open_storage", "open_study", "references", "run_workers",
-           "trial_objective"]
+__all__ = ["HOLD_WORKER_ENV", "evaluate_setting", "fail_trials_of_dead_workers", "open_storage",
+           "open_study", "references", "run_workers", "trial_objective",
+           "wait_for_running_trials", "worker_name"]
 
 #: Trial states that count towards ``n_trials``.
 FINISHED = ("COMPLETE", "PRUNED")
+#: Fault injection for the tests: the worker whose ``worker_index`` this variable holds stops
+#: inside the first trial it starts, once its parameters are sampled, writes
+#: ``<study dir>/worker-<index>.held`` (``{"trial": number, "pid": pid}``) and waits there, its
+#: heartbeat beating, until it is killed.
+HOLD_WORKER_ENV = "METAKNOT_TUNE_HOLD_WORKER"
+
+
+def worker_name(pid: int | None = None) -> str:
+    """``host:pid`` of a worker process (this one by default), kept in each trial it runs as
+    the user attribute ``worker``."""
+    return f"{socket.gethostname()}:{os.getpid() if pid is None else pid}"
 
 
 def storage_description(spec: TuneSpec) -> str:
@@ -167,11 +183,15 @@ def trial_objective(spec: TuneSpec, reference: dict[str, float]) -> Callable[[An
     """The function Optuna minimises: for each training instance in turn, the median
     ``best_f`` over the training seeds divided by the reference's median; the trial's value is
     the mean of these ratios (reported after each instance, so the pruner can stop a trial
-    early). Per-instance ratios and values are kept as user attributes."""
+    early). Per-instance ratios and values are kept as user attributes, and so is the
+    ``worker`` that ran the trial (:func:`worker_name`)."""
     import optuna
 
     def objective(trial: Any) -> float:
+        trial.set_user_attr("worker", worker_name())
         params, encoding = spec.trial_setting(spec.space.suggest(trial))
+        if os.environ.get(HOLD_WORKER_ENV) == str(spec.worker_index):
+            _hold(spec, trial)
         ratios = []
         for step, instance in enumerate(spec.train):
             values = evaluate_setting(spec, instance, spec.train_seeds, params=params,
@@ -188,6 +208,15 @@ def trial_objective(spec: TuneSpec, reference: dict[str, float]) -> Callable[[An
     return objective
 
 
+def _hold(spec: TuneSpec, trial: Any) -> None:
+    """Stop inside ``trial`` until killed (:data:`HOLD_WORKER_ENV`)."""
+    marker = spec.study_dir / f"worker-{spec.worker_index}.held"
+    partial = marker.with_suffix(".partial")
+    partial.write_text(json.dumps({"trial": trial.number, "pid": os.getpid()}))
+    partial.replace(marker)
+    threading.Event().wait()
+
+
 def finished_trials(study: Any) -> int:
     from optuna.trial import TrialState
 
@@ -195,30 +224,137 @@ def finished_trials(study: Any) -> int:
     return len(study.get_trials(deepcopy=False, states=states))
 
 
-def work(spec: TuneSpec, worker_index: int = 0, progress: bool = False) -> None:
+def _wants_trials(study: Any, n_trials: int) -> bool:
+    """Fewer than ``n_trials`` finished trials, or a retry waiting to run."""
+    from optuna.trial import TrialState
+
+    return finished_trials(study) < n_trials or bool(
+        study.get_trials(deepcopy=False, states=(TrialState.WAITING,)))
+
+
+class _StopWhenDone:
+    """Stops a worker once the study holds ``n_trials`` finished trials and no retry waits."""
+
+    def __init__(self, n_trials: int) -> None:
+        self.n_trials = n_trials
+
+    def __call__(self, study: Any, trial: Any) -> None:
+        if not _wants_trials(study, self.n_trials):
+            study.stop()
+
+
+def work(spec: TuneSpec, worker_index: int = 0, progress: bool = False,
+         ready: Any = None) -> None:
     """One worker: add trials until the study holds ``n_trials`` finished ones (or the
-    timeout passes). Several workers (processes, machines) can work on one study."""
+    timeout passes), then wait for the trials still running (:func:`wait_for_running_trials`)
+    and run the retries of those that failed. Several workers (processes, machines) can work
+    on one study; ``ready`` (an event) is set once the study is open."""
     import numba
     import optuna
-    from optuna.study import MaxTrialsCallback
-    from optuna.trial import TrialState
 
     if spec.workers > 1:
         numba.set_num_threads(1)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     storage = open_storage(spec)
     study = open_study(spec, storage, worker_index)
-    reference = references(spec, study)
-    if finished_trials(study) >= spec.n_trials:
-        return
-    states = tuple(getattr(TrialState, s) for s in FINISHED)
-    callbacks = [MaxTrialsCallback(spec.n_trials, states=states)]
+    objective = trial_objective(spec, references(spec, study))
+    if ready is not None:
+        ready.set()
+    callbacks = [_StopWhenDone(spec.n_trials)]
     if progress:
         callbacks.append(_Progress(spec.n_trials, finished_trials(study)))
-    study.optimize(trial_objective(spec, reference), timeout=spec.timeout,
-                   callbacks=callbacks, catch=(ValueError,), gc_after_trial=False)
+    deadline = None if spec.timeout is None else time.monotonic() + spec.timeout
+    while True:
+        left = None if deadline is None else deadline - time.monotonic()
+        if _wants_trials(study, spec.n_trials) and (left is None or left > 0):
+            study.optimize(objective, timeout=left, callbacks=callbacks, catch=(ValueError,),
+                           gc_after_trial=False)
+        wait_for_running_trials(spec, study, storage)  # may leave retries waiting
+        if not _wants_trials(study, spec.n_trials) or (
+                deadline is not None and time.monotonic() >= deadline):
+            break
     for callback in callbacks[1:]:
         callback.close()
+
+
+def wait_for_running_trials(spec: TuneSpec, study: Any, storage: Any) -> None:
+    """On a storage with a heartbeat (RDB), wait until no trial of the study is running: a
+    live worker's trial finishes, a dead worker's is failed once its heartbeat is
+    ``grace_period`` old, and retried (``max_retry``). A trial whose worker died before its
+    first heartbeat gets one from here after ``grace_period + heartbeat_interval`` s of
+    waiting, so it, too, is failed in the end; their retries may then be waiting. Without a
+    heartbeat it returns at once.
+    """
+    import optuna
+    from optuna.storages import RDBStorage, fail_stale_trials
+    from optuna.trial import TrialState
+
+    if not isinstance(storage, RDBStorage):
+        return
+    first_seen: dict[int, float] = {}
+    given_a_heartbeat: set[int] = set()
+    waiting = False
+    while True:
+        now = time.monotonic()
+        for trial in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
+            first_seen.setdefault(trial.number, now)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+            fail_stale_trials(study)
+        running = study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
+        if not running:
+            break
+        if not waiting:
+            print(f"tune {spec.study}: waiting for {_trials([t.number for t in running])} of "
+                  f"other workers; a dead worker's trial is failed {spec.grace_period} s after "
+                  "its last heartbeat", flush=True)
+            waiting = True
+        for trial in running:
+            waited = now - first_seen[trial.number]
+            if trial.number not in given_a_heartbeat \
+                    and waited > spec.grace_period + spec.heartbeat_interval:
+                storage.record_heartbeat(trial._trial_id)  # the storage knows trials by id
+                given_a_heartbeat.add(trial.number)
+        time.sleep(spec.heartbeat_interval)
+    states = {t.number: t.state for t in study.get_trials(deepcopy=False)}
+    failed = [n for n in sorted(first_seen) if states[n] == TrialState.FAIL]
+    if failed:
+        retried = {t.system_attrs["retry_history"][-1]: t.number  # noted by Optuna's retry
+                   for t in study.get_trials(deepcopy=False) if t.system_attrs.get(
+                       "retry_history")}
+        retries = [f"{n} as {retried[n]}" for n in failed if n in retried]
+        print(f"tune {spec.study}: {_trials(failed)} ended FAIL meanwhile"
+              + (f"; retried: {', '.join(retries)}" if retries else ""), flush=True)
+
+
+def _trials(numbers: list[int]) -> str:
+    """``trial 3`` or ``trials 3, 5``."""
+    return ("trial " if len(numbers) == 1 else "trials ") + ", ".join(map(str, numbers))
+
+
+def fail_trials_of_dead_workers(study: Any, workers: list[tuple[int, int, int]]) -> list[str]:
+    """For each spawned worker ``(index, pid, exit code)`` that ended abnormally, mark FAIL
+    the trials it left RUNNING (on a journal storage, which has no heartbeat, nothing else
+    would), and say what happened: one line per such worker."""
+    from optuna.trial import TrialState
+
+    lines = []
+    for index, pid, code in workers:
+        if code == 0:
+            continue
+        try:
+            how = f"was killed by {signal.Signals(-code).name}" if code < 0 else \
+                f"ended with exit code {code}"
+        except ValueError:
+            how = f"was killed by signal {-code}"
+        left = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
+                if t.user_attrs.get("worker") == worker_name(pid)]
+        for number in left:
+            study.tell(number, state=TrialState.FAIL, skip_if_finished=True)
+        what = (f"{_trials(left)} it was running marked FAIL (not retried)" if left
+                else "no trial of it is still running")
+        lines.append(f"tune: worker {index} (pid {pid}) {how}; {what}")
+    return lines
 
 
 class _Progress:
@@ -239,26 +375,31 @@ class _Progress:
         self.bar.close()
 
 
-def _work_in_process(raw: dict[str, Any], worker_index: int) -> None:
+def _work_in_process(raw: dict[str, Any], worker_index: int, ready: Any) -> None:
     from .spec import tune_spec
 
-    work(tune_spec({**raw, "worker_index": worker_index}), worker_index)
+    work(tune_spec({**raw, "worker_index": worker_index}), worker_index, ready=ready)
 
 
-def run_workers(spec: TuneSpec, progress: bool = True) -> list[int]:
-    """Run ``spec.workers`` workers on the study: this process and ``workers - 1`` spawned
-    ones. Returns the exit codes of the spawned workers (a killed worker's trial is retried
-    by the others through the heartbeat, RDB storages only)."""
+def run_workers(spec: TuneSpec, progress: bool = True) -> list[tuple[int, int, int]]:
+    """Run ``spec.workers`` workers on the study: ``workers - 1`` spawned ones and, once each
+    of them has opened the study (or died), this process. Returns ``(worker index, pid, exit
+    code)`` of each spawned worker (see :func:`fail_trials_of_dead_workers`)."""
     context = multiprocessing.get_context("spawn")
-    others = [context.Process(target=_work_in_process, args=(spec.raw, spec.worker_index + i),
-                              daemon=False)
-              for i in range(1, spec.workers)]
-    for process in others:
+    others = []
+    for i in range(1, spec.workers):
+        ready = context.Event()
+        process = context.Process(target=_work_in_process,
+                                  args=(spec.raw, spec.worker_index + i, ready), daemon=False)
         process.start()
-        time.sleep(0.2)  # let each open the storage in turn
+        others.append((process, ready))
+    for process, ready in others:
+        while not ready.wait(0.1) and process.is_alive():
+            pass
     try:
         work(spec, spec.worker_index, progress=progress)
     finally:
-        for process in others:
+        for process, _ in others:
             process.join()
-    return [p.exitcode for p in others]
+    return [(spec.worker_index + i, process.pid, process.exitcode)
+            for i, (process, _) in enumerate(others, start=1)]
