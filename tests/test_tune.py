@@ -375,3 +375,33 @@ def test_every_pruner_runs_a_study(tmp_path, pruner) -> None:
             assert len(ran) == 2
         else:  # a pruned one stopped at the instance its last intermediate value is from
             assert pruner != "none" and len(ran) == max(trial.intermediate_values) + 1
+
+
+def test_a_run_that_fails_its_budget_audit_fails_the_trial(tmp_path, monkeypatch) -> None:
+    import gc
+
+    import metaknot as mk
+    from metaknot import registry
+    from metaknot.problems import KnotProblem
+
+    monkeypatch.setitem(registry._REGISTRY, "optimizer", dict(registry._REGISTRY["optimizer"]))
+
+    @mk.register("peeking_search")
+    class PeekingSearch(mk.Optimizer):
+        """Scores extra candidates on the problem it finds among all objects."""
+
+        def ask(self):
+            X = self.problem.sample(self.rng, 10)
+            problem = next(o for o in gc.get_objects() if isinstance(o, KnotProblem)
+                           and o.points.shape == self.problem.points.shape)
+            problem.evaluate(X)
+            return X[:2]
+
+        def tell(self, X, F):
+            pass
+
+    spec = spec_of(tmp_path)
+    instance = spec.train[0]
+    assert len(evaluate_setting(spec, instance, (0,), algorithm="random_search", params={})) == 1
+    with pytest.raises(ValueError, match=r"peeking_search on .*budget violation"):
+        evaluate_setting(spec, instance, (0,), algorithm="peeking_search", params={})

@@ -143,7 +143,14 @@ def open_study(spec: TuneSpec, storage: Any, worker_index: int = 0) -> Any:
 def evaluate_setting(spec: TuneSpec, instance: Instance, seeds: tuple[int, ...], *,
                      algorithm: str | None = None, params: dict[str, Any] | None = None,
                      encoding: dict[str, Any] | None = None) -> list[float]:
-    """``best_f`` of one setting on ``instance`` for each replicate seed (in-process runs)."""
+    """``best_f`` of one setting on ``instance`` for each replicate seed (in-process runs).
+
+    Raises
+    ------
+    ValueError
+        If the setting does not fit the instance, or a run fails its budget audit (a trial
+        then fails: its value could not be compared with the others).
+    """
     from metaknot.runner import minimize
 
     values = []
@@ -155,6 +162,8 @@ def evaluate_setting(spec: TuneSpec, instance: Instance, seeds: tuple[int, ...],
             raise ValueError(reason)
         result = minimize(run.build_problem(), run.build_optimizer(), budget=spec.budget,
                           seed=run.optimizer_seed(), checkpoints_per_decade=1)
+        if result.status == "budget_violation":  # its value cannot be compared: the trial fails
+            raise ValueError(f"{run.algorithm} on {instance.key}, seed {seed}: {result.error}")
         values.append(float(result.best_f))
     return values
 
