@@ -82,7 +82,7 @@ def execute(spec: RunSpec, *, multirun: bool = False,
     """
     import numba
 
-    from metaknot.environment import environment
+    from metaknot.experiments.environment import environment
     from metaknot.runner import minimize
 
     store = Store(spec.study_dir)
@@ -197,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep, ``--preset FILE`` for a method
     preset read as data: :mod:`.preset`) to Hydra."""
 
-    from metaknot.environment import git_commit
+    from metaknot.experiments.environment import git_commit
 
     register_hydra_plugins()
     git_commit()  # once here; run workers inherit it through the environment

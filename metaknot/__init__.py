@@ -24,9 +24,22 @@ from .registry import (
 from .result import RunResult
 from .runner import make_rng, minimize
 from .task import Task
-from .tolerance_fit import ToleranceFit, fit
 
 __version__ = "0.1.0"
+
+#: Names loaded on first use: the applications above the framework (``metaknot fit`` and its
+#: result), which pull in the compiled kernels.
+_LAZY = {"fit": "metaknot.apps.fit", "ToleranceFit": "metaknot.apps.fit"}
+
+
+def __getattr__(name: str) -> object:
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'metaknot' has no attribute {name!r}")
 
 __all__ = [
     "BudgetExhausted",

@@ -95,8 +95,18 @@ def test_the_core_loads_no_application_library():
     loaded = subprocess.run(
         [sys.executable, "-c", "import sys, metaknot; print(' '.join(sorted(sys.modules)))"],
         capture_output=True, text=True, check=True, cwd=ROOT).stdout.split()
-    heavy = {"pandas", "optuna", "hydra", "matplotlib", "seaborn", "pyarrow"}
+    heavy = {"pandas", "optuna", "hydra", "matplotlib", "seaborn", "pyarrow",
+             "numba"}  # the compiled kernels load with the spline layer, on first use
     assert not heavy & {m.split(".")[0] for m in loaded}
+    assert "metaknot.bspline" not in loaded and "metaknot.apps.fit" not in loaded
+
+
+def test_fit_is_loaded_on_first_use():
+    code = ("import sys, metaknot as mk; assert 'metaknot.apps.fit' not in sys.modules; "
+            "print(mk.fit.__module__, mk.ToleranceFit.__name__, 'numba' in sys.modules)")
+    shown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           check=True, cwd=ROOT).stdout.split()
+    assert shown == ["metaknot.apps.fit", "ToleranceFit", "True"]
 
 
 FITPACK_NAMES = {"splprep", "splrep", "splev", "make_splrep", "make_splprep", "UnivariateSpline"}

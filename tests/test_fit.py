@@ -13,9 +13,9 @@ import pytest
 from scipy.interpolate import make_lsq_spline, splev, splprep
 
 import metaknot as mk
+from metaknot.apps.fit_output import FILES
 from metaknot.bspline import parameterize
 from metaknot.cli import main
-from metaknot.fit_output import FILES
 from metaknot.problems import get_curve
 
 PEAK_X = np.linspace(0.0, 1.0, 300)
@@ -86,7 +86,7 @@ def test_function_data_uses_x_as_the_parameter() -> None:
 
 
 def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> None:
-    from metaknot import tolerance_fit
+    from metaknot.apps import fit as tolerance_fit
 
     monkeypatch.setattr(tolerance_fit._Search, "remove", lambda self, knots: knots)
     monkeypatch.setattr(tolerance_fit._Search, "fewest_averaging", lambda self, upper: None)
@@ -345,7 +345,7 @@ def test_closed_outline_in_dxf_and_csv(tmp_path) -> None:
 
 
 def test_the_fixed_count_search_finds_fewer_knots(monkeypatch) -> None:
-    from metaknot import tolerance_fit
+    from metaknot.apps import fit as tolerance_fit
 
     points = get_curve("vivaldi").points  # closed: its last point repeats the first
     with_search = mk.fit(points, 1e-3, relative=True)

@@ -263,7 +263,8 @@ def test_git_commit_is_looked_up_once_and_inherited(tmp_path):
     import subprocess
     import sys
 
-    code = "from metaknot.environment import environment; print(environment()['git_commit'])"
+    code = ("from metaknot.experiments.environment import environment; "
+            "print(environment()['git_commit'])")
     env = {k: v for k, v in __import__("os").environ.items() if k != "METAKNOT_GIT_COMMIT"}
     looked_up = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                                env=env, cwd=tmp_path, check=True).stdout.strip()

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline, make_interp_spline
 
-from .bspline import (
+from ..bspline import (
     averaging_knots,
     check_degree,
     evaluate_positions,
@@ -39,10 +39,10 @@ from .bspline import (
     fitpack,
     parameterize,
 )
-from .bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
-from .bspline.parameterize import check_coordinates
-from .bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
-from .validate import is_integer
+from ..bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
+from ..bspline.parameterize import check_coordinates
+from ..bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
+from ..validate import is_integer
 
 __all__ = ["ToleranceFit", "fit"]
 

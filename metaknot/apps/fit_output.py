@@ -1,4 +1,4 @@
-"""Files of a :class:`~metaknot.tolerance_fit.ToleranceFit` (``metaknot fit --out DIR``).
+"""Files of a :class:`~metaknot.apps.fit.ToleranceFit` (``metaknot fit --out DIR``).
 
 ``fit.json`` (knots, control points, degree, metrics, FITPACK's answer, the method),
 ``knots.csv``, ``control_points.csv``, ``metrics.json``, ``fit.png`` / ``fit.svg`` (the data,
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .tolerance_fit import ToleranceFit
+from .fit import ToleranceFit
 
 __all__ = ["FILES", "check_destination", "write_fit"]
 

@@ -54,7 +54,7 @@ def _ask_git() -> str | None:
 @functools.cache
 def environment() -> dict[str, str | None]:
     """Versions (metaknot, Python, numpy, scipy, numba), git commit and host name."""
-    from . import __version__
+    from metaknot import __version__
 
     return {
         "metaknot_version": __version__,

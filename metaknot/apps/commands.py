@@ -1,0 +1,133 @@
+"""The ``fit`` and ``demo`` commands of the ``metaknot`` command line (their arguments and what
+they do); :mod:`metaknot.cli` dispatches to them. Nothing heavy is imported until a command
+runs."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+__all__ = ["SEED_CURVES", "add_demo", "add_fit", "demo", "fit"]
+
+SEED_CURVES = ("epitrochoid", "archimedean", "vivaldi")
+
+
+def add_demo(sub: Any) -> None:
+    """Add the ``demo`` command to the subcommands ``sub``."""
+    parser = sub.add_parser("demo", help="optimizers compared on the seed paper's three curves")
+    parser.add_argument("--optimizers", nargs="+", default=["dolphin", "ga", "random_search"])
+    parser.add_argument("--budget", type=int, default=3000)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--degree", type=int, default=3)
+    parser.add_argument("--curves", nargs="+", default=list(SEED_CURVES), choices=SEED_CURVES)
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.set_defaults(func=demo)
+
+
+def add_fit(sub: Any) -> None:
+    """Add the ``fit`` command to the subcommands ``sub``."""
+    parser = sub.add_parser(
+        "fit", help="a user's points to the fewest control points within a tolerance",
+        description="Fit a clamped B-spline with the fewest control points whose error stays "
+                    "within the tolerance (never more than FITPACK's splprep needs), and write "
+                    "knots, control points, metrics, a figure and a DXF file.")
+    parser.add_argument("points", help="a .csv/.txt table (one point per row, values separated "
+                                    "by commas or spaces; a header row and # comments are "
+                                    "skipped) or a .npy array; see docs/input-files.md")
+    parser.add_argument("--tol", type=float, required=True, help="the tolerance")
+    parser.add_argument("--relative", action="store_true",
+                     help="--tol is a fraction of the bounding-box diagonal")
+    parser.add_argument("--metric", choices=["max_deviation", "rmse"], default="max_deviation")
+    parser.add_argument("--function", action="store_true",
+                     help="the first column is x, the others f(x); x is the parameter")
+    parser.add_argument("--degree", type=int, default=3)
+    parser.add_argument("--parameterization", choices=["centripetal", "chord", "uniform"],
+                     default="centripetal")
+    shape = parser.add_mutually_exclusive_group()
+    shape.add_argument("--closed", dest="closed", action="store_const", const=True,
+                       help="a closed outline: a periodic spline, no seam")
+    shape.add_argument("--open", dest="closed", action="store_const", const=False,
+                       help="an open curve: clamped at its ends")
+    shape.add_argument("--auto-closed", dest="closed", action="store_const", const=None,
+                       help="closed if the first and last points coincide within the "
+                            "tolerance (the default)")
+    parser.add_argument("--method", choices=["auto", "removal", "fitpack"], default="auto",
+                     help="auto: knot removal then a search at fixed counts (the default); "
+                          "removal: knot removal only; fitpack: FITPACK's answer")
+    parser.add_argument("--budget", type=int, default=20000,
+                     help="evaluations of the GA at each count of the fixed-count search")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the searches")
+    parser.add_argument("--out", default=None, help="output folder (default: <points>-fit)")
+    parser.add_argument("--force", action="store_true",
+                     help="replace the files of a previous fit in the --out folder (only "
+                          "those its fit.json lists)")
+    parser.set_defaults(func=fit)
+
+
+def demo(args: argparse.Namespace) -> int:
+    """``metaknot demo``: the optimizers on the seed paper's curves, one seed, one table."""
+    from metaknot.problems import Paper, get_curve
+    from metaknot.runner import minimize
+
+    header = (f"{'curve':<12} {'optimizer':<14} {'CP':>4} {'objective':>11} {'RMSE':>10} "
+              f"{'ED':>10} {'max dev':>10} {'evals':>6} {'sec':>6}")
+    rows = []
+    for name in args.curves:
+        data = get_curve(name)
+        for optimizer in args.optimizers:
+            result = minimize(
+                "knot_selection", optimizer, budget=args.budget, seed=args.seed,
+                problem_kwargs={"points": data, "degree": args.degree, "objective": "paper"},
+                progress=not args.quiet,
+            )
+            if result.solution is None:
+                rows.append(f"{name:<12} {optimizer:<14}   no feasible candidate")
+                continue
+            m = result.solution.fit.metrics()
+            rows.append(
+                f"{name:<12} {optimizer:<14} {m['n_control_points']:>4} "
+                f"{result.best_f:>11.4g} {m['rmse']:>10.3e} {m['euclidean_distance']:>10.3e} "
+                f"{m['max_deviation']:>10.3e} {result.n_evaluations:>6} {result.elapsed:>6.2f}"
+            )
+    print(f"The seed paper's setting: 0/1 knot masks, degree {args.degree}, centripetal, "
+          f"objective 'paper' (control points x Euclidean distance, error floor "
+          f"{Paper().error_floor:g} x diagonal); {args.budget} evaluations, seed {args.seed}")
+    print(header)
+    print("\n".join(rows))
+    return 0
+
+
+def fit(args: argparse.Namespace) -> int:
+    """``metaknot fit``: read the points, check the destination, fit, write the files."""
+    from pathlib import Path
+
+    from metaknot.problems import load_points
+
+    from .fit import fit as fit_points
+    from .fit_output import check_destination, write_fit
+
+    out = Path(args.out) if args.out else Path(args.points).with_name(
+        Path(args.points).stem + "-fit")
+    check_destination(out, force=args.force)
+    points = load_points(args.points).points
+    if args.function and points.shape[1] < 2:
+        raise ValueError(f"--function: {args.points} needs two or more columns (x, f(x)); it "
+                         f"has {points.shape[1]}")
+    n, dims = points.shape[0], points.shape[1] - (1 if args.function else 0)
+    print(f"read {n} points ({dims}-D{', function of x' if args.function else ''}) from "
+          f"{args.points}", flush=True)
+    result = fit_points(points, args.tol, relative=args.relative, metric=args.metric,
+                 function=args.function, degree=args.degree,
+                 parameterization=args.parameterization, closed=args.closed,
+                 method=args.method, budget=args.budget, seed=args.seed, progress=True)
+    for stage in result.stages:
+        print(stage, flush=True)
+    written = write_fit(result, result.points if not args.function else points[:, 1:], out,
+                        force=args.force)
+    m = result.metrics
+    print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
+          f"{result.fitpack['n_control_points']}), max deviation {m['max_deviation']:.4g}, "
+          f"RMSE {m['rmse']:.4g} (tolerance {result.tolerance:.4g} on {result.metric}), "
+          f"{m['seconds']:.2f} s")
+    print(f"wrote {len(written)} files to {out}")
+    return 0
