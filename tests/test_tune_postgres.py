@@ -14,6 +14,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import optuna
@@ -91,3 +92,37 @@ def test_a_killed_worker_s_trial_is_failed_and_retried_even_after_the_study_ends
     assert len(retries) == 1 and retries[0].params == failed[0].params
     assert set(failed[0].params) >= {"population", "pp1", "power"}  # sampled before the kill
     assert len({t.number for t in trials}) == len(trials)
+
+
+OPEN_STORAGE = """
+import pathlib, sys, time, types
+from metaknot.experiments.tuning.runner import open_storage
+spec = types.SimpleNamespace(study_dir=pathlib.Path(sys.argv[2]), storage=sys.argv[1],
+                             workers=2, heartbeat_interval=1, grace_period=6, max_retry=1)
+time.sleep(max(0.0, float(sys.argv[3]) - time.time()))
+open_storage(spec)
+"""
+
+
+def test_workers_opening_a_new_database_at_once_all_get_the_storage(postgres_url, tmp_path):
+    """Workers started together on a database without Optuna's tables all create them at
+    once; PostgreSQL then refuses all but one (a duplicate key in its catalogue). Each worker
+    must still open the storage."""
+    import psycopg
+
+    server = postgres_url.replace("+psycopg", "")
+    name = f"fresh_{os.getpid()}_{time.monotonic_ns()}"
+    with psycopg.connect(server, autocommit=True) as connection:
+        connection.execute(f"CREATE DATABASE {name}")
+    fresh = postgres_url.rsplit("/", 1)[0] + f"/{name}"
+    try:
+        start = time.time() + 8  # every worker imports Optuna first, then they start together
+        workers = [subprocess.Popen([sys.executable, "-c", OPEN_STORAGE, fresh, str(tmp_path),
+                                     str(start)], stdout=subprocess.PIPE,
+                                    stderr=subprocess.STDOUT, text=True) for _ in range(6)]
+        outputs = [worker.communicate(timeout=120)[0] for worker in workers]
+        assert [w.returncode for w in workers] == [0] * 6, "\n".join(outputs)
+        assert optuna.get_all_study_summaries(RDBStorage(fresh)) == []  # the tables are there
+    finally:
+        with psycopg.connect(server, autocommit=True) as connection:
+            connection.execute(f"DROP DATABASE IF EXISTS {name} WITH (FORCE)")

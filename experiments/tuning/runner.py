@@ -81,16 +81,36 @@ def open_storage(spec: TuneSpec) -> Any:
                           "machine) or PostgreSQL (several machines)")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-    try:
-        return RDBStorage(
-            url, heartbeat_interval=spec.heartbeat_interval, grace_period=spec.grace_period,
-            heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(
-                max_retry=spec.max_retry),
-            engine_kwargs={"pool_pre_ping": True},
-        )
-    except Exception as exc:  # SQLAlchemy's errors for bad URLs, drivers and servers
-        reason = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ConfigError(f"storage: cannot open {url}: {reason}") from None
+    for attempt in range(SCHEMA_ATTEMPTS):
+        try:
+            return RDBStorage(
+                url, heartbeat_interval=spec.heartbeat_interval, grace_period=spec.grace_period,
+                heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(
+                    max_retry=spec.max_retry),
+                engine_kwargs={"pool_pre_ping": True},
+            )
+        except Exception as exc:  # SQLAlchemy's errors for bad URLs, drivers and servers
+            if attempt + 1 < SCHEMA_ATTEMPTS and _schema_race(exc):
+                time.sleep(0.2 * (attempt + 1))  # the other worker's tables exist by then
+                continue
+            reason = str(exc).strip().splitlines()[0] if str(exc).strip() else \
+                type(exc).__name__
+            raise ConfigError(f"storage: cannot open {url}: {reason}") from None
+    raise AssertionError("unreachable")
+
+
+#: Tries at opening an RDB storage whose tables another worker is creating at the same time.
+SCHEMA_ATTEMPTS = 5
+
+
+def _schema_race(exc: Exception) -> bool:
+    """True for the errors of two workers creating Optuna's tables in a new database at once
+    (PostgreSQL: a unique violation on its catalogue, or "already exists")."""
+    from sqlalchemy.exc import IntegrityError, ProgrammingError
+
+    text = str(exc)
+    return isinstance(exc, IntegrityError | ProgrammingError) and (
+        "already exists" in text or "duplicate key" in text)
 
 
 def _sampler(spec: TuneSpec, worker_index: int) -> Any:
