@@ -50,7 +50,7 @@ def knots_to_candidate(problem: Problem, knots: np.ndarray) -> np.ndarray:
     if encoding.kind == "continuous":
         return problem.pad(knots) if getattr(problem, "variable_count", False) else np.sort(knots)
     u = problem.params
-    last = u.size - 1 if getattr(problem, "closed", False) else u.size - 2
+    last = problem.last_candidate_point
     j = np.clip(np.searchsorted(u, knots), 1, u.size - 1)
     idx = np.clip(j - (knots - u[j - 1] <= u[j] - knots), 1, last)
     if encoding.kind == "integer":

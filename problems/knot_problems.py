@@ -20,23 +20,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from metaknot.bspline import (
-    BatchFit,
-    SplineFit,
-    check_degree,
-    evaluate_indices,
-    evaluate_masks,
-    evaluate_positions,
-    fit_spline,
-    interior_from_indices,
-    interior_from_mask,
-    parameterize,
-)
-from metaknot.bspline._codegen import MAX_DIMENSION
+from metaknot.bspline import BatchFit, CurveFit
 from metaknot.bspline._moves import mask_replacements
+from metaknot.bspline.curve import Curve, make_curve
 from metaknot.bspline.knots import stack_indices, stack_positions
-from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
-from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
+from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
 from metaknot.validate import is_integer
@@ -64,7 +52,7 @@ class KnotSolution:
 
     x: np.ndarray
     objective_value: float | np.ndarray
-    fit: SplineFit
+    fit: CurveFit
 
     def metrics(self) -> dict[str, float]:
         """The fit's metrics (control points, SSE, RMSE, Euclidean distance, max deviation)."""
@@ -115,28 +103,20 @@ class KnotProblem(Problem):
                  parameterization: str = "centripetal", objective: str | Objective = "paper",
                  objective_options: dict[str, Any] | None = None, closed: bool = False) -> None:
         self.data = _as_point_set(points)
-        self.degree = check_degree(degree)
-        self.closed = bool(closed)
-        if self.closed:
-            q = self.data.points
-            if len(q) > 3 and np.linalg.norm(q[-1] - q[0]) <= 1e-12 * self.data.scale:
-                self.data = PointSet(q[:-1], name=self.data.name, noise=self.data.noise,
-                                     noise_seed=self.data.noise_seed)  # a repeated first point
-            if self.data.params is not None:
-                raise ValueError("a closed curve takes its own parameters (closing chord "
-                                 "included); explicit parameters do not apply")
-            self.params = closed_parameterize(self.data.points, parameterization)
-        else:
-            method = self.data.params if self.data.params is not None else parameterization
-            self.params = parameterize(self.data.points, method, degree=self.degree)
-        if not self.closed and self.data.dim > MAX_DIMENSION:
-            raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates for an open "
-                             f"curve (the compiled kernel's loops are generated for those); "
-                             f"got {self.data.dim}")
+        #: the curve model: open (a clamped spline) or closed (a periodic one)
+        self.curve = make_curve(self.data.points, degree=degree,
+                                parameterization=parameterization, closed=closed,
+                                params=self.data.params)
+        if self.curve.n_points < self.data.n_points:  # a closed outline's repeated first point
+            self.data = PointSet(self.curve.points, name=self.data.name, noise=self.data.noise,
+                                 noise_seed=self.data.noise_seed)
+        self.degree = self.curve.degree
+        self.closed = self.curve.closed
+        self.params = self.curve.params
         self.parameterization = "explicit" if self.data.params is not None else parameterization
         self.objective = get_objective(objective, **(objective_options or {}))
         self.info = DataInfo(self.data.n_points, self.data.dim, self.data.scale, self.degree,
-                             self.closed)
+                             self.curve.extra_control_points)
         self.delta_evaluation = True
         self._moves: MoveEvaluator | None = None
         self._moves_key: bytes | None = None
@@ -197,16 +177,14 @@ class KnotProblem(Problem):
     def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
         """The move evaluator bound to ``near`` (None on closed curves, or if ``near`` cannot
         be fitted)."""
-        if self.closed:
-            return None
         near = np.asarray(near)
         key = near.dtype.str.encode() + near.tobytes()
         if key != self._moves_key:
             self._moves_key = key
             near = self.encoding.check(near)[0]
-            interior = np.ascontiguousarray(self._interior_knots(near), dtype=np.float64)
-            # None for an infeasible incumbent: every candidate is then fitted in full
-            self._moves = bound_to(self._moves, self.params, self.points, interior, self.degree)
+            # None on closed curves and for an infeasible incumbent: candidates are then
+            # fitted in full
+            self._moves = self.curve.move_evaluator(self._interior_knots(near), self._moves)
         return self._moves
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -239,11 +217,7 @@ class KnotProblem(Problem):
         x = self.encoding.check(x)[0]
         value = self.evaluate_details(x[None, :])[0][0]
         value = float(value) if np.ndim(value) == 0 else value
-        if self.closed:
-            fit = fit_periodic(self.params, self.points, self._interior_knots(x), self.degree)
-        else:
-            fit = fit_spline(self.params, self.points, self._interior_knots(x), self.degree)
-        return KnotSolution(x=x, objective_value=value, fit=fit)
+        return KnotSolution(x=x, objective_value=value, fit=self.curve.fit(self._interior_knots(x)))
 
     def describe(self) -> dict[str, Any]:
         """Problem name, encoding and every setting: the data (name, fingerprint, size, noise),
@@ -252,16 +226,10 @@ class KnotProblem(Problem):
                 "parameterization": self.parameterization, "closed": self.closed,
                 **self.objective.describe()}
 
-    def _fit_closed(self, rows: np.ndarray, nan_is_absent: bool = True) -> BatchFit:
-        """Periodic fits of NaN-padded interior-knot rows (closed curves)."""
-        return evaluate_periodic(self.params, self.points, rows, self.degree,
-                                 max_deviation=self.objective.needs_max_deviation,
-                                 nan_is_absent=nan_is_absent)
-
     @property
     def last_candidate_point(self) -> int:
         """The highest data index a knot can sit at: N - 2 (open), N - 1 (closed)."""
-        return self.data.n_points - (1 if self.closed else 2)
+        return self.curve.max_index
 
 
 @register("knot_selection")
@@ -285,16 +253,10 @@ class KnotSelection(KnotProblem):
         return (rng.random((n, self.encoding.n_var)) < self.density).astype(np.int64)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        if self.closed:
-            rows = np.where(X.astype(bool), self.params[1:][None, :], np.nan)
-            return self._fit_closed(rows)
-        return evaluate_masks(self.params, self.points, X.astype(bool), self.degree,
-                              max_deviation=self.objective.needs_max_deviation)
+        return self.curve.evaluate_masks(X, max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
-        if self.closed:
-            return self.params[1:][np.asarray(x).astype(bool)]
-        return interior_from_mask(self.params, x)
+        return self.curve.candidate_params[np.asarray(x).astype(bool)]
 
     def _evaluate_moves(self, moves: MoveEvaluator, X: np.ndarray, near: np.ndarray
                         ) -> tuple[BatchFit, np.ndarray]:
@@ -309,14 +271,13 @@ class KnotSelection(KnotProblem):
         return {**super().describe(), "density": self.density}
 
 
-def _check_n_knots(n_knots: int, n_points: int, degree: int, closed: bool = False) -> int:
-    upper = n_points - 1 if closed else n_points - degree - 1
-    rule = "N - 1, closed" if closed else "N - degree - 1"
-    if not is_integer(n_knots) \
-            or not 1 <= n_knots <= upper:
+def _check_n_knots(n_knots: int, curve: Curve) -> int:
+    upper = curve.max_interior_knots
+    if not is_integer(n_knots) or not 1 <= n_knots <= upper:
         raise ValueError(
-            f"n_knots must be an integer in 1..{upper} ({rule}) for {n_points} points "
-            f"of degree {degree}; got {n_knots!r}"
+            f"n_knots must be an integer in 1..{upper} ({curve.max_interior_knots_rule}) for "
+            f"{curve.n_points} points "
+            f"of degree {curve.degree}; got {n_knots!r}"
         )
     return int(n_knots)
 
@@ -334,20 +295,15 @@ class KnotIndices(KnotProblem):
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
                  n_knots: int = 20, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
-        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree, self.closed)
+        self.n_knots = _check_n_knots(n_knots, self.curve)
         self.encoding = Encoding.integer(self.n_knots, 1, self.last_candidate_point,
                                          distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        if self.closed:  # a repeated index gives coincident knots: reported infeasible
-            return self._fit_closed(self.params[np.sort(X, axis=1)])
-        return evaluate_indices(self.params, self.points, X, self.degree,
-                                max_deviation=self.objective.needs_max_deviation)
+        return self.curve.evaluate_indices(X, max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
-        if self.closed:  # indices 1..N-1 (the encoding has checked them)
-            return np.sort(self.params[np.asarray(x, dtype=np.int64)])
-        return interior_from_indices(self.params, x)
+        return np.sort(self.params[np.asarray(x, dtype=np.int64)])
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return stack_indices(self.params, X)
@@ -373,18 +329,15 @@ class FreeKnots(KnotProblem):
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
                  n_knots: int = 20, variable_count: bool = False, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
-        self.n_knots = _check_n_knots(n_knots, self.data.n_points, self.degree, self.closed)
+        self.n_knots = _check_n_knots(n_knots, self.curve)
         self.variable_count = bool(variable_count)
-        upper = 1.0 if self.closed else self.params[-1]
-        self.encoding = Encoding.continuous(self.n_knots, self.params[0], upper,
+        self.encoding = Encoding.continuous(self.n_knots, *self.curve.knot_bounds,
                                             distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        if self.closed:  # NaN: no knot with variable_count, else out of range
-            return self._fit_closed(X, nan_is_absent=self.variable_count)
-        return evaluate_positions(self.params, self.points, X, self.degree,
-                                  max_deviation=self.objective.needs_max_deviation,
-                                  nan_is_absent=self.variable_count)
+        # NaN: no knot with variable_count, else out of range
+        return self.curve.evaluate_positions(X, max_deviation=self.objective.needs_max_deviation,
+                                             nan_is_absent=self.variable_count)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
         x = np.sort(x)

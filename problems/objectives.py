@@ -21,14 +21,15 @@ __all__ = ["BIC", "OBJECTIVES", "DataInfo", "ErrorBounded", "Objective", "Paper"
 
 @dataclass(frozen=True)
 class DataInfo:
-    """What an objective needs to know of the data: count, dimension, scale, degree, and
-    whether the curve is closed (a periodic spline: control points = interior knots + 1)."""
+    """What an objective needs to know of the data: count, dimension, scale, degree, and the
+    control points a fit has beyond its interior knots (``degree + 1`` for an open curve, 1 for
+    a closed one: :attr:`metaknot.bspline.curve.Curve.extra_control_points`)."""
 
     n_points: int
     dim: int
     scale: float
     degree: int
-    closed: bool = False
+    extra_control_points: int
 
 
 class Objective(ABC):
@@ -111,7 +112,7 @@ class BIC(Objective):
         n = data.n_points * data.dim
         floor = (self.error_floor * data.scale) ** 2 * n
         sse = np.maximum(fit.sse, max(floor, np.finfo(float).tiny))
-        n_interior = fit.n_control_points - (1 if data.closed else data.degree + 1)
+        n_interior = fit.n_control_points - data.extra_control_points
         k = data.dim * fit.n_control_points + n_interior
         with np.errstate(invalid="ignore", over="ignore"):
             value = n * np.log(sse / n) + np.log(n) * k

@@ -14,6 +14,7 @@ import gc
 
 import numpy as np
 import pytest
+from test_all_optimizers import CASES, IDS
 
 import metaknot as mk
 from metaknot import audit
@@ -262,15 +263,6 @@ def test_the_task_is_read_only_and_has_no_private_attributes():
 # honest runs pass
 
 
-def cases() -> list[tuple[str, str]]:
-    out = []
-    for name in mk.available_optimizers():
-        optimizer = mk.get_optimizer(name)
-        out += [(name, kind) for kind in ("binary", "integer", "continuous")
-                if kind in optimizer.encodings]
-    return out
-
-
 def make(kind: str, closed: bool) -> KnotProblem:
     data = OUTLINE if closed else SPIRAL
     if kind == "binary":
@@ -281,7 +273,7 @@ def make(kind: str, closed: bool) -> KnotProblem:
 
 
 @pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
-@pytest.mark.parametrize(("name", "kind"), cases(), ids=[f"{n}-{k}" for n, k in cases()])
+@pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
 def test_every_optimizer_passes_the_audit(name, kind, closed):
     result = mk.minimize(make(kind, closed), name, budget=60, seed=3)
     assert result.status == "ok", result.error

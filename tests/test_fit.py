@@ -309,12 +309,19 @@ def test_a_closed_outline_gets_a_periodic_spline_without_a_seam() -> None:
     assert np.linalg.norm(points - fitted, axis=1).max() <= result.tolerance
 
 
-def test_open_unless_the_ends_meet_or_asked() -> None:
-    points = star(120)
-    assert not mk.fit(points, 2e-3, relative=True).closed  # last point is not the first
-    forced = mk.fit(points, 2e-3, relative=True, closed=True)
-    assert forced.closed and len(forced.points) == 120
+def test_closed_when_the_closing_chord_is_a_point_spacing_or_asked() -> None:
+    points = star(120)  # the usual export of an outline: the first point not repeated
+    auto = mk.fit(points, 2e-3, relative=True)
+    assert auto.closed and len(auto.points) == 120
+    assert "closed (periodic) curve of 120 points (auto: the closing chord is" in auto.stages[0]
+    repeated = mk.fit(np.vstack((points, points[:1])), 2e-3, relative=True)
+    assert repeated.closed and len(repeated.points) == 120
+    assert "its last point repeats the first" in repeated.stages[0]
+    forced = mk.fit(points, 2e-3, relative=True, closed=False)
+    assert not forced.closed and forced.stages[0].endswith("(--open)")
     assert not mk.fit(np.vstack((points, points[:1])), 2e-3, relative=True, closed=False).closed
+    spiral = get_curve("archimedean").points  # its ends far apart: open
+    assert not mk.fit(spiral, 1e-3, relative=True, method="removal").closed
     with pytest.raises(ValueError, match="does not apply to function data"):
         mk.fit(PEAK, 1e-3, function=True, closed=True)
 

@@ -49,8 +49,9 @@ def add_fit(sub: Any) -> None:
     shape.add_argument("--open", dest="closed", action="store_const", const=False,
                        help="an open curve: clamped at its ends")
     shape.add_argument("--auto-closed", dest="closed", action="store_const", const=None,
-                       help="closed if the first and last points coincide within the "
-                            "tolerance (the default)")
+                       help="closed if the chord from the last point back to the first "
+                            "is at most 2.5 typical point spacings (the default; the output "
+                            "says which was chosen)")
     parser.add_argument("--method", choices=["auto", "removal", "fitpack"], default="auto",
                      help="auto: knot removal then a search at fixed counts (the default); "
                           "removal: knot removal only; fitpack: FITPACK's answer")

@@ -25,28 +25,18 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.interpolate import BSpline, make_interp_spline
+from scipy.interpolate import BSpline
 
-from ..bspline import (
-    averaging_knots,
-    check_degree,
-    evaluate_positions,
-    fit_spline,
-    fitpack,
-    parameterize,
-)
-from ..bspline.moves import PATH_DELTA, MoveEvaluator, bound_to
+from ..bspline import check_degree, fitpack
+from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
+from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates
-from ..bspline.periodic import closed_parameterize, fit_periodic, periodic_errors
 from ..validate import is_integer
 
 __all__ = ["ToleranceFit", "fit"]
-
-Metric = Literal["max_deviation", "rmse"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,8 +85,14 @@ class ToleranceFit:
     def control_points(self) -> np.ndarray:
         """The distinct control points (a closed curve's spline repeats its first p at the
         end of ``spline.c``)."""
-        c = np.asarray(self.spline.c)
-        return c[: len(c) - self.degree] if self.closed else c
+        return np.asarray(self.spline.c)[: self.metrics["n_control_points"]]
+
+    @property
+    def parameter_range(self) -> tuple[float, float]:
+        """The interval the spline is defined on: ``[u_0, u_{N-1}]``, or ``[0, 1)`` for a
+        closed outline (``spline.t[p]`` and ``spline.t[-p-1]`` either way)."""
+        p = self.degree
+        return float(self.spline.t[p]), float(self.spline.t[-p - 1])
 
     @property
     def degree(self) -> int:
@@ -107,32 +103,12 @@ class ToleranceFit:
         return int(self.control_points.shape[0])
 
 
-def _errors(u: np.ndarray, q: np.ndarray, knot_sets: np.ndarray, p: int,
-            metric: Metric) -> np.ndarray:
-    """Error of each NaN-padded row of interior knots (``inf`` if it cannot be fitted)."""
-    batch = evaluate_positions(u, q, knot_sets, p, max_deviation=metric == "max_deviation",
-                               nan_is_absent=True)
-    err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / len(u))
-    return np.where(batch.feasible, err, np.inf)
-
-
-def _pad(rows: list[np.ndarray]) -> np.ndarray:
-    width = max((len(r) for r in rows), default=0)
-    out = np.full((len(rows), max(width, 1)), np.nan)
-    for i, r in enumerate(rows):
-        out[i, : len(r)] = r
-    return out
-
-
 class _Search:
-    """Knot removal with nudging, on the compiled batched evaluator."""
+    """Knot removal with nudging, on the compiled batched evaluator of the curve."""
 
-    def __init__(self, u: np.ndarray, q: np.ndarray, p: int, tol: float, metric: Metric,
-                 nudge_grid: int = 9, nudge_window: int = 3, nudge_tries: int = 3,
-                 closed: bool = False) -> None:
-        self.u, self.q, self.p, self.tol, self.metric = u, q, p, tol, metric
-        self.closed = closed
-        self.bounds = (0.0, 1.0) if closed else (u[0], u[-1])
+    def __init__(self, curve: Curve, tol: float, metric: Metric, nudge_grid: int = 9,
+                 nudge_window: int = 3, nudge_tries: int = 3) -> None:
+        self.curve, self.tol, self.metric = curve, tol, metric
         self.grid, self.window, self.tries = nudge_grid, nudge_window, nudge_tries
         self.evaluations = 0
         self.delta_evaluations = 0
@@ -140,26 +116,25 @@ class _Search:
 
     def errors(self, rows: list[np.ndarray], near: np.ndarray | None = None) -> np.ndarray:
         """Error of each row of sorted interior knots (``inf`` if it cannot be fitted); rows
-        one move from the knots ``near`` are scored by delta evaluation (open curves)."""
+        one move from the knots ``near`` are scored by delta evaluation where the curve has
+        it (open curves)."""
         self.evaluations += len(rows)
-        if self.closed:
-            return periodic_errors(self.u, self.q, rows, self.p, self.metric)
         moves = None if near is None else self._move_evaluator(near)
         if moves is None:
-            return _errors(self.u, self.q, _pad(rows), self.p, self.metric)
+            return self.curve.errors(rows, self.metric)
         offsets = np.zeros(len(rows) + 1, dtype=np.int64)
         np.cumsum([len(r) for r in rows], out=offsets[1:])
         knots = np.concatenate(rows) if rows else np.empty(0)
-        want_max_dev = self.metric == "max_deviation"
-        batch, path = moves.evaluate(knots, offsets, max_deviation=want_max_dev)
+        batch, path = moves.evaluate(knots, offsets,
+                                     max_deviation=self.metric == "max_deviation")
         self.delta_evaluations += int(np.count_nonzero(path == PATH_DELTA))
-        err = batch.max_deviation if want_max_dev else np.sqrt(batch.sse / len(self.u))
-        return np.where(batch.feasible, err, np.inf)
+        return batch_errors(batch, self.metric, self.curve.n_points)
 
     def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
-        """The move evaluator bound to the knots ``near`` (None if they cannot be fitted)."""
+        """The move evaluator bound to the knots ``near`` (None if the curve has none, or the
+        knots cannot be fitted)."""
         if self._moves is None or not np.array_equal(self._moves.interior, near):
-            self._moves = bound_to(self._moves, self.u, self.q, near, self.p)
+            self._moves = self.curve.move_evaluator(near, self._moves)
         return self._moves
 
     def nudge(self, knots: np.ndarray, around: int, sweeps: int = 2) -> tuple[np.ndarray, float]:
@@ -167,7 +142,7 @@ class _Search:
         their neighbours) that lowers the error most."""
         knots = knots.copy()
         (err,) = self.errors([knots])
-        lo_u, hi_u = self.bounds
+        lo_u, hi_u = self.curve.knot_bounds
         for _ in range(sweeps):
             moved = False
             for j in range(max(0, around - self.window), min(len(knots), around + self.window)):
@@ -209,15 +184,11 @@ class _Search:
         return knots
 
     def fewest_averaging(self, upper: int) -> np.ndarray | None:
-        """Averaging knots at the fewest count (up to ``upper``) whose fit is within tol."""
-        if self.closed:  # breakpoints at evenly spaced data points (0 is always one)
-            counts = range(self.p - 1, min(upper, len(self.u) - 1) + 1)
-            rows = [self.u[np.unique(np.linspace(0, len(self.u), k + 2)[1:-1].astype(int))]
-                    for k in counts]
-            rows = [r[r > 0] for r in rows]
-        else:
-            counts = list(range(0, min(upper, len(self.u) - self.p - 1) + 1))
-            rows = [averaging_knots(self.u, k, self.p) for k in counts]
+        """The curve's spread knots (averaging knots on open curves) at the fewest count, up
+        to ``upper``, whose fit is within the tolerance."""
+        curve = self.curve
+        counts = range(curve.min_interior_knots, min(upper, curve.max_interior_knots) + 1)
+        rows = [curve.spread_knots(k) for k in counts]
         errs = self.errors(rows)
         ok = np.flatnonzero(errs <= self.tol)
         return rows[ok[0]] if ok.size else None
@@ -227,8 +198,8 @@ class _Search:
 FIXED_COUNT_SEARCHES = (("local_search", {}, 5000), ("ga", {"population": 100}, 20000))
 
 
-def _fewer_at_fixed_counts(u: np.ndarray, q: np.ndarray, p: int, tol: float, metric: Metric,
-                           closed: bool, parameterization: str, count: int,
+def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol: float,
+                           metric: Metric, parameterization: str, count: int,
                            searches: tuple = FIXED_COUNT_SEARCHES, seed: int = 0,
                            progress: bool = False) -> tuple[np.ndarray | None, int]:
     """Knots at data points, one fewer at a time than ``count``: each count is searched under
@@ -239,11 +210,10 @@ def _fewer_at_fixed_counts(u: np.ndarray, q: np.ndarray, p: int, tol: float, met
     from metaknot.problems import KnotIndices, PointSet
     from metaknot.runner import minimize
 
-    data = PointSet(q) if closed else PointSet(q, params=u)
-    extra = 1 if closed else p + 1
+    data = PointSet(curve.points, params=explicit_params)
     found, fits = None, 0
     for k in range(count - 1, 0, -1):
-        problem = KnotIndices(data, n_knots=k, degree=p, closed=closed,
+        problem = KnotIndices(data, n_knots=k, degree=curve.degree, closed=curve.closed,
                               parameterization=parameterization, objective="error_bounded",
                               objective_options={"tolerance": tol, "metric": metric})
         within = None
@@ -254,7 +224,8 @@ def _fewer_at_fixed_counts(u: np.ndarray, q: np.ndarray, p: int, tol: float, met
             except ValueError:  # a search that cannot start here (no averaging knots for k)
                 continue
             fits += result.n_evaluations
-            if result.best_x is not None and result.best_f <= k + extra + 1:
+            if result.best_x is not None and \
+                    result.best_f <= k + curve.extra_control_points + 1:
                 within = result.best_x
                 break
         if within is None:
@@ -321,8 +292,10 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         ``"uniform"``, ``"chord"`` or ``"centripetal"`` (ignored with explicit parameters).
     closed
         ``True``: a closed outline, fitted by a periodic spline (no seam); ``False``: an open
-        curve, clamped at its ends; ``None`` (default): closed if the first and last points
-        coincide within the tolerance (the repeated last point is then dropped).
+        curve, clamped at its ends; ``None`` (default): closed if the chord from the last
+        point back to the first is at most 2.5 typical point spacings
+        (:func:`metaknot.bspline.curve.closure`). A closed outline's last point is dropped if
+        it repeats the first. The first stage line says which was chosen and why.
     method
         ``"auto"`` (knot removal, then the fixed-count search: the best in
         ``benchmarks/bench_fit.py``), ``"removal"`` (knot removal only, fastest) or
@@ -365,30 +338,27 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     if 0 < diagonal <= tol_abs:  # every curve in the bounding box would do, and the ends "meet"
         raise ValueError(f"the tolerance {tol_abs:.3g} is not below the extent of the points "
                          f"(their bounding-box diagonal, {diagonal:.3g}); give a smaller one")
-    ends_meet = bool(np.linalg.norm(q[-1] - q[0]) <= tol_abs)
+    found = closure(q)
     if closed is None:
-        closed = ends_meet and not function and params is None and len(q) > p + 2
-    if closed:
-        if function or params is not None:
-            raise ValueError("closed curves take their own parameters: --closed does not apply "
-                             "to function data or explicit parameters")
-        if ends_meet:  # the outline repeats its first point at the end: drop the repeat
-            q = q[:-1]
-        u = closed_parameterize(q, parameterization)
-        interpolant = fit_periodic(u, q, u[1:], p)
-        distance = interpolant.distances()
+        closed = found.closed and not function and params is None and len(q) > p + 2
+        why = f" (auto: {found.describe()}; --{'open' if closed else 'closed'} to change it)"
     else:
-        u = np.asarray(params, dtype=np.float64) if params is not None else \
-            parameterize(q, parameterization, degree=p)
-        distance = np.linalg.norm(q - make_interp_spline(u, q, k=p)(u), axis=1)
-    search = _Search(u, q, p, tol_abs, metric, closed=closed)
+        why = f" (--{'closed' if closed else 'open'})"
+    if closed and (function or params is not None):
+        raise ValueError("closed curves take their own parameters: --closed does not apply "
+                         "to function data or explicit parameters")
+    curve = make_curve(q, degree=p, parameterization=parameterization, closed=closed,
+                       params=params)
+    search = _Search(curve, tol_abs, metric)
+    distance = curve.interpolation_residuals()
     floor = float(distance.max() if metric == "max_deviation" else
                   np.sqrt(np.mean(distance**2)))
     if tol_abs < floor:
         raise ValueError(f"the tolerance {tol_abs:.3g} is below what interpolation reaches "
                          f"({floor:.3g}); raise it")
-    stages = [f"{'closed (periodic)' if closed else 'open (clamped)'} curve of {len(q)} points"]
-    reference = fitpack.fewest_within(u, q, p, tol_abs, metric, closed=closed)
+    stages = [f"{curve.kind} curve of {curve.n_points} points{why}"]
+    u, q = curve.params, curve.points
+    reference = fitpack.fewest_within(u, q, p, tol_abs, metric, closed=curve.closed)
     stages.append(f"FITPACK: {reference['n_control_points']} control points (s = "
                   f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
     t_fp = reference["spline"].t
@@ -406,11 +376,10 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
             best = reduced
     stages.append(f"knot removal: {search.evaluations:,} fits")
     method_name = "knot removal"
-    extra = 1 if closed else p + 1  # control points beyond the interior knots
     if best is not None and method == "auto":
         searches = ((FIXED_COUNT_SEARCHES[0][0], {}, max(1, budget // 4)),
                     (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], budget))
-        fewer, fits = _fewer_at_fixed_counts(u, q, p, tol_abs, metric, closed, parameterization,
+        fewer, fits = _fewer_at_fixed_counts(curve, params, tol_abs, metric, parameterization,
                                              len(best), searches, seed, progress)
         stages.append(f"search at fixed counts: {fits:,} fits, "
                       f"{len(best) - (len(fewer) if fewer is not None else len(best))} "
@@ -418,8 +387,9 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
         if fewer is not None:  # and knot removal once more from there
             best, method_name = search.remove(fewer), "knot removal + fixed-count search"
     seconds = time.perf_counter() - start
-    if best is not None and len(best) + extra < reference["n_control_points"]:
-        solution = fit_periodic(u, q, best, p) if closed else fit_spline(u, q, best, p)
+    if best is not None and \
+            len(best) + curve.extra_control_points < reference["n_control_points"]:
+        solution = curve.fit(best)
         spline, method = solution.spline, method_name
         metrics = {"n_control_points": solution.n_control_points,
                    "max_deviation": solution.max_deviation, "rmse": solution.rmse}
@@ -431,4 +401,4 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
                         method=method, metrics=metrics,
                         fitpack={k: v for k, v in reference.items() if k != "spline"},
                         stages=stages,
-                        closed=closed, points=q)
+                        closed=curve.closed, points=q)

@@ -44,7 +44,7 @@ def _figure(result: ToleranceFit, points: np.ndarray, folder: Path) -> None:
     import matplotlib.pyplot as plt
 
     u = result.params
-    lo, hi = (0.0, 1.0) if result.closed else (u[0], u[-1])
+    lo, hi = result.parameter_range
     dense = np.linspace(lo, hi, max(2000, 8 * len(u)))
     curve = result.spline(dense)
     breakpoints = np.unique(result.knots[(result.knots >= lo) & (result.knots <= hi)])
@@ -75,7 +75,8 @@ def _dxf(result: ToleranceFit, path: Path) -> None:
     import ezdxf
 
     doc = ezdxf.new("R2010")
-    control = result.control_points
+    # every coefficient on the full knot vector (a closed outline's first p repeated)
+    control = np.asarray(result.spline.c, dtype=np.float64)
     if control.shape[1] == 1:  # function data: the plane curve (x(u), f(u)) with x(u) = u,
         # a spline whose coefficients are the Greville abscissae (exact for clamped knots)
         k = result.degree
@@ -84,13 +85,9 @@ def _dxf(result: ToleranceFit, path: Path) -> None:
         control = np.column_stack((greville, control[:, 0]))
     if control.shape[1] == 2:
         control = np.column_stack((control, np.zeros(len(control))))
-    if result.closed:  # all coefficients (the first p repeated) on the extended knots
-        control = np.asarray(result.spline.c, dtype=np.float64)
-        if control.shape[1] == 2:
-            control = np.column_stack((control, np.zeros(len(control))))
     spline = doc.modelspace().add_open_spline(control[:, :3].tolist(), degree=result.degree,
                                               knots=result.knots.tolist())
-    if result.closed:
+    if result.closed:  # DXF's closed, periodic SPLINE
         spline.closed = True
         spline.dxf.flags = spline.dxf.flags | spline.PERIODIC
     doc.saveas(path)

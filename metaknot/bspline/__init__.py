@@ -7,6 +7,7 @@ The batched evaluators (:func:`evaluate_masks`, :func:`evaluate_indices`,
 
 from .fit import (
     BatchFit,
+    CurveFit,
     Infeasibility,
     SplineFit,
     evaluate_indices,
@@ -27,6 +28,7 @@ from .parameterize import PARAMETERIZATIONS, as_points, check_degree, parameteri
 __all__ = [
     "PARAMETERIZATIONS",
     "BatchFit",
+    "CurveFit",
     "Infeasibility",
     "SplineFit",
     "as_points",

@@ -19,6 +19,7 @@ from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
     "BatchFit",
+    "CurveFit",
     "Infeasibility",
     "SplineFit",
     "evaluate_indices",
@@ -183,11 +184,13 @@ def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, de
 
 
 @dataclass(frozen=True, eq=False)
-class SplineFit:
-    """A least-squares B-spline fit with its metrics.
+class CurveFit:
+    """A least-squares spline through data points, with its metrics: what open
+    (:class:`SplineFit`) and closed (:class:`~metaknot.bspline.periodic.PeriodicFit`) fits have
+    in common.
 
     ``spline`` is a :class:`scipy.interpolate.BSpline` whose coefficients have shape
-    ``(n_control_points, d)``; ``spline(u)`` gives fitted points.
+    ``(n, d)``; ``spline(params)`` gives the fitted points.
     """
 
     spline: BSpline
@@ -200,21 +203,29 @@ class SplineFit:
 
     @property
     def knots(self) -> np.ndarray:
-        """Full clamped knot vector."""
-        return self.spline.t
+        """The full knot vector."""
+        return np.asarray(self.spline.t)
 
     @property
     def interior_knots(self) -> np.ndarray:
+        """The chosen knots inside the parameter range."""
         p = self.degree
-        return self.spline.t[p + 1 : -(p + 1)]
+        return self.knots[p + 1 : p + 1 + self.n_control_points - self.extra_control_points]
 
     @property
     def control_points(self) -> np.ndarray:
-        return self.spline.c
+        """The distinct control points, shape ``(n_control_points, d)``."""
+        return np.asarray(self.spline.c[: self.n_control_points])
 
     @property
     def n_control_points(self) -> int:
-        return int(self.spline.c.shape[0])
+        """Distinct control points."""
+        raise NotImplementedError
+
+    @property
+    def extra_control_points(self) -> int:
+        """Control points beyond the interior knots."""
+        raise NotImplementedError
 
     @cached_property
     def residuals(self) -> np.ndarray:
@@ -250,6 +261,20 @@ class SplineFit:
             "euclidean_distance": self.euclidean_distance,
             "max_deviation": self.max_deviation,
         }
+
+
+@dataclass(frozen=True, eq=False)
+class SplineFit(CurveFit):
+    """A least-squares clamped B-spline fit (an open curve) with its metrics."""
+
+    @property
+    def n_control_points(self) -> int:
+        return int(self.spline.c.shape[0])
+
+    @property
+    def extra_control_points(self) -> int:
+        """``degree + 1``: a clamped spline's control points beyond its interior knots."""
+        return self.degree + 1
 
 
 def fit_spline(

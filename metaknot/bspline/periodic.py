@@ -24,7 +24,7 @@ from scipy.interpolate import BSpline
 
 from .. import audit
 from . import _periodic_kernel
-from .fit import BatchFit, Infeasibility
+from .fit import BatchFit, CurveFit, Infeasibility
 from .parameterize import check_degree
 
 __all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
@@ -77,58 +77,19 @@ def periodic_knot_vector(interior: ArrayLike, degree: int = 3) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class PeriodicFit:
+class PeriodicFit(CurveFit):
     """A least-squares periodic spline with its metrics (``spline`` is a scipy ``BSpline`` with
-    the extended knots; evaluate it on [0, 1))."""
-
-    spline: BSpline
-    params: np.ndarray
-    points: np.ndarray
+    the extended knots, whose last ``degree`` coefficients repeat the first; evaluate it on
+    [0, 1)). Its interior knots are the breakpoints in (0, 1); 0 is always one too."""
 
     @property
     def n_control_points(self) -> int:
         return int(self.spline.c.shape[0] - self.spline.k)
 
     @property
-    def control_points(self) -> np.ndarray:
-        """The m distinct control points (the last p coefficients repeat the first p)."""
-        return np.asarray(self.spline.c[: self.n_control_points])
-
-    def distances(self) -> np.ndarray:
-        return np.linalg.norm(self.points - self.spline(self.params), axis=1)
-
-    @property
-    def rmse(self) -> float:
-        return float(np.sqrt(np.mean(self.distances() ** 2)))
-
-    @property
-    def max_deviation(self) -> float:
-        return float(self.distances().max())
-
-    @property
-    def sse(self) -> float:
-        return float(np.sum(self.distances() ** 2))
-
-    @property
-    def knots(self) -> np.ndarray:
-        return np.asarray(self.spline.t)
-
-    @property
-    def interior_knots(self) -> np.ndarray:
-        """The chosen breakpoints in (0, 1) (0 is always a breakpoint too)."""
-        p, m = self.degree, self.n_control_points
-        return np.asarray(self.spline.t[p + 1 : p + m])
-
-    @property
-    def degree(self) -> int:
-        return int(self.spline.k)
-
-    def metrics(self) -> dict[str, float]:
-        """Control points, SSE, RMSE, Euclidean distance (sqrt SSE) and max deviation."""
-        sse = self.sse
-        return {"n_control_points": self.n_control_points, "sse": sse, "rmse": self.rmse,
-                "euclidean_distance": float(np.sqrt(sse)),
-                "max_deviation": self.max_deviation}
+    def extra_control_points(self) -> int:
+        """1: a periodic spline has one control point per breakpoint, 0 included."""
+        return 1
 
 
 def _prepare(u: ArrayLike, points: ArrayLike, degree: int

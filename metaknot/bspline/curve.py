@@ -1,0 +1,366 @@
+"""One curve model for open and closed curves: how data points, a degree and interior knots
+become a least-squares fit.
+
+An open curve is fitted by a clamped B-spline over ``[u_0, u_{N-1}]``: its interior knots lie
+strictly inside that range, knots at data points sit at ``u_1 .. u_{N-2}``, and it has
+``degree + 1`` control points beyond its interior knots. A closed outline is fitted by a
+periodic spline over one period ``[0, 1)`` (the closing chord counts in the parameterization):
+0 is always a breakpoint, knots at data points sit at ``u_1 .. u_{N-1}``, and it has one control
+point per breakpoint. :class:`OpenCurve` and :class:`ClosedCurve` answer the same questions
+(:class:`Curve`), so the problems, ``metaknot fit``, studies and reports never ask which one
+they hold.
+
+:func:`closure` decides whether a point sequence is a closed outline, in one place: by its
+closing chord (last point to first) against its typical point spacing.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ._codegen import MAX_DIMENSION
+from .fit import (
+    BatchFit,
+    CurveFit,
+    evaluate_indices,
+    evaluate_knots,
+    evaluate_masks,
+    evaluate_positions,
+    fit_spline,
+)
+from .knots import averaging_knots
+from .moves import MoveEvaluator, bound_to
+from .parameterize import as_points, check_degree, parameterize
+from .periodic import closed_parameterize, evaluate_periodic, fit_periodic
+
+__all__ = ["CLOSING_CHORD_SPACINGS", "REPEAT_SPACINGS", "ClosedCurve", "Closure", "Curve",
+           "OpenCurve", "closure", "make_curve"]
+
+Metric = Literal["max_deviation", "rmse"]
+
+#: A closing chord of at most this many typical point spacings makes a sequence an outline.
+CLOSING_CHORD_SPACINGS = 2.5
+#: A last point this close to the first (in typical spacings) is the first point again.
+REPEAT_SPACINGS = 0.25
+
+
+@dataclass(frozen=True)
+class Closure:
+    """Whether a point sequence is a closed outline, and why.
+
+    Attributes
+    ----------
+    closed
+        The closing chord is at most :data:`CLOSING_CHORD_SPACINGS` typical spacings.
+    repeats_first
+        The last point is the first one again (at most :data:`REPEAT_SPACINGS` spacings
+        away): a closed fit drops it.
+    chord_spacings
+        The closing chord in typical spacings (the median distance of consecutive points).
+    """
+
+    closed: bool
+    repeats_first: bool
+    chord_spacings: float
+
+    def describe(self) -> str:
+        """Why, in words (for ``metaknot fit``'s output)."""
+        if self.repeats_first:
+            return "its last point repeats the first"
+        return f"the closing chord is {self.chord_spacings:.3g} point spacings"
+
+
+def closure(points: ArrayLike) -> Closure:
+    """Is ``points`` a closed outline? Yes if the chord from the last point back to the first
+    is at most :data:`CLOSING_CHORD_SPACINGS` times the median distance between consecutive
+    points; the last point repeats the first if it is within :data:`REPEAT_SPACINGS` of it.
+    Sequences of fewer than 4 points are open."""
+    q = np.asarray(points, dtype=np.float64)
+    q = q[:, None] if q.ndim == 1 else q
+    if len(q) < 4:
+        return Closure(False, False, np.inf)
+    steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    spacing = float(np.median(steps))
+    chord = float(np.linalg.norm(q[-1] - q[0]))
+    if spacing <= 0:
+        spacing = float(steps.max()) if steps.max() > 0 else 1.0
+    ratio = chord / spacing
+    repeats = chord == 0 or ratio <= REPEAT_SPACINGS
+    return Closure(repeats or ratio <= CLOSING_CHORD_SPACINGS, repeats, ratio)
+
+
+class Curve(ABC):
+    """Data points with their parameters and a degree: what a knot vector is fitted to.
+
+    Attributes
+    ----------
+    params, points, degree
+        Parameter values ``(N,)``, points ``(N, d)`` and the spline degree.
+    """
+
+    closed: ClassVar[bool]
+    #: In words, for messages: "open (clamped)" or "closed (periodic)".
+    kind: ClassVar[str]
+    #: :attr:`max_interior_knots` as a formula, for messages.
+    max_interior_knots_rule: ClassVar[str]
+
+    def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
+        self.params = params
+        self.points = points
+        self.degree = degree
+
+    @property
+    def n_points(self) -> int:
+        return int(self.points.shape[0])
+
+    @property
+    @abstractmethod
+    def extra_control_points(self) -> int:
+        """Control points beyond the interior knots."""
+
+    @property
+    @abstractmethod
+    def knot_bounds(self) -> tuple[float, float]:
+        """The open interval interior knots lie in."""
+
+    @property
+    @abstractmethod
+    def candidate_params(self) -> np.ndarray:
+        """The data parameters a knot at a data point may sit at (the bits of a mask)."""
+
+    @property
+    @abstractmethod
+    def max_interior_knots(self) -> int:
+        """The most interior knots a fit can have (one control point per data point)."""
+
+    @property
+    def max_index(self) -> int:
+        """The highest data index a knot at a data point may sit at."""
+        return int(self.candidate_params.size)
+
+    @abstractmethod
+    def evaluate_knots(self, knots: np.ndarray, offsets: np.ndarray, *,
+                       max_deviation: bool = True) -> BatchFit:
+        """Fit every candidate ``knots[offsets[b]:offsets[b + 1]]`` (sorted interior knots)."""
+
+    @abstractmethod
+    def evaluate_masks(self, masks: np.ndarray, *, max_deviation: bool = True) -> BatchFit:
+        """Fit a ``(B, len(candidate_params))`` batch of 0/1 masks over the candidate knots."""
+
+    @abstractmethod
+    def evaluate_indices(self, indices: np.ndarray, *, max_deviation: bool = True) -> BatchFit:
+        """Fit a ``(B, K)`` batch of data indices (1..``max_index``): knots at those
+        parameters; a repeated index makes its candidate infeasible."""
+
+    @abstractmethod
+    def evaluate_positions(self, positions: np.ndarray, *, max_deviation: bool = True,
+                           nan_is_absent: bool = False) -> BatchFit:
+        """Fit a ``(B, K)`` batch of knot positions (NaN: no knot, with ``nan_is_absent``)."""
+
+    @abstractmethod
+    def fit(self, interior_knots: ArrayLike) -> CurveFit:
+        """The least-squares fit with these interior knots; ``ValueError`` naming why not."""
+
+    def move_evaluator(self, interior_knots: np.ndarray,
+                       previous: MoveEvaluator | None = None) -> MoveEvaluator | None:
+        """A :class:`~metaknot.bspline.moves.MoveEvaluator` bound to these knots (``previous``
+        moved to them if given), or None where moves are fitted in full (closed curves, knots
+        that cannot be fitted)."""
+        return None
+
+    @abstractmethod
+    def spread_knots(self, count: int) -> np.ndarray:
+        """``count`` interior knots spread over the data (a start for searches)."""
+
+    @property
+    @abstractmethod
+    def min_interior_knots(self) -> int:
+        """The fewest interior knots a fit can have."""
+
+    @abstractmethod
+    def interpolation_residuals(self) -> np.ndarray:
+        """Distance of every point to the spline through all of them: what no fit of this
+        curve can beat."""
+
+    def errors(self, knot_sets: list[np.ndarray], metric: Metric) -> np.ndarray:
+        """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
+        it cannot be fitted."""
+        offsets = np.zeros(len(knot_sets) + 1, dtype=np.int64)
+        np.cumsum([len(k) for k in knot_sets], out=offsets[1:])
+        knots = np.concatenate(knot_sets) if knot_sets else np.empty(0)
+        batch = self.evaluate_knots(knots, offsets, max_deviation=metric == "max_deviation")
+        return batch_errors(batch, metric, self.n_points)
+
+
+def batch_errors(batch: BatchFit, metric: Metric, n_points: int) -> np.ndarray:
+    """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
+    err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / n_points)
+    return np.where(batch.feasible, err, np.inf)
+
+
+class OpenCurve(Curve):
+    """An open curve: a clamped B-spline over ``[u_0, u_{N-1}]``."""
+
+    closed = False
+    kind = "open (clamped)"
+    max_interior_knots_rule = "N - degree - 1"
+
+    @property
+    def extra_control_points(self) -> int:
+        return self.degree + 1
+
+    @property
+    def knot_bounds(self) -> tuple[float, float]:
+        return float(self.params[0]), float(self.params[-1])
+
+    @property
+    def candidate_params(self) -> np.ndarray:
+        return self.params[1:-1]
+
+    @property
+    def max_interior_knots(self) -> int:
+        return self.n_points - self.degree - 1
+
+    def evaluate_knots(self, knots, offsets, *, max_deviation=True):
+        return evaluate_knots(self.params, self.points, knots, offsets, self.degree,
+                              max_deviation=max_deviation)
+
+    def evaluate_masks(self, masks, *, max_deviation=True):
+        return evaluate_masks(self.params, self.points, np.asarray(masks).astype(bool),
+                              self.degree, max_deviation=max_deviation)
+
+    def evaluate_indices(self, indices, *, max_deviation=True):
+        return evaluate_indices(self.params, self.points, indices, self.degree,
+                                max_deviation=max_deviation)
+
+    def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
+        return evaluate_positions(self.params, self.points, positions, self.degree,
+                                  max_deviation=max_deviation, nan_is_absent=nan_is_absent)
+
+    def fit(self, interior_knots):
+        return fit_spline(self.params, self.points, interior_knots, self.degree)
+
+    def move_evaluator(self, interior_knots, previous=None):
+        return bound_to(previous, self.params, self.points,
+                        np.ascontiguousarray(interior_knots, dtype=np.float64), self.degree)
+
+    def spread_knots(self, count):
+        """The averaging knots (NURBS Book eqs. 9.68-9.69)."""
+        return averaging_knots(self.params, count, self.degree)
+
+    @property
+    def min_interior_knots(self) -> int:
+        return 0
+
+    def interpolation_residuals(self):
+        """Against scipy's interpolating spline (``make_interp_spline``, not-a-knot ends)."""
+        from scipy.interpolate import make_interp_spline
+
+        fitted = make_interp_spline(self.params, self.points, k=self.degree)(self.params)
+        return np.linalg.norm(self.points - fitted, axis=1)
+
+
+class ClosedCurve(Curve):
+    """A closed outline: a periodic spline over one period ``[0, 1)``."""
+
+    closed = True
+    kind = "closed (periodic)"
+    max_interior_knots_rule = "N - 1, closed"
+
+    @property
+    def extra_control_points(self) -> int:
+        return 1
+
+    @property
+    def knot_bounds(self) -> tuple[float, float]:
+        return 0.0, 1.0
+
+    @property
+    def candidate_params(self) -> np.ndarray:
+        return self.params[1:]
+
+    @property
+    def max_interior_knots(self) -> int:
+        return self.n_points - 1
+
+    def evaluate_knots(self, knots, offsets, *, max_deviation=True):
+        counts = np.diff(offsets)
+        rows = np.full((counts.size, max(int(counts.max(initial=0)), 1)), np.nan)
+        rows[np.arange(rows.shape[1]) < counts[:, None]] = knots
+        return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
+
+    def evaluate_masks(self, masks, *, max_deviation=True):
+        rows = np.where(np.asarray(masks).astype(bool), self.params[1:][None, :], np.nan)
+        return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
+
+    def evaluate_indices(self, indices, *, max_deviation=True):
+        # a repeated index gives coincident knots: reported infeasible
+        return self.evaluate_positions(self.params[np.sort(indices, axis=1)],
+                                       max_deviation=max_deviation, nan_is_absent=True)
+
+    def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
+        return evaluate_periodic(self.params, self.points, positions, self.degree,
+                                 max_deviation=max_deviation, nan_is_absent=nan_is_absent)
+
+    def fit(self, interior_knots):
+        return fit_periodic(self.params, self.points, interior_knots, self.degree)
+
+    def spread_knots(self, count):
+        """Breakpoints at evenly spaced data points (0 is always one)."""
+        at = np.unique(np.linspace(0, self.n_points, count + 2)[1:-1].astype(int))
+        knots = self.params[at]
+        return knots[knots > 0]
+
+    @property
+    def min_interior_knots(self) -> int:
+        """``degree - 1``: a periodic spline needs at least ``degree`` breakpoints."""
+        return self.degree - 1
+
+    def interpolation_residuals(self):
+        """Against the periodic spline with a breakpoint at every data point."""
+        return self.fit(self.candidate_params).residuals
+
+
+def make_curve(points: ArrayLike, *, degree: int = 3, parameterization: str = "centripetal",
+               closed: bool = False, params: ArrayLike | None = None) -> Curve:
+    """The curve model of ``points``.
+
+    Parameters
+    ----------
+    points
+        ``(N, d)`` data points.
+    degree
+        Spline degree, 1..5.
+    parameterization
+        ``"uniform"``, ``"chord"`` or ``"centripetal"``.
+    closed
+        A closed outline (a periodic spline; its parameters count the closing chord). A last
+        point that repeats the first (:func:`closure`) is dropped.
+    params
+        Explicit parameter values (open curves only: function data ``y = f(x)``).
+
+    Raises
+    ------
+    ValueError
+        For bad points or parameters, or explicit parameters on a closed curve.
+    """
+    p = check_degree(degree)
+    q = as_points(points, degree=p)
+    if not closed:
+        if q.shape[1] > MAX_DIMENSION:
+            raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates for an open "
+                             f"curve (the compiled kernel's loops are generated for those); "
+                             f"got {q.shape[1]}")
+        u = parameterize(q, params if params is not None else parameterization, degree=p)
+        return OpenCurve(u, q, p)
+    if params is not None:
+        raise ValueError("a closed curve takes its own parameters (closing chord included); "
+                         "explicit parameters do not apply")
+    if len(q) > 3 and closure(q).repeats_first:
+        q = q[:-1]
+    return ClosedCurve(closed_parameterize(q, parameterization), q, p)
