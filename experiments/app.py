@@ -21,6 +21,7 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
+from .interrupt import Interrupted, interrupt_on_signals
 from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
 from .store import Store
 
@@ -161,7 +162,11 @@ def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
         return [execute(run_spec({**plain, "seed": seed}), multirun=multirun)
                 for seed in seeds]
     spec = run_spec(cfg)
-    outcome = execute(spec, multirun=multirun)
+    try:
+        outcome = execute(spec, multirun=multirun)
+    except Interrupted as stop:
+        stop.stored, stop.total = int(Store(spec.study_dir).has(spec.run_id)), 1
+        raise
     if not multirun:
         where = outcome["path"]
         if outcome["status"] == "skipped":
@@ -193,7 +198,11 @@ def _check_single_run(overrides: list[str]) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep) to Hydra."""
+    """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep) to Hydra.
+
+    On SIGINT or SIGTERM the workers are stopped, one line says how many of the planned runs
+    are stored, and the exit status is 130 or 143 (see :mod:`.interrupt`).
+    """
 
     from metaknot.environment import git_commit
 
@@ -205,7 +214,12 @@ def main(argv: list[str] | None = None) -> int:
         if error:
             print(f"metaknot run: error: {error}", file=sys.stderr)
             return 2
-    return launch(task, "config", args)
+    try:
+        with interrupt_on_signals():
+            return launch(task, "config", args)
+    except Interrupted as stop:
+        print(stop.message(), file=sys.stderr, flush=True)
+        return stop.exit_code
 
 
 def launch(task_function: Any, config_name: str, args: list[str]) -> int:

@@ -91,6 +91,12 @@ class Store:
             done.add(match.group("run_id"))
         return done
 
+    def remove_temp_files(self, pids: Iterable[int]) -> None:
+        """Remove the temp files of writes by the processes ``pids`` (stopped mid-write)."""
+        for pid in pids:
+            for path in self.tmp_dir.glob(f"*.{pid}.*.parquet"):
+                path.unlink(missing_ok=True)
+
     def write(self, record: Mapping[str, Any], *, best_x: np.ndarray | None = None,
               trace: Mapping[str, np.ndarray] | None = None) -> Path:
         """Store a run record atomically and return its path.

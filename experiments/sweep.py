@@ -24,6 +24,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
+from .interrupt import Interrupted
 from .spec import ConfigError, RunSpec, run_spec
 from .store import Store
 
@@ -184,30 +185,27 @@ def _build_key(spec: RunSpec) -> str:
 
 
 def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
-    """The study sweeper's ``sweep``: plan, print what will happen, launch, watch."""
+    """The study sweeper's ``sweep``: plan, print what will happen, launch, watch.
+
+    On SIGINT or SIGTERM (:class:`~metaknot.experiments.interrupt.Interrupted`: the workers
+    are stopped already) the stopped workers' temp files are removed, and the exception
+    carries how many of the planned runs are stored.
+    """
     sweep_dir = Path(sweeper.config.hydra.sweep.dir)
-    warming = _warm_joblib_workers(sweeper.config)
-    the_plan, study_dir = plan(sweeper, arguments)
-    if warming is not None:
-        warming.join()
-    print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
-    if not the_plan.to_run:
-        return []
-    sweep_dir.mkdir(parents=True, exist_ok=True)
-    OmegaConf.save(sweeper.config, sweep_dir / "multirun.yaml")
-    per_job = runs_per_job(getattr(sweeper, "runs_per_job", 1), len(the_plan.to_run),
-                           launcher_workers(sweeper.config))
-    jobs = batch_jobs(the_plan.to_run, per_job)
-    size = sweeper.max_batch_size or len(jobs)
-    watcher = _Watcher([spec for _, spec in the_plan.to_run])
-    returns = []
-    watcher.start()
+    the_plan = None
     try:
-        for first in range(0, len(jobs), size):
-            batch = jobs[first : first + size]
-            returns.append(sweeper.launcher.launch(batch, initial_job_idx=first))
-    finally:
-        watcher.stop()
+        warming = _warm_joblib_workers(sweeper.config)
+        the_plan, study_dir = plan(sweeper, arguments)
+        if warming is not None:
+            warming.join()
+        print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
+        if not the_plan.to_run:
+            return []
+        returns = _launch(sweeper, the_plan, sweep_dir)
+    except Interrupted as stop:
+        if the_plan is not None:
+            stop.stored, stop.total = _stored_after_interrupt(the_plan, stop.stopped)
+        raise
     statuses: Counter[str] = Counter()
     errors = []
     for results in returns:
@@ -224,6 +222,39 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
     if errors:
         raise errors[0]
     return returns
+
+
+def _launch(sweeper: Any, the_plan: Plan, sweep_dir: Path) -> list[Any]:
+    """Hand the plan's runs to the launcher in jobs, with a progress bar."""
+    sweep_dir.mkdir(parents=True, exist_ok=True)
+    OmegaConf.save(sweeper.config, sweep_dir / "multirun.yaml")
+    per_job = runs_per_job(getattr(sweeper, "runs_per_job", 1), len(the_plan.to_run),
+                           launcher_workers(sweeper.config))
+    jobs = batch_jobs(the_plan.to_run, per_job)
+    size = sweeper.max_batch_size or len(jobs)
+    watcher = _Watcher([spec for _, spec in the_plan.to_run])
+    returns = []
+    watcher.start()
+    try:
+        for first in range(0, len(jobs), size):
+            batch = jobs[first : first + size]
+            returns.append(sweeper.launcher.launch(batch, initial_job_idx=first))
+    finally:
+        watcher.stop()
+    return returns
+
+
+def _stored_after_interrupt(the_plan: Plan, workers: list[int]) -> tuple[int, int]:
+    """(planned runs with a complete record, planned runs), once the stopped ``workers``'
+    temp files are removed."""
+    specs = the_plan.stored + [spec for _, spec in the_plan.to_run]
+    stored = 0
+    for study_dir in {spec.study_dir for spec in specs}:
+        store = Store(study_dir)
+        store.remove_temp_files(workers)
+        done = store.completed()
+        stored += sum(spec.run_id in done for spec in specs if spec.study_dir == study_dir)
+    return stored, len(specs)
 
 
 def _warm_worker() -> int:

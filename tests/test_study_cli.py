@@ -232,3 +232,108 @@ def test_batching_seeds_into_jobs_changes_no_result(tmp_path):
     bad = metaknot(*common, "hydra.sweeper.runs_per_job=0", f"results_dir={tmp_path / 'c'}",
                    cwd=tmp_path)
     assert bad.returncode != 0 and "hydra.sweeper.runs_per_job" in bad.stderr
+
+
+# --------------------------------------------------------------------------------------------
+# Ctrl-C and kill: the workers stop, every record stays, one line, exit 130/143, resume
+
+INTERRUPTED = re.compile(r"interrupted: (\d+) of (\d+) runs stored; run the same command to "
+                         r"resume")
+
+
+def living_processes(group: int) -> list[str]:
+    """Processes of the process group ``group`` that are neither gone nor zombies."""
+    alive = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[2]) == group and fields[0] != "Z":
+                alive.append(f"{entry.name}: {(entry / 'cmdline').read_bytes()[:80]!r}")
+    return alive
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_joblib_sweep_stops_its_workers_and_resumes(tmp_path, signum):
+    """SIGINT to the whole process group (Ctrl-C) or SIGTERM to the leader (kill) once three
+    records exist: no worker goes on, one line says what is stored, the same command
+    finishes the study with the results a direct run gives."""
+    args = ("-m", "launcher=joblib", "hydra.launcher.n_jobs=2", "algorithm=ga,random_search",
+            "problem=archimedean", "seed=range(0,6)", "budget=2000", f"results_dir={tmp_path}")
+    runs_dir = tmp_path / "default" / "runs"
+    # files, not pipes: a worker left alive would hold a pipe open
+    with open(tmp_path / "stderr", "w") as err:
+        proc = subprocess.Popen([sys.executable, "-m", "metaknot.cli", "run", *args],
+                                cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=err, env=ENV,
+                                start_new_session=True)
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and len(list(runs_dir.glob("*.parquet"))) < 3:
+            assert proc.poll() is None, "the sweep ended before it could be interrupted"
+            time.sleep(0.02)
+        if signum == signal.SIGINT:
+            os.killpg(proc.pid, signum)
+        else:
+            os.kill(proc.pid, signum)
+        assert proc.wait(timeout=60) == 128 + signum
+        deadline = time.monotonic() + 5
+        while living_processes(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert living_processes(proc.pid) == []
+    finally:
+        if living_processes(proc.pid):
+            os.killpg(proc.pid, signal.SIGKILL)
+    stderr = (tmp_path / "stderr").read_text()
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    lines = stderr.strip().splitlines()
+    assert plan_line(lines[0])["to_run"] == 12 and len(lines) == 2, stderr
+    stored, total = map(int, INTERRUPTED.fullmatch(lines[1]).groups())
+    before = snapshot(runs_dir)
+    assert 3 <= stored == len(before) < total == 12
+    assert list((tmp_path / "default" / "tmp").iterdir()) == []
+
+    done = metaknot(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert plan_line(done.stderr)["stored"] == stored and f"{12 - stored} ok" in done.stderr
+    after = snapshot(runs_dir)
+    assert len(after) == 12 and all(after[name] == state for name, state in before.items())
+    runs = load_study(tmp_path / "default").runs
+    assert (runs.status == "ok").all() and runs.run_id.is_unique
+    import metaknot as mk
+    from metaknot.experiments.spec import run_spec
+
+    for row in runs.itertuples():
+        spec = run_spec({**json.loads(row.config), "study": "direct", "results_dir": "."})
+        assert spec.run_id == row.run_id
+        direct = mk.minimize(spec.build_problem(), spec.build_optimizer(), budget=spec.budget,
+                             seed=spec.optimizer_seed(),
+                             checkpoints_per_decade=spec.config["checkpoints_per_decade"])
+        assert row.best_f == direct.best_f and row.best_x == direct.best_x.tolist()
+
+
+SIGNAL_IN_RUN = """
+import os, signal, sys
+import metaknot.runner
+from metaknot.experiments.app import main
+
+minimize = metaknot.runner.minimize
+
+def signalled(*args, **kwargs):  # the signal arrives while the run computes
+    os.kill(os.getpid(), signal.SIGTERM)
+    return minimize(*args, **kwargs)
+
+metaknot.runner.minimize = signalled
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_an_interrupted_single_run_says_nothing_is_stored(tmp_path):
+    done = subprocess.run([sys.executable, "-c", SIGNAL_IN_RUN, "algorithm=ga", "budget=3000",
+                           f"results_dir={tmp_path}"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300, env=ENV)
+    assert done.returncode == 143
+    assert done.stderr.strip() == ("interrupted: 0 of 1 runs stored; run the same command to "
+                                   "resume")
+    assert not list((tmp_path / "default").glob("*/*.parquet"))
