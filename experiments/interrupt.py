@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import os
 import signal
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["Interrupted", "interrupt_on_signals", "stop_child_processes"]
+__all__ = ["Interrupted", "child_processes", "interrupt_on_signals"]
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -29,7 +28,8 @@ class Interrupted(KeyboardInterrupt):
     signum
         The signal.
     stopped
-        The ids of the child processes (the launcher's workers) stopped on the signal.
+        The ids of the child processes (the launcher's workers) when the signal came: they
+        are stopped on the way out, and their unfinished temp files removed.
     stored, total
         The planned runs that have a complete record, and all planned runs (``None`` until
         the code that planned them fills them in).
@@ -57,13 +57,16 @@ class Interrupted(KeyboardInterrupt):
 
 @contextmanager
 def interrupt_on_signals() -> Iterator[None]:
-    """Inside the block, SIGINT and SIGTERM stop the child processes at once (no worker goes
-    on computing) and raise :class:`Interrupted` in the main thread."""
+    """Inside the block, SIGINT and SIGTERM raise :class:`Interrupted` in the main thread.
+
+    The workers are not killed here: joblib kills its own on the way out (killing them from
+    outside can leave its result pipe half written and the leader waiting on it for ever),
+    and idle ones end with this process."""
 
     def handler(signum: int, frame: object) -> None:
         for sig in SIGNALS:  # a second signal during the clean-up: stop at once
             signal.signal(sig, lambda s, f: os._exit(128 + s))
-        raise Interrupted(signum, stop_child_processes())
+        raise Interrupted(signum, child_processes())
 
     previous = {sig: signal.signal(sig, handler) for sig in SIGNALS}
     try:
@@ -73,49 +76,23 @@ def interrupt_on_signals() -> Iterator[None]:
             signal.signal(sig, action)
 
 
-def stop_child_processes() -> list[int]:
-    """SIGKILL every process descended from this one but resource trackers (they clean up
-    after the others and end with this process), wait until they are gone, and return their
-    ids. Reads ``/proc``; where there is none, nothing is done (joblib still stops its own
-    workers on an interrupt)."""
+def child_processes() -> list[int]:
+    """The ids of the processes descended from this one (the launcher's workers). Reads
+    ``/proc``; where there is none, the list is empty."""
     proc = Path("/proc")
     if not proc.is_dir():
         return []
-    parents: dict[int, int] = {}
+    children: dict[int, list[int]] = {}
     for entry in proc.iterdir():
         if entry.name.isdigit():
             try:
-                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+                parent = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
             except (OSError, IndexError):
                 continue  # ended meanwhile
-            parents[int(entry.name)] = int(fields[1])
-    children: dict[int, list[int]] = {}
-    for pid, parent in parents.items():
-        children.setdefault(parent, []).append(pid)
+            children.setdefault(parent, []).append(int(entry.name))
     descendants, todo = [], list(children.get(os.getpid(), []))
     while todo:
         pid = todo.pop()
+        descendants.append(pid)
         todo.extend(children.get(pid, []))
-        try:
-            if b"resource_tracker" not in (proc / str(pid) / "cmdline").read_bytes():
-                descendants.append(pid)
-        except OSError:
-            pass  # ended meanwhile
-    for pid in descendants:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    deadline = time.monotonic() + 10
-    while time.monotonic() < deadline and any(_running(pid) for pid in descendants):
-        time.sleep(0.01)
     return descendants
-
-
-def _running(pid: int) -> bool:
-    """True while ``pid`` exists and is not a zombie (killed, waiting to be reaped)."""
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except (OSError, IndexError):
-        return False
-    return state != "Z"

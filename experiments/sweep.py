@@ -192,9 +192,10 @@ def _build_key(spec: RunSpec) -> str:
 def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
     """The study sweeper's ``sweep``: plan, print what will happen, launch, watch.
 
-    On SIGINT or SIGTERM (:class:`~metaknot.experiments.interrupt.Interrupted`: the workers
-    are stopped already) the stopped workers' temp files are removed, and the exception
-    carries how many of the planned runs are stored.
+    On SIGINT or SIGTERM (:class:`~metaknot.experiments.interrupt.Interrupted`, raised in the
+    launcher's wait: joblib has killed its workers when it gets here) the workers' unfinished
+    temp files are removed, and the exception carries how many of the planned runs are
+    stored.
     """
     sweep_dir = Path(sweeper.config.hydra.sweep.dir)
     the_plan = None

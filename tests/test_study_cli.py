@@ -462,3 +462,40 @@ def test_sweeps_started_in_the_same_second_keep_their_own_folder(tmp_path):
     first = (tmp_path / "sweep" / "multirun.yaml").read_text()
     second = (tmp_path / "sweep-2" / "multirun.yaml").read_text()
     assert "seed=0,10" in first and "seed=1,11" in second
+
+
+SIGNAL_IN_PLAN = """
+import os, signal, sys
+import metaknot.experiments.sweep as sweep
+from metaknot.experiments.app import main
+
+plan = sweep.plan
+
+def signalled(*args, **kwargs):  # the signal arrives while the sweep is validated
+    os.kill(os.getpid(), signal.SIGTERM)
+    return plan(*args, **kwargs)
+
+sweep.plan = signalled
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_signal_while_the_sweep_is_planned_stops_it_before_any_run(tmp_path):
+    with open(tmp_path / "stderr", "w") as err:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", SIGNAL_IN_PLAN, "-m", "launcher=joblib",
+             "hydra.launcher.n_jobs=2", "algorithm=ga", "seed=0,1", "budget=100",
+             f"results_dir={tmp_path}"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=err,
+            env=ENV, start_new_session=True)
+    try:
+        assert proc.wait(timeout=300) == 143
+        deadline = time.monotonic() + 5
+        while living_processes(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert living_processes(proc.pid) == []  # the warm-up workers too
+    finally:
+        if living_processes(proc.pid):
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert (tmp_path / "stderr").read_text().strip() == (
+        "interrupted before any run started; run the same command to start again")
+    assert not (tmp_path / "default" / "runs").exists()
