@@ -23,7 +23,7 @@ from typing import Any
 
 from omegaconf import OmegaConf
 
-from .interrupt import Interrupted, interrupt_on_signals
+from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
 from .store import Store
 
@@ -187,6 +187,8 @@ def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
     own run and returns their outcomes.
     """
     multirun = _in_multirun()
+    if multirun:
+        leave_ctrl_c_to_the_leader()
     seeds = cfg.get("seed")
     if OmegaConf.is_list(seeds) or isinstance(seeds, list):
         plain = plain_config(cfg)

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["Interrupted", "child_processes", "interrupt_on_signals"]
+__all__ = ["Interrupted", "child_processes", "interrupt_on_signals", "leave_ctrl_c_to_the_leader"]
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -27,7 +28,7 @@ class Interrupted(KeyboardInterrupt):
     ----------
     signum
         The signal.
-    stopped
+    workers
         The ids of the child processes (the launcher's workers) when the signal came: they
         are stopped on the way out, and their unfinished temp files removed.
     stored, total
@@ -35,10 +36,10 @@ class Interrupted(KeyboardInterrupt):
         the code that planned them fills them in).
     """
 
-    def __init__(self, signum: int, stopped: list[int]) -> None:
+    def __init__(self, signum: int, workers: list[int]) -> None:
         super().__init__(signal.Signals(signum).name)
         self.signum = signum
-        self.stopped = stopped
+        self.workers = workers
         self.stored: int | None = None
         self.total: int | None = None
 
@@ -74,6 +75,17 @@ def interrupt_on_signals() -> Iterator[None]:
     finally:
         for sig, action in previous.items():
             signal.signal(sig, action)
+
+
+def leave_ctrl_c_to_the_leader() -> None:
+    """In a launcher's worker process: ignore SIGINT. Ctrl-C reaches every process of the
+    terminal's group; the leader alone handles it (joblib kills the workers), and a worker
+    would only print a ``KeyboardInterrupt`` traceback. Where SIGINT has a handler other
+    than Python's own (the leader's, when the basic launcher runs the jobs in it), nothing
+    changes."""
+    if threading.current_thread() is threading.main_thread() \
+            and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def child_processes() -> list[int]:

@@ -29,7 +29,7 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
-from .interrupt import Interrupted
+from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
 from .spec import ConfigError, RunSpec, run_spec
 from .store import COMPLETE_STATUSES, Store
 
@@ -198,7 +198,7 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
     stored.
     """
     sweep_dir = Path(sweeper.config.hydra.sweep.dir)
-    the_plan = None
+    the_plan = warming = None
     try:
         warming = _warm_joblib_workers(sweeper.config)
         the_plan, study_dir = plan(sweeper, arguments)
@@ -209,8 +209,10 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
             return []
         returns = _launch(sweeper, the_plan, sweep_dir)
     except Interrupted as stop:
+        if warming is not None:
+            warming.join()  # then joblib's idle workers end cleanly with this process
         if the_plan is not None:
-            stop.stored, stop.total = _stored(the_plan, stop.stopped)
+            stop.stored, stop.total = _stored(the_plan, stop.workers)
         raise
     outcomes: list[dict[str, Any]] = []
     crashes: Counter[str] = Counter()
@@ -317,6 +319,8 @@ def _stored(the_plan: Plan, stopped: Iterable[int] = ()) -> tuple[int, int]:
 def _warm_worker() -> int:
     """Import what a run needs and load the compiled kernel (in a joblib worker)."""
     import numpy as np
+
+    leave_ctrl_c_to_the_leader()
 
     import metaknot.algorithms
     import metaknot.experiments.app  # noqa: F401
