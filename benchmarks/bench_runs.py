@@ -11,9 +11,17 @@
    a fresh results directory, alternated twice. Printed: the wall times and the ratio of the
    best of each (the whole command: start-up, validation, workers, runs and records).
 
+3. Store writes. The record of a GA run (20,000 evaluations: settings, best candidate and
+   trace) written into a results store in the current directory (the disk results go to, not a
+   temp file system), each as a new run: synced to disk (file and folder, as every run is
+   stored) and, for comparison, with the syncs skipped. Printed: milliseconds per record and
+   the share of the fastest run of part 1 that the write adds.
+
 The last lines are::
 
     run_overhead_ratio: <the worst optimizer's kernel time / run time>       (target >= 0.5)
+    store_write_ms: <one synced record write, in milliseconds>
+    store_write_share: <that write / the fastest run of part 1>
     sweep_scaling_2_workers: <one-worker time / two-worker time>             (target >= 1.7)
 
 Run: ``python benchmarks/bench_runs.py [--evaluations 20000] [--sweep-runs 40]``; ``--no-sweep``
@@ -34,6 +42,7 @@ import numpy as np
 
 import metaknot as mk
 from metaknot.bspline import evaluate_masks
+from metaknot.experiments.store import Store
 from metaknot.problems import KnotSelection, get_curve
 
 OPTIMIZERS = ("random_search", "ga", "dolphin")
@@ -61,13 +70,13 @@ def kernel_seconds(problem: KnotSelection, batches: list[np.ndarray], repeats: i
     return best
 
 
-def run_overhead(evaluations: int, repeats: int) -> float:
+def run_overhead(evaluations: int, repeats: int) -> tuple[float, dict[str, float]]:
     numba.set_num_threads(1)
     data = get_curve("epitrochoid")
     print(f"runs on the epitrochoid masks (361 points), {evaluations} evaluations, "
           f"one kernel thread, best of {repeats}")
     print(f"{'optimizer':<14} {'run eval/s':>11} {'kernel eval/s':>14} {'kernel/run':>11}")
-    ratios = {}
+    ratios, runs = {}, {}
     for name in OPTIMIZERS:
         problem = KnotSelection(data)
         mk.minimize(problem, name, budget=500, seed=0, optimizer_kwargs=OPTIONS[name])  # warm
@@ -83,9 +92,36 @@ def run_overhead(evaluations: int, repeats: int) -> float:
         assert sum(len(b) for b in recording.batches) == evaluations
         kernel = kernel_seconds(problem, recording.batches, repeats)
         ratios[name] = kernel / run
+        runs[name] = run
         print(f"{name:<14} {evaluations / run:>11.0f} {evaluations / kernel:>14.0f} "
               f"{ratios[name]:>11.2f}", flush=True)
-    return min(ratios.values())
+    return min(ratios.values()), runs
+
+
+def store_write_seconds(evaluations: int, records: int) -> tuple[float, float, int]:
+    """Seconds per record written into a store in the current directory, synced and with the
+    syncs skipped, and the record's size in bytes."""
+    result = mk.minimize(KnotSelection(get_curve("epitrochoid")), "ga", budget=evaluations,
+                         seed=1, optimizer_kwargs=OPTIONS["ga"])
+    record = {"study": "bench", "status": "ok", **result.record()}
+    trace = result.trace.columns()
+    seconds = {}
+    with tempfile.TemporaryDirectory(dir=".") as folder:
+        for synced in (True, False):
+            store = Store(os.path.join(folder, f"synced-{synced}"))
+            fsync = os.fsync
+            if not synced:
+                os.fsync = lambda fd: None
+            try:
+                start = time.perf_counter()
+                for i in range(records):
+                    path = store.write({**record, "run_id": f"{i:016x}"}, best_x=result.best_x,
+                                       trace=trace)
+                seconds[synced] = (time.perf_counter() - start) / records
+            finally:
+                os.fsync = fsync
+        size = path.stat().st_size
+    return seconds[True], seconds[False], size
 
 
 def sweep_seconds(workers: int, runs: int, budget: int) -> float:
@@ -114,10 +150,16 @@ def main() -> None:
     parser.add_argument("--sweep-runs", type=int, default=40)
     parser.add_argument("--sweep-budget", type=int, default=30_000)
     parser.add_argument("--sweep-repeats", type=int, default=2)
+    parser.add_argument("--store-records", type=int, default=50)
     parser.add_argument("--no-sweep", action="store_true")
     args = parser.parse_args()
 
-    worst = run_overhead(args.evaluations, args.repeats)
+    worst, runs = run_overhead(args.evaluations, args.repeats)
+    synced, unsynced, size = store_write_seconds(args.evaluations, args.store_records)
+    fastest = min(runs.values())
+    print(f"\nstore writes ({args.store_records} records of {size / 1000:.0f} KB into "
+          f"{os.path.abspath('.')}): {1e3 * synced:.2f} ms synced, {1e3 * unsynced:.2f} ms "
+          f"without the syncs; the fastest run above takes {1e3 * fastest:.0f} ms", flush=True)
     scaling = None
     if not args.no_sweep:
         print(f"\nsweep of {args.sweep_runs} runs (GA and random search, epitrochoid masks, "
@@ -131,6 +173,8 @@ def main() -> None:
                       f"{times[workers][-1]:6.1f} s", flush=True)
         scaling = min(times[1]) / min(times[2])
     print(f"\nrun_overhead_ratio: {worst:.2f}")
+    print(f"store_write_ms: {1e3 * synced:.2f}")
+    print(f"store_write_share: {synced / fastest:.3f}")
     if scaling is not None:
         print(f"sweep_scaling_2_workers: {scaling:.2f}")
 

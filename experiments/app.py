@@ -15,12 +15,15 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import os
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
 from omegaconf import OmegaConf
 
+from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
 from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
 from .store import Store
@@ -78,7 +81,11 @@ def execute(spec: RunSpec, *, multirun: bool = False,
 
     A run that raises is stored as ``failed`` (with the best so far, if any) and, unless
     ``raise_errors``, does not stop a sweep. Returns ``{"run_id", "status", "path"}`` with
-    status ``ok``, ``failed`` or ``skipped`` (already stored).
+    status ``ok``, ``failed``, ``skipped`` (already stored), ``not_run`` (the study's disk has
+    less than :data:`~.store.MIN_FREE_BYTES` free: not computed) or ``not_stored`` (computed,
+    but the record could not be written: it is kept under :func:`unsaved_dir` if possible,
+    ``path``, else ``None``); the last two add ``error`` (the system's reason, e.g. "No space
+    left on device") and ``detail`` (the full message).
     """
     import numba
 
@@ -88,6 +95,11 @@ def execute(spec: RunSpec, *, multirun: bool = False,
     store = Store(spec.study_dir)
     if store.has(spec.run_id):
         return {"run_id": spec.run_id, "status": "skipped", "path": str(store.path(spec.run_id))}
+    try:
+        store.check_space()
+    except OSError as exc:
+        return {"run_id": spec.run_id, "status": "not_run", "path": None,
+                "error": _reason(exc), "detail": str(exc)}
     threads = spec.threads
     if threads == "auto":
         threads = 1 if multirun else numba.config.NUMBA_NUM_THREADS
@@ -128,8 +140,28 @@ def execute(spec: RunSpec, *, multirun: bool = False,
         trace, best_x = None, None
     if error is not None:
         record["status"], record["error"] = "failed", error
-    path = store.write(record, best_x=best_x, trace=trace)
+    try:
+        path = store.write(record, best_x=best_x, trace=trace)
+    except OSError as exc:  # a full disk, a folder without write permission: keep it elsewhere
+        try:
+            kept = str(Store(unsaved_dir(spec.study)).write(record, best_x=best_x, trace=trace))
+        except OSError:
+            kept = None
+        return {"run_id": spec.run_id, "status": "not_stored", "path": kept,
+                "error": _reason(exc), "detail": str(exc)}
     return {"run_id": spec.run_id, "status": record["status"], "path": str(path)}
+
+
+def unsaved_dir(study: str) -> Path:
+    """Where a record the study could not take is written instead: a study folder of the
+    same name under ``<system temp dir>/metaknot-unsaved`` (move its files into the study's
+    ``runs/`` and ``failed/`` once there is space)."""
+    return Path(tempfile.gettempdir()) / "metaknot-unsaved" / study
+
+
+def _reason(exc: OSError) -> str:
+    """The system's reason for an OSError, without the file name (the same for every run)."""
+    return os.strerror(exc.errno) if exc.errno else type(exc).__name__
 
 
 def _failed_record(spec: RunSpec) -> dict[str, Any]:
@@ -156,20 +188,41 @@ def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
     own run and returns their outcomes.
     """
     multirun = _in_multirun()
+    if multirun:
+        leave_ctrl_c_to_the_leader()
     seeds = cfg.get("seed")
     if OmegaConf.is_list(seeds) or isinstance(seeds, list):
         plain = plain_config(cfg)
         return [execute(run_spec({**plain, "seed": seed}), multirun=multirun)
                 for seed in seeds]
     spec = run_spec(cfg)
-    outcome = execute(spec, multirun=multirun)
+    try:
+        outcome = execute(spec, multirun=multirun)
+    except Interrupted as stop:
+        stop.stored, stop.total = int(Store(spec.study_dir).has(spec.run_id)), 1
+        raise
     if not multirun:
         where = outcome["path"]
         if outcome["status"] == "skipped":
             print(f"run {spec.run_id} is already stored: {where}")
+        elif outcome["status"] in ("not_run", "not_stored"):
+            print(f"metaknot run: error: run {spec.run_id} {_not_stored(outcome, spec)}",
+                  file=sys.stderr)
+            raise SystemExit(1)
         else:
             print(f"run {spec.run_id}: {outcome['status']}; record in {where}")
     return outcome
+
+
+def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
+    """What happened to a run that is not stored, and what to do (one line)."""
+    if outcome["status"] == "not_run":
+        return f"not run: {outcome['detail']}"
+    if outcome["path"] is None:
+        return f"computed but lost: {outcome['detail']} (its record could not be kept either)"
+    kept = Path(outcome["path"])
+    return (f"computed but not stored ({outcome['error']}); its record is kept in {kept}: "
+            f"move it into {spec.study_dir / kept.parent.name}/ once there is space")
 
 
 def _check_single_run(overrides: list[str]) -> str | None:
@@ -195,7 +248,11 @@ def _check_single_run(overrides: list[str]) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     """Hand ``argv`` (Hydra overrides, ``-m`` for a sweep, ``--preset FILE`` for a method
-    preset read as data: :mod:`.preset`) to Hydra."""
+    preset read as data: :mod:`.preset`) to Hydra.
+
+    On SIGINT or SIGTERM the workers are stopped, one line says how many of the planned runs
+    are stored, and the exit status is 130 or 143 (see :mod:`.interrupt`).
+    """
 
     from metaknot.experiments.environment import git_commit
 
@@ -211,7 +268,12 @@ def main(argv: list[str] | None = None) -> int:
         if error:
             print(f"metaknot run: error: {error}", file=sys.stderr)
             return 2
-    return launch(task, "config", args)
+    try:
+        with interrupt_on_signals():
+            return launch(task, "config", args)
+    except Interrupted as stop:
+        print(stop.message(), file=sys.stderr, flush=True)
+        return stop.exit_code
 
 
 def launch(task_function: Any, config_name: str, args: list[str]) -> int:

@@ -36,7 +36,7 @@ ENCODINGS = {"mask": ("knot_selection", "binary"), "indices": ("knot_indices", "
 RUN_KEYS = ("problem", "encoding", "objective", "algorithm", "budget", "seed",
             "checkpoints_per_decade")
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
-STUDY_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.=,+-]*$")
+STUDY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=,+-]*")  # matched in full (fullmatch)
 FITPACK_COUNT = re.compile(r"^fitpack:(.+)$")
 
 
@@ -307,7 +307,7 @@ class RunSpec:
 def check_study(cfg: Mapping[str, Any]) -> tuple[str, str]:
     """The configuration's ``study`` name and ``results_dir``, checked."""
     study = cfg.get("study")
-    if not isinstance(study, str) or not STUDY_NAME.match(study):
+    if not isinstance(study, str) or not STUDY_NAME.fullmatch(study):
         raise ConfigError(f"study: a name of letters, digits and _.=,+- (no slashes), "
                           f"got {study!r}")
     results_dir = cfg.get("results_dir")

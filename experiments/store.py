@@ -4,22 +4,29 @@ Layout of a study directory ``<results_dir>/<study>/``::
 
     runs/<run_id>.parquet        the complete record of a run that finished (ok)
     failed/<run_id>.<time>.<pid>.parquet   a run that raised (kept, never overwritten)
+    bad/<run_id>.<time>.<pid>.parquet      a damaged record moved out of runs/ (never deleted)
     tmp/                         files being written (a killed run leaves its temp file here)
     hydra/                       Hydra's logs and multirun.yaml (ignored by the store)
 
 A record file holds one row: every field of the run record (settings, seeds, outcome, timings,
 versions), the run's best candidate ``best_x`` and its trace as list columns ``trace.*``. A file
-appears under ``runs/`` only once it is complete (written under ``tmp/``, then hard-linked into
-place), so a killed run never leaves a partial record, and a record is never replaced: a run
-whose id already has a record is skipped, which is how an interrupted study resumes.
+appears under ``runs/`` only once it is complete (written under ``tmp/``, synced to disk, then
+hard-linked into place and the folder synced), so a killed run or a power cut never leaves a
+partial record, and a record is never replaced: a run whose id already has a record is skipped,
+which is how an interrupted study resumes. A record is checked (its Parquet footer, format and
+field types) before it counts as stored; one that fails is moved to ``bad/`` and its run is
+computed again.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import errno
 import json
 import os
 import re
+import shutil
+import sys
 import uuid
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -33,14 +40,26 @@ import pyarrow.parquet as pq
 if TYPE_CHECKING:  # pandas loads only when a study is read (run workers do not need it)
     import pandas as pd
 
-__all__ = ["STORE_FORMAT", "Store", "StoreError", "Study", "load_study"]
+__all__ = ["COMPLETE_STATUSES", "MIN_FREE_BYTES", "STORE_FORMAT", "Store", "StoreError",
+           "Study", "load_study"]
 
 #: Written into every record file's Parquet metadata; files without it are foreign.
 STORE_FORMAT = "metaknot-run-record/1"
 _META_KEY = b"metaknot"
-RUN_FILE = re.compile(r"^(?P<run_id>[0-9a-f]{16})\.parquet$")
-FAILED_FILE = re.compile(r"^(?P<run_id>[0-9a-f]{16})\.[0-9TZ]+\.[0-9]+(\.[0-9a-f]+)?\.parquet$")
+#: File names, matched in full (``fullmatch``: no trailing newline slips through).
+RUN_FILE = re.compile(r"(?P<run_id>[0-9a-f]{16})\.parquet")
+FAILED_FILE = re.compile(r"(?P<run_id>[0-9a-f]{16})\.[0-9TZ]+\.[0-9]+(\.[0-9a-f]+)?\.parquet")
 TRACE_PREFIX = "trace."
+#: Record statuses of a run that is complete: stored under ``runs/`` (never run again). Any
+#: other status (``failed``) is an attempt, kept under ``failed/``; its run is run again.
+COMPLETE_STATUSES = frozenset({"ok"})
+#: A run starts only if the study's file system has this much free space (a record takes
+#: about 20 KB), so a full disk does not cost the computation of runs that cannot be stored.
+MIN_FREE_BYTES = 256 << 10
+#: Record fields with a fixed kind of value (checked when a record is read or counted).
+TEXT_FIELDS = ("run_id", "status")
+NUMBER_FIELDS = ("best_f", "rmse", "euclidean_distance", "max_deviation", "n_control_points",
+                 "n_evaluations", "budget", "seed")
 
 
 class StoreError(ValueError):
@@ -64,6 +83,7 @@ class Store:
         self.study_dir = Path(study_dir)
         self.runs_dir = self.study_dir / "runs"
         self.failed_dir = self.study_dir / "failed"
+        self.bad_dir = self.study_dir / "bad"
         self.tmp_dir = self.study_dir / "tmp"
 
     def path(self, run_id: str) -> Path:
@@ -71,33 +91,74 @@ class Store:
         return self.runs_dir / f"{run_id}.parquet"
 
     def has(self, run_id: str) -> bool:
-        """True if ``run_id`` has a complete record (then the run is skipped)."""
-        return self.path(run_id).is_file()
+        """True if ``run_id`` has a sound complete record (then the run is skipped). A
+        damaged record is moved to ``bad/`` (with a message) and does not count."""
+        path = self.path(run_id)
+        return path.is_file() and self._sound(path)
 
     def completed(self) -> set[str]:
-        """Run ids with a complete record.
+        """Run ids with a sound complete record (damaged ones are moved to ``bad/``).
 
         Raises
         ------
         StoreError
             If ``runs/`` holds a file that is not a record file (named by the store).
         """
-        done = set()
-        for entry in _entries(self.runs_dir):
-            match = RUN_FILE.match(entry.name)
-            if not match:
-                raise StoreError(f"{entry}: not a metaknot run record (the store writes only "
-                                 "<run id>.parquet files in runs/); move it out of the study")
-            done.add(match.group("run_id"))
-        return done
+        return {run_id for entry, run_id in _run_files(self.runs_dir) if self._sound(entry)}
+
+    def _sound(self, path: Path) -> bool:
+        """Check a record's footer, format and field types (not its data pages: cheap); if
+        it fails, move the file to ``bad/``, say so on stderr and return False."""
+        try:
+            meta = pq.read_metadata(path)
+            schema = meta.schema.to_arrow_schema()
+        except (OSError, ValueError, pa.ArrowException) as exc:  # a damaged file
+            problem = f"cannot be read as a Parquet run record ({_short(exc)})"
+        else:
+            problem = _problem(schema, meta.num_rows)
+        if problem is None:
+            return True
+        self.bad_dir.mkdir(parents=True, exist_ok=True)
+        aside = self.bad_dir / _unique_name(path.stem)
+        try:
+            os.rename(path, aside)
+        except FileNotFoundError:
+            return False  # another process moved it first
+        print(f"metaknot: {path}: {problem}; moved to {aside} (the run will be computed "
+              "again)", file=sys.stderr, flush=True)
+        return False
+
+    def check_space(self) -> None:
+        """Raise ``OSError(ENOSPC)`` if the study's file system has less than
+        :data:`MIN_FREE_BYTES` free (checked before a run starts)."""
+        existing = self.study_dir
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent
+        free = shutil.disk_usage(existing).free
+        if free < MIN_FREE_BYTES:
+            raise OSError(errno.ENOSPC, f"{os.strerror(errno.ENOSPC)} ({free // 1024} KiB "
+                          f"free, a run needs {MIN_FREE_BYTES // 1024} KiB)", str(existing))
+
+    def remove_temp_files(self, pids: Iterable[int]) -> None:
+        """Remove the temp files of writes by the processes ``pids`` (stopped mid-write)."""
+        for pid in pids:
+            for path in self.tmp_dir.glob(f"*.{pid}.*.parquet"):
+                path.unlink(missing_ok=True)
 
     def write(self, record: Mapping[str, Any], *, best_x: np.ndarray | None = None,
               trace: Mapping[str, np.ndarray] | None = None) -> Path:
-        """Store a run record atomically and return its path.
+        """Store a run record atomically and durably, and return its path.
 
-        A record with ``status == "ok"`` goes to ``runs/<run_id>.parquet``; if that file exists
-        already (another worker finished the same run first), it is kept and returned. Any other
-        status goes to a new file under ``failed/``. Nothing is ever overwritten.
+        A record whose status is in :data:`COMPLETE_STATUSES` goes to ``runs/<run_id>.parquet``;
+        if that file exists already (another worker finished the same run first), it is kept
+        and returned. Any other status goes to a new file under ``failed/``. Nothing is ever
+        overwritten. The file is synced to disk before it is linked into place, and the folder
+        after.
+
+        Raises
+        ------
+        OSError
+            If the file cannot be written (a full disk: nothing is published).
         """
         run_id = record["run_id"]
         if not re.fullmatch(r"[0-9a-f]{16}", str(run_id)):
@@ -107,17 +168,40 @@ class Store:
         unique = uuid.uuid4().hex[:8]
         tmp = self.tmp_dir / f"{run_id}.{os.getpid()}.{unique}.parquet"
         try:
-            pq.write_table(table, tmp)
-            if record.get("status") == "ok":
+            with open(tmp, "wb") as handle:
+                pq.write_table(table, handle)
+                handle.flush()
+                os.fsync(handle.fileno())
+            if record.get("status") in COMPLETE_STATUSES:
                 target = self.path(run_id)
             else:
-                stamp = re.sub(r"[^0-9TZ]", "", _now())
-                target = self.failed_dir / f"{run_id}.{stamp}.{os.getpid()}.{unique}.parquet"
+                target = self.failed_dir / _unique_name(run_id, unique)
             target.parent.mkdir(parents=True, exist_ok=True)
             _publish(tmp, target)
+            _sync_folder(target.parent)
             return target
         finally:
             tmp.unlink(missing_ok=True)
+
+
+def _unique_name(run_id: str, unique: str | None = None) -> str:
+    """``<run_id>.<time>.<pid>.<unique>.parquet``: a file name no other write takes."""
+    stamp = re.sub(r"[^0-9TZ]", "", _now())
+    return f"{run_id}.{stamp}.{os.getpid()}.{unique or uuid.uuid4().hex[:8]}.parquet"
+
+
+def _sync_folder(folder: Path) -> None:
+    """Make a new name in ``folder`` durable (where the system can sync a folder)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass  # a file system that cannot sync folders
+    finally:
+        os.close(fd)
 
 
 def _publish(tmp: Path, target: Path) -> None:
@@ -129,6 +213,18 @@ def _publish(tmp: Path, target: Path) -> None:
     except OSError:  # a file system without hard links: rename (atomic, the race is tiny)
         if not target.exists():
             os.replace(tmp, target)
+
+
+def _run_files(runs_dir: Path) -> list[tuple[Path, str]]:
+    """The record files of ``runs/`` with their run ids; a foreign file is an error."""
+    files = []
+    for entry in _entries(runs_dir):
+        match = RUN_FILE.fullmatch(entry.name)
+        if not match:
+            raise StoreError(f"{entry}: not a metaknot run record (the store writes only "
+                             "<run id>.parquet files in runs/); move it out of the study")
+        files.append((entry, match.group("run_id")))
+    return files
 
 
 def _entries(directory: Path) -> Iterable[Path]:
@@ -165,15 +261,43 @@ def _read(path: Path) -> dict[str, Any]:
     try:
         table = pq.read_table(path)
     except Exception as exc:  # pyarrow raises several types for damaged files
-        raise StoreError(f"{path}: cannot be read as a Parquet run record ({exc}); move it "
-                         "out of the study or delete it to run that run again") from None
-    meta = table.schema.metadata or {}
-    if meta.get(_META_KEY) != STORE_FORMAT.encode():
-        raise StoreError(f"{path}: a Parquet file that is not a metaknot run record "
-                         f"(format {meta.get(_META_KEY)!r}); move it out of the study")
-    if table.num_rows != 1:
-        raise StoreError(f"{path}: a run record holds one row; this file has {table.num_rows}")
+        raise StoreError(f"{path}: cannot be read as a Parquet run record ({_short(exc)}); "
+                         "move it out of the study or delete it to run that run again") from None
+    problem = _problem(table.schema, table.num_rows)
+    if problem is not None:
+        raise StoreError(f"{path}: {problem}; move it out of the study")
     return table.to_pylist()[0]
+
+
+def _problem(schema: pa.Schema, num_rows: int) -> str | None:
+    """What makes a file with this schema and row count not a sound run record (None: it
+    is one): the format mark, one row, and the kinds of the :data:`TEXT_FIELDS` (required)
+    and :data:`NUMBER_FIELDS` (where present; null when the run had no value)."""
+    meta = schema.metadata or {}
+    if meta.get(_META_KEY) != STORE_FORMAT.encode():
+        return (f"a Parquet file that is not a metaknot run record (format "
+                f"{meta.get(_META_KEY)!r:.80})")
+    if num_rows != 1:
+        return f"a run record holds one row; this file has {num_rows}"
+    for name in TEXT_FIELDS:
+        if name not in schema.names:
+            return f"the record has no {name!r} field"
+        kind = schema.field(name).type
+        if not (pa.types.is_string(kind) or pa.types.is_large_string(kind)):
+            return f"{name!r} must be text; it is {kind}"
+    for name in NUMBER_FIELDS:
+        if name in schema.names:
+            kind = schema.field(name).type
+            if not (pa.types.is_integer(kind) or pa.types.is_floating(kind)
+                    or pa.types.is_null(kind)):
+                return f"{name!r} must be a number; it is {kind}"
+    return None
+
+
+def _short(exc: Exception) -> str:
+    """An exception's text, cut to 80 characters (it may quote file contents)."""
+    text = str(exc).replace("\n", " ")
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 @dataclass(frozen=True, eq=False)
@@ -232,24 +356,32 @@ def load_study(path: str | os.PathLike) -> Study:
     Raises
     ------
     StoreError
-        If the directory does not exist or holds a file the store cannot read (named).
+        If the directory does not exist, is a results folder (the message lists its
+        studies), or holds a file the store cannot read or a field of the wrong kind (named).
+        Reading never changes the study.
     """
     import pandas as pd
 
     store = Store(path)
     if not store.study_dir.is_dir():
         raise StoreError(f"{store.study_dir}: no such study directory")
-    store.completed()  # foreign files in runs/ are an error
+    if not (store.runs_dir.is_dir() or store.failed_dir.is_dir()):
+        studies = sorted(p.name for p in _entries(store.study_dir)
+                         if (p / "runs").is_dir() or (p / "failed").is_dir())
+        if studies:
+            names = ", ".join(studies)
+            raise StoreError(f"{store.study_dir}: a results folder, not a study; its studies: "
+                             f"{names if len(names) <= 80 else names[:77] + '...'}")
     rows, traces = [], []
-    for entry in _entries(store.runs_dir):
+    for entry, run_id in _run_files(store.runs_dir):
         row = _read(entry)
-        if row.get("run_id") != entry.stem:
-            raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r}, not of "
-                             f"{entry.stem!r}")
+        if row.get("run_id") != run_id:
+            raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r:.40}, not "
+                             f"of {run_id!r}")
         rows.append(row)
     failures = []
     for entry in _entries(store.failed_dir):
-        if not FAILED_FILE.match(entry.name):
+        if not FAILED_FILE.fullmatch(entry.name):
             raise StoreError(f"{entry}: not a metaknot failed-run record; move it out of the "
                              "study")
         failures.append(_read(entry))

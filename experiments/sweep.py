@@ -8,6 +8,10 @@
    algorithm/encoding pairs that cannot work together (listed, not run).
 4. Launch the rest with the configured launcher and show a bar over the jobs, fed by the records
    appearing in the store (so it works for every launcher).
+5. Sum up (:func:`summary`): what the runs did and how many of the planned runs are stored;
+   one line per kind of run that could not be stored (a full disk) or job that crashed, and
+   then the exit status is 1. On SIGINT/SIGTERM the workers stop and one line says how many
+   of the planned runs are stored (:mod:`~metaknot.experiments.interrupt`).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import os
 import sys
 import threading
 from collections import Counter
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +29,11 @@ from hydra.core.override_parser.overrides_parser import OverridesParser
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
+from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
 from .spec import ConfigError, RunSpec, run_spec
-from .store import Store
+from .store import COMPLETE_STATUSES, Store
 
-__all__ = ["plan", "sweep"]
+__all__ = ["plan", "summary", "sweep"]
 
 
 class Plan:
@@ -184,17 +190,89 @@ def _build_key(spec: RunSpec) -> str:
 
 
 def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
-    """The study sweeper's ``sweep``: plan, print what will happen, launch, watch."""
+    """The study sweeper's ``sweep``: plan, print what will happen, launch, watch.
+
+    On SIGINT or SIGTERM (:class:`~metaknot.experiments.interrupt.Interrupted`, raised in the
+    launcher's wait: joblib has killed its workers when it gets here) the workers' unfinished
+    temp files are removed, and the exception carries how many of the planned runs are
+    stored.
+    """
     sweep_dir = Path(sweeper.config.hydra.sweep.dir)
-    warming = _warm_joblib_workers(sweeper.config)
-    the_plan, study_dir = plan(sweeper, arguments)
-    if warming is not None:
-        warming.join()
-    print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
-    if not the_plan.to_run:
-        return []
-    sweep_dir.mkdir(parents=True, exist_ok=True)
-    OmegaConf.save(sweeper.config, sweep_dir / "multirun.yaml")
+    the_plan = warming = None
+    try:
+        warming = _warm_joblib_workers(sweeper.config)
+        the_plan, study_dir = plan(sweeper, arguments)
+        if warming is not None:
+            warming.join()
+        print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
+        if not the_plan.to_run:
+            return []
+        returns = _launch(sweeper, the_plan, sweep_dir)
+    except Interrupted as stop:
+        if warming is not None:
+            warming.join()  # then joblib's idle workers end cleanly with this process
+        if the_plan is not None:
+            stop.stored, stop.total = _stored(the_plan, stop.workers)
+        raise
+    outcomes: list[dict[str, Any]] = []
+    crashes: Counter[str] = Counter()
+    for results in returns:
+        for r in results:
+            try:
+                outcome = r.return_value
+            except Exception as exc:  # a job that crashed outside the run (a launcher error)
+                crashes[f"{type(exc).__name__}: {exc}"[:120]] += 1
+                continue
+            outcomes.extend(outcome if isinstance(outcome, list) else [outcome])
+    stored, total = _stored(the_plan)
+    lines = summary(study_dir, outcomes, crashes, stored, total)
+    print("\n".join(lines), file=sys.stderr, flush=True)
+    if len(lines) > 1:  # runs that could not be stored, or jobs that crashed
+        raise SystemExit(1)
+    return returns
+
+
+def summary(study_dir: Path, outcomes: list[dict[str, Any]], crashes: Counter[str],
+            stored: int, total: int) -> list[str]:
+    """The sweep's last words: what its runs did and how many of the planned runs are stored,
+    then one line per kind of run that could not be stored and per kind of crashed job."""
+    statuses = Counter(o["status"] for o in outcomes)
+    order = sorted(statuses, key=lambda status: (status not in COMPLETE_STATUSES,
+                                                 status in ("not_run", "not_stored"), status))
+    counts = ", ".join(f"{statuses[status]} {status.replace('_', ' ')}" for status in order)
+    lines = [f"study {study_dir}: {counts or 'nothing run'}; {stored} of {total} runs stored"
+             + (" (failed runs are kept under failed/)" if statuses["failed"] else "")]
+    kinds: dict[tuple[str, str, str | None], list[dict[str, Any]]] = {}
+    for o in outcomes:
+        if o["status"] in ("not_run", "not_stored"):
+            kept = None if o["path"] is None else str(Path(o["path"]).parent)
+            kinds.setdefault((o["status"], o["error"], kept), []).append(o)
+    for (status, error, kept), members in sorted(kinds.items(), key=str):
+        if status == "not_run":
+            lines.append(f"  {len(members)} not run: {members[0]['detail']}")
+        elif kept is None:
+            lines.append(f"  {len(members)} computed but lost: {members[0]['detail']} (their "
+                         "records could not be kept elsewhere either)")
+        else:
+            lines.append(f"  {len(members)} computed but not stored ({error}): their records "
+                         f"are kept in {kept}: move them into "
+                         f"{study_dir / Path(kept).name}/ once there is space")
+    for error, n in sorted(crashes.items()):
+        lines.append(f"  {n} job(s) ended with an error: {error}")
+    if len(lines) > 1:
+        lines.append("  run the same command to compute the missing runs once the cause is "
+                     "fixed")
+    return lines
+
+
+def _launch(sweeper: Any, the_plan: Plan, sweep_dir: Path) -> list[Any]:
+    """Hand the plan's runs to the launcher in jobs, with a progress bar."""
+    sweep_dir = _new_folder(sweep_dir)
+    try:
+        OmegaConf.save(sweeper.config, sweep_dir / "multirun.yaml")
+    except OSError as exc:  # a full disk: the runs report it too
+        print(f"metaknot: cannot write {sweep_dir / 'multirun.yaml'}: {exc.strerror or exc}",
+              file=sys.stderr, flush=True)
     per_job = runs_per_job(getattr(sweeper, "runs_per_job", 1), len(the_plan.to_run),
                            launcher_workers(sweeper.config))
     jobs = batch_jobs(the_plan.to_run, per_job)
@@ -208,27 +286,41 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
             returns.append(sweeper.launcher.launch(batch, initial_job_idx=first))
     finally:
         watcher.stop()
-    statuses: Counter[str] = Counter()
-    errors = []
-    for results in returns:
-        for r in results:
-            try:
-                outcome = r.return_value
-                for one in outcome if isinstance(outcome, list) else [outcome]:
-                    statuses[one["status"]] += 1
-            except Exception as exc:  # a job that crashed outside the run (a launcher error)
-                errors.append(exc)
-    summary = ", ".join(f"{n} {status}" for status, n in sorted(statuses.items()))
-    print(f"study {study_dir}: {summary or 'nothing'} "
-          f"(failed runs are stored under failed/)", file=sys.stderr, flush=True)
-    if errors:
-        raise errors[0]
     return returns
+
+
+def _new_folder(path: Path) -> Path:
+    """Create the folder ``path``, or ``path-2``, ``path-3``, ... if it exists (sweeps of a
+    study started in the same second share their configured folder name)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    candidate, number = path, 1
+    while True:
+        try:
+            candidate.mkdir()
+            return candidate
+        except FileExistsError:
+            number += 1
+            candidate = path.with_name(f"{path.name}-{number}")
+
+
+def _stored(the_plan: Plan, stopped: Iterable[int] = ()) -> tuple[int, int]:
+    """(planned runs with a complete record, planned runs), once the temp files of the
+    ``stopped`` workers are removed."""
+    specs = the_plan.stored + [spec for _, spec in the_plan.to_run]
+    stored = 0
+    for study_dir in {spec.study_dir for spec in specs}:
+        store = Store(study_dir)
+        store.remove_temp_files(stopped)
+        done = store.completed()
+        stored += sum(spec.run_id in done for spec in specs if spec.study_dir == study_dir)
+    return stored, len(specs)
 
 
 def _warm_worker() -> int:
     """Import what a run needs and load the compiled kernel (in a joblib worker)."""
     import numpy as np
+
+    leave_ctrl_c_to_the_leader()
 
     import metaknot.algorithms
     import metaknot.experiments.app  # noqa: F401

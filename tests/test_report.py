@@ -586,6 +586,11 @@ def _broken_studies(tmp_path: Path) -> dict[str, tuple[Path, str]]:
     renamed = _write(tmp_path / "renamed", good)
     record = next((renamed / "runs").glob("*.parquet"))
     (renamed / "runs" / "0123456789abcdef.parquet").write_bytes(record.read_bytes())
+    text = _write(tmp_path / "text", good)
+    text_record = Store(text).write({**_run("A", 2, 300, 3.0), "best_f": "3.0"})
+    results = tmp_path / "results"
+    for name in ("second", "first"):
+        _write(results / name, good)
     return {
         "missing": (tmp_path / "missing", "no such study directory"),
         "empty": (empty, "the study has no runs yet"),
@@ -593,10 +598,12 @@ def _broken_studies(tmp_path: Path) -> dict[str, tuple[Path, str]]:
         "foreign": (foreign, "notes.txt: not a metaknot run record"),
         "failed": (failed, "0123456789abcdef.20240101T000000Z.1.parquet: cannot be read"),
         "renamed": (renamed, "0123456789abcdef.parquet: holds the record of run"),
+        "text": (text, f"{text_record.name}: 'best_f' must be a number; it is string"),
+        "results": (results, "a results folder, not a study; its studies: first, second"),
     }
 
 
-BROKEN = ["missing", "empty", "corrupt", "foreign", "failed", "renamed"]
+BROKEN = ["missing", "empty", "corrupt", "foreign", "failed", "renamed", "text", "results"]
 
 
 @pytest.mark.parametrize("case", BROKEN)

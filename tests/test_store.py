@@ -11,6 +11,7 @@ import platform
 import re
 import subprocess
 import sys
+import tempfile
 import textwrap
 
 import numba
@@ -287,8 +288,7 @@ def test_write_rejects_a_bad_run_id_before_touching_the_disk(tmp_path):
 
 def test_an_interrupted_write_publishes_nothing(tmp_path, monkeypatch):
     def half_written(table, where, **kwargs):
-        with open(where, "wb") as f:
-            f.write(b"PAR1 half a file")
+        where.write(b"PAR1 half a file")
         raise OSError("No space left on device")
 
     monkeypatch.setattr(store_module.pq, "write_table", half_written)
@@ -664,3 +664,231 @@ def test_two_processes_executing_the_same_run_store_it_once(tmp_path):
     study = load_study(store.study_dir)
     assert len(study.runs) == 1
     assert study.runs.loc[0, "best_f"] == _direct(spec).best_f
+
+
+# --------------------------------------------------------------------------------------------
+# 9. damaged records: checked when counted as stored, moved aside (never deleted), named
+
+
+def _truncate(path):
+    content = path.read_bytes()
+    path.write_bytes(content[: len(content) // 2])
+    return path.read_bytes()
+
+
+def _bad_files(store):
+    return {p.name: p.read_bytes() for p in store.bad_dir.iterdir()} if store.bad_dir.is_dir() \
+        else {}
+
+
+def test_a_truncated_record_is_moved_aside_and_its_run_computed_again(tmp_path, capsys):
+    spec = _spec(tmp_path, budget=100)
+    store = Store(spec.study_dir)
+    assert execute(spec)["status"] == "ok"
+    damaged = _truncate(store.path(spec.run_id))
+    with _error_names(store.path(spec.run_id)):  # reading names it and changes nothing
+        load_study(store.study_dir)
+    assert store.path(spec.run_id).read_bytes() == damaged and not store.bad_dir.exists()
+
+    outcome = execute(spec)
+    assert outcome["status"] == "ok"  # computed again, not "skipped"
+    assert list(_bad_files(store).values()) == [damaged]  # kept, byte for byte
+    (aside,) = store.bad_dir.iterdir()
+    message = capsys.readouterr().err.strip()
+    assert message.startswith(f"metaknot: {store.path(spec.run_id)}: cannot be read as a "
+                              "Parquet run record (")
+    assert message.endswith(f"); moved to {aside} (the run will be computed again)")
+    assert len(message.splitlines()) == 1
+    study = load_study(store.study_dir)
+    assert list(study.runs.run_id) == [spec.run_id]
+    assert study.runs.loc[0, "best_f"] == _direct(spec).best_f
+
+
+def _two_rows(path):
+    table = pa.table({"run_id": [RUN_B, RUN_B], "status": ["ok", "ok"]})
+    pq.write_table(table.replace_schema_metadata(
+        {b"metaknot": store_module.STORE_FORMAT.encode()}), path)
+
+
+BAD_RECORDS = {
+    "truncated": (lambda store, path: _truncate(store.write(_record(RUN_B))),
+                  "cannot be read as a Parquet run record"),
+    "string best_f": (lambda store, path: store.write(_record(RUN_B, best_f="0.5")),
+                      "'best_f' must be a number; it is string"),
+    "boolean seed": (lambda store, path: store.write(_record(RUN_B, seed=True)),
+                     "'seed' must be a number; it is bool"),
+    "numeric status": (lambda store, path: store.write(_record(RUN_B, status=1)),
+                       "'status' must be text; it is int64"),
+    "no format mark": (lambda store, path: pq.write_table(
+        pa.table({"run_id": [RUN_B], "status": ["ok"]}), path),
+        "a Parquet file that is not a metaknot run record"),
+    "two rows": (lambda store, path: _two_rows(path), "a run record holds one row; this file "
+                                                      "has 2"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_RECORDS)
+def test_a_bad_record_is_named_on_load_and_moved_aside_when_counted(one_run, capsys, case):
+    make, problem = BAD_RECORDS[case]
+    path = one_run.path(RUN_B)
+    if case == "numeric status":  # the store routes by status: place the file by hand
+        make(Store(one_run.study_dir.parent / "elsewhere"), None)
+        path.write_bytes(next((one_run.study_dir.parent / "elsewhere").rglob(
+            "*.parquet")).read_bytes())
+    else:
+        make(one_run, path)
+    content = path.read_bytes()
+    with pytest.raises(StoreError, match=re.escape(str(path)) + ".*" + re.escape(problem)):
+        load_study(one_run.study_dir)
+    assert path.read_bytes() == content  # reading changes nothing
+
+    assert one_run.completed() == {RUN_A}
+    assert not path.exists() and list(_bad_files(one_run).values()) == [content]
+    err = capsys.readouterr().err
+    assert err.startswith(f"metaknot: {path}: ") and problem in err and "moved to" in err
+    assert not one_run.has(RUN_B)
+    assert list(load_study(one_run.study_dir).runs.run_id) == [RUN_A]
+
+
+def test_two_processes_moving_the_same_bad_record_keep_one_copy(one_run, monkeypatch):
+    # the second mover finds the file gone: no error, nothing lost
+    path = one_run.path(RUN_B)
+    content = _truncate(one_run.write(_record(RUN_B)))
+    rename = os.rename
+
+    def first_mover_wins(src, dst):
+        rename(src, dst)
+        raise FileNotFoundError(2, "No such file or directory", str(src))
+
+    monkeypatch.setattr(os, "rename", first_mover_wins)
+    assert not one_run.has(RUN_B)
+    monkeypatch.undo()
+    assert not path.exists() and list(_bad_files(one_run).values()) == [content]
+
+
+def test_a_file_name_with_a_trailing_newline_is_not_a_record(one_run):
+    odd = one_run.runs_dir / f"{RUN_B}.parquet\n"
+    odd.write_bytes(one_run.path(RUN_A).read_bytes())
+    with _error_names(odd):
+        one_run.completed()
+    with _error_names(odd):
+        load_study(one_run.study_dir)
+
+
+def test_a_study_name_with_a_trailing_newline_is_rejected(tmp_path):
+    with pytest.raises(ConfigError, match="study: a name of letters"):
+        _spec(tmp_path, study="s\n")
+
+
+def test_a_results_folder_is_named_with_its_studies(tmp_path):
+    for name in ("beta", "alpha"):
+        Store(tmp_path / name).write(_record(RUN_A))
+    (tmp_path / "alpha-report").mkdir()  # not a study
+    with pytest.raises(StoreError, match=re.escape(
+            f"{tmp_path}: a results folder, not a study; its studies: alpha, beta")):
+        load_study(tmp_path)
+
+
+# --------------------------------------------------------------------------------------------
+# 10. durability and a full disk
+
+
+def test_write_syncs_the_file_before_linking_and_the_folder_after(tmp_path, monkeypatch):
+    events = []
+    fsync, link = os.fsync, os.link
+
+    def recording_fsync(fd):
+        kind = "folder" if os.path.isdir(os.readlink(f"/proc/self/fd/{fd}")) else "file"
+        events.append(("fsync", kind, os.path.basename(os.readlink(f"/proc/self/fd/{fd}"))))
+        fsync(fd)
+
+    def recording_link(src, dst):
+        events.append(("link", os.path.basename(src), os.path.basename(dst)))
+        link(src, dst)
+
+    monkeypatch.setattr(os, "fsync", recording_fsync)
+    monkeypatch.setattr(os, "link", recording_link)
+    store = Store(tmp_path / "s")
+    path = store.write(_record(RUN_A))
+    (tmp_name,) = {e[1] for e in events if e[0] == "link"}
+    assert events == [("fsync", "file", tmp_name), ("link", tmp_name, path.name),
+                      ("fsync", "folder", "runs")]
+    events.clear()
+    failed = store.write(_record(RUN_A, status="failed"))
+    assert [e[:2] for e in events] == [("fsync", "file"), ("link", events[1][1]),
+                                       ("fsync", "folder")]
+    assert events[2][2] == "failed" and events[1][2] == failed.name
+
+
+def _free_space(monkeypatch, free):
+    usage = store_module.shutil.disk_usage
+
+    def disk_usage(path):
+        return usage(path)._replace(free=free)
+
+    monkeypatch.setattr(store_module.shutil, "disk_usage", disk_usage)
+
+
+def test_a_run_does_not_start_without_room_for_its_record(tmp_path, monkeypatch):
+    spec = _spec(tmp_path, budget=100)
+    _free_space(monkeypatch, store_module.MIN_FREE_BYTES - 1)
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("a run that cannot be stored must not be computed")
+
+    monkeypatch.setattr(mk.runner, "minimize", no_run)
+    outcome = execute(spec)
+    assert outcome["status"] == "not_run" and outcome["path"] is None
+    assert outcome["error"] == "No space left on device"
+    assert "255 KiB free, a run needs 256 KiB" in outcome["detail"]
+    assert not (tmp_path / "s").exists()
+    _free_space(monkeypatch, store_module.MIN_FREE_BYTES)
+    monkeypatch.undo()
+    assert execute(spec)["status"] == "ok"
+
+
+def _disk_full_for(monkeypatch, study_dir):
+    """Every write into ``study_dir`` fails as on a full disk; other studies are written."""
+    write = Store.write
+
+    def full(self, record, **kwargs):
+        if self.study_dir == study_dir:
+            raise OSError(28, "No space left on device", str(self.tmp_dir / "x.parquet"))
+        return write(self, record, **kwargs)
+
+    monkeypatch.setattr(Store, "write", full)
+
+
+def test_a_computed_run_the_study_cannot_take_is_kept_elsewhere(tmp_path, monkeypatch):
+    spec = _spec(tmp_path / "results", budget=100)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "spare"))
+    _disk_full_for(monkeypatch, spec.study_dir)
+    outcome = execute(spec)
+    kept = tmp_path / "spare" / "metaknot-unsaved" / "s" / "runs" / f"{spec.run_id}.parquet"
+    assert outcome == {"run_id": spec.run_id, "status": "not_stored", "path": str(kept),
+                       "error": "No space left on device",
+                       "detail": f"[Errno 28] No space left on device: "
+                                 f"'{spec.study_dir / 'tmp' / 'x.parquet'}'"}
+    assert not Store(spec.study_dir).has(spec.run_id)
+    # the kept record is a record of the study: moved into runs/, the study has the run
+    monkeypatch.undo()
+    Store(spec.study_dir).runs_dir.mkdir(parents=True)
+    os.rename(kept, Store(spec.study_dir).path(spec.run_id))
+    assert execute(spec)["status"] == "skipped"
+    assert load_study(spec.study_dir).runs.loc[0, "best_f"] == _direct(spec).best_f
+
+
+def test_a_result_that_cannot_be_kept_anywhere_is_reported_lost(tmp_path, monkeypatch):
+    spec = _spec(tmp_path, budget=100)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "spare"))
+    write = Store.write
+
+    def full(self, record, **kwargs):
+        raise OSError(28, "No space left on device", str(self.tmp_dir / "x.parquet"))
+
+    monkeypatch.setattr(Store, "write", full)
+    outcome = execute(spec)
+    assert outcome["status"] == "not_stored" and outcome["path"] is None
+    assert outcome["error"] == "No space left on device"
+    monkeypatch.setattr(Store, "write", write)
+    assert execute(spec)["status"] == "ok"  # nothing was stored: the run is computed again

@@ -304,3 +304,269 @@ def test_a_missing_or_repeated_preset_is_one_line(tmp_path, capsys):
         assert main([f"results_dir={tmp_path}", *args]) == 2
         (line,) = capsys.readouterr().err.strip().splitlines()
         assert line.startswith("metaknot run: error: --preset: ") and message in line
+
+# --------------------------------------------------------------------------------------------
+# Ctrl-C and kill: the workers stop, every record stays, one line, exit 130/143, resume
+
+INTERRUPTED = re.compile(r"interrupted: (\d+) of (\d+) runs stored; run the same command to "
+                         r"resume")
+
+
+def living_processes(group: int) -> list[str]:
+    """Processes of the process group ``group`` that are neither gone nor zombies."""
+    alive = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[2]) == group and fields[0] != "Z":
+                alive.append(f"{entry.name}: {(entry / 'cmdline').read_bytes()[:80]!r}")
+    return alive
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_an_interrupted_joblib_sweep_stops_its_workers_and_resumes(tmp_path, signum):
+    """SIGINT to the whole process group (Ctrl-C) or SIGTERM to the leader (kill) once three
+    records exist: no worker goes on, one line says what is stored, the same command
+    finishes the study with the results a direct run gives."""
+    args = ("-m", "launcher=joblib", "hydra.launcher.n_jobs=2", "algorithm=ga,random_search",
+            "problem=archimedean", "seed=range(0,6)", "budget=2000", f"results_dir={tmp_path}")
+    runs_dir = tmp_path / "default" / "runs"
+    # files, not pipes: a worker left alive would hold a pipe open
+    with open(tmp_path / "stderr", "w") as err:
+        proc = subprocess.Popen([sys.executable, "-m", "metaknot.cli", "run", *args],
+                                cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=err, env=ENV,
+                                start_new_session=True)
+    try:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and len(list(runs_dir.glob("*.parquet"))) < 3:
+            assert proc.poll() is None, "the sweep ended before it could be interrupted"
+            time.sleep(0.02)
+        if signum == signal.SIGINT:
+            os.killpg(proc.pid, signum)
+        else:
+            os.kill(proc.pid, signum)
+        assert proc.wait(timeout=60) == 128 + signum
+        deadline = time.monotonic() + 5
+        while living_processes(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert living_processes(proc.pid) == []
+    finally:
+        if living_processes(proc.pid):
+            os.killpg(proc.pid, signal.SIGKILL)
+    stderr = (tmp_path / "stderr").read_text()
+    assert "Traceback" not in stderr and "Error" not in stderr, stderr
+    lines = stderr.strip().splitlines()
+    assert plan_line(lines[0])["to_run"] == 12 and len(lines) == 2, stderr
+    stored, total = map(int, INTERRUPTED.fullmatch(lines[1]).groups())
+    before = snapshot(runs_dir)
+    assert 3 <= stored == len(before) < total == 12
+    assert list((tmp_path / "default" / "tmp").iterdir()) == []
+
+    done = metaknot(*args, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert plan_line(done.stderr)["stored"] == stored and f"{12 - stored} ok" in done.stderr
+    after = snapshot(runs_dir)
+    assert len(after) == 12 and all(after[name] == state for name, state in before.items())
+    runs = load_study(tmp_path / "default").runs
+    assert (runs.status == "ok").all() and runs.run_id.is_unique
+    import metaknot as mk
+    from metaknot.experiments.spec import run_spec
+
+    for row in runs.itertuples():
+        spec = run_spec({**json.loads(row.config), "study": "direct", "results_dir": "."})
+        assert spec.run_id == row.run_id
+        direct = mk.minimize(spec.build_problem(), spec.build_optimizer(), budget=spec.budget,
+                             seed=spec.optimizer_seed(),
+                             checkpoints_per_decade=spec.config["checkpoints_per_decade"])
+        assert row.best_f == direct.best_f and row.best_x == direct.best_x.tolist()
+
+
+SIGNAL_IN_RUN = """
+import os, signal, sys
+import metaknot.runner
+from metaknot.experiments.app import main
+
+minimize = metaknot.runner.minimize
+
+def signalled(*args, **kwargs):  # the signal arrives while the run computes
+    os.kill(os.getpid(), signal.SIGTERM)
+    return minimize(*args, **kwargs)
+
+metaknot.runner.minimize = signalled
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_an_interrupted_single_run_says_nothing_is_stored(tmp_path):
+    done = subprocess.run([sys.executable, "-c", SIGNAL_IN_RUN, "algorithm=ga", "budget=3000",
+                           f"results_dir={tmp_path}"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300, env=ENV)
+    assert done.returncode == 143
+    assert done.stderr.strip() == ("interrupted: 0 of 1 runs stored; run the same command to "
+                                   "resume")
+    assert not list((tmp_path / "default").glob("*/*.parquet"))
+
+
+# --------------------------------------------------------------------------------------------
+# a full disk: every run is accounted for, nothing computed is lost, one line per kind
+
+DISK_FILLS_UP = """
+import errno, shutil, sys
+from metaknot.experiments import store
+from metaknot.experiments.app import main
+
+room, results = int(sys.argv[1]), sys.argv[2]
+write, usage = store.Store.write, shutil.disk_usage
+full = []
+
+def write_until_full(self, record, **kwargs):  # the disk takes `room` records
+    if str(self.study_dir).startswith(results):
+        if len(full) or room == 0:
+            full.append(1)
+            raise OSError(errno.ENOSPC, "No space left on device", str(self.tmp_dir))
+        globals()["room"] -= 1
+    return write(self, record, **kwargs)
+
+def free_space(path):  # once a write has failed, the disk says so
+    found = usage(path)
+    return found._replace(free=0) if full and str(path).startswith(results) else found
+
+store.Store.write = write_until_full
+store.shutil.disk_usage = free_space
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+def test_a_sweep_on_a_disk_that_fills_up_accounts_for_every_run(tmp_path):
+    """Seeds batched three to a job; the disk takes four records. The fifth run is computed
+    and kept elsewhere, the rest (also the rest of its job) are not started; one line each,
+    exit 1; once there is space, the same command computes exactly the missing runs."""
+    results, spare = tmp_path / "results", tmp_path / "spare"
+    spare.mkdir()
+    args = ["-m", "algorithm=ga,random_search", "problem=archimedean", "seed=range(0,5)",
+            "budget=200", "hydra.sweep.dir=" + str(tmp_path / "sweep"),
+            "hydra.sweeper.runs_per_job=3", f"results_dir={results}"]
+    done = subprocess.run([sys.executable, "-c", DISK_FILLS_UP, "4", str(results), *args],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600,
+                          env={**ENV, "TMPDIR": str(spare)})
+    assert done.returncode == 1, done.stderr
+    study, kept = results / "default", spare / "metaknot-unsaved" / "default"
+    lines = done.stderr.strip().splitlines()
+    assert "Traceback" not in done.stderr and plan_line(lines[0])["to_run"] == 10
+    assert lines[1:] == [
+        f"study {study}: 4 ok, 5 not run, 1 not stored; 4 of 10 runs stored",
+        f"  5 not run: [Errno 28] No space left on device (0 KiB free, a run needs 256 KiB): "
+        f"'{study}'",
+        f"  1 computed but not stored (No space left on device): their records are kept in "
+        f"{kept / 'runs'}: move them into {study / 'runs'}/ once there is space",
+        "  run the same command to compute the missing runs once the cause is fixed",
+    ]
+    assert len(list((study / "runs").iterdir())) == 4 and not list((study / "tmp").iterdir())
+    (saved,) = load_study(kept).runs.to_dict("records")
+
+    again = metaknot(*args, cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert plan_line(again.stderr)["stored"] == 4
+    assert f"study {study}: 6 ok; 10 of 10 runs stored" in again.stderr
+    runs = load_study(study).runs.set_index("run_id")
+    assert len(runs) == 10 and (runs.status == "ok").all()
+    assert runs.loc[saved["run_id"], "best_f"] == saved["best_f"]  # the kept record was right
+
+
+def test_a_single_run_the_disk_cannot_take_is_kept_and_named(tmp_path):
+    results, spare = tmp_path / "results", tmp_path / "spare"
+    spare.mkdir()
+    done = subprocess.run([sys.executable, "-c", DISK_FILLS_UP, "0", str(results),
+                           "algorithm=ga", "budget=200", f"results_dir={results}"],
+                          cwd=tmp_path, capture_output=True, text=True, timeout=600,
+                          env={**ENV, "TMPDIR": str(spare)})
+    assert done.returncode == 1 and done.stdout == ""
+    (kept,) = (spare / "metaknot-unsaved" / "default" / "runs").iterdir()
+    assert done.stderr.strip() == (
+        f"metaknot run: error: run {kept.stem} computed but not stored (No space left on "
+        f"device); its record is kept in {kept}: move it into {results / 'default' / 'runs'}/ "
+        "once there is space")
+
+
+def test_a_sweep_on_a_real_full_disk(tmp_path):
+    """The same on a real small file system (a tmpfs: needs root, skipped where mounting is
+    not allowed): the runs that fit are stored, the others not started; resumed once the
+    file system is larger."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=600k", "tmpfs", str(disk)],
+                             capture_output=True, text=True)
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {mounted.stderr.strip()[:80]}")
+    try:
+        args = ("-m", "algorithm=ga,random_search", "problem=archimedean", "seed=range(0,15)",
+                "budget=500", f"results_dir={disk}")
+        done = metaknot(*args, cwd=tmp_path)
+        assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+        runs_dir = disk / "default" / "runs"
+        stored = len(list(runs_dir.iterdir())) if runs_dir.is_dir() else 0
+        assert 0 < stored < 30, done.stderr
+        assert f"; {stored} of 30 runs stored" in done.stderr
+        assert f"  {30 - stored} not run: [Errno 28] No space left on device" in done.stderr
+        assert not list((disk / "default" / "tmp").iterdir())
+        subprocess.run(["mount", "-o", "remount,size=16m", str(disk)], check=True)
+        again = metaknot(*args, cwd=tmp_path)
+        assert again.returncode == 0 and "30 of 30 runs stored" in again.stderr, again.stderr
+        runs = load_study(disk / "default").runs
+        assert len(runs) == 30 and runs.run_id.is_unique and (runs.status == "ok").all()
+    finally:
+        if subprocess.run(["umount", str(disk)], capture_output=True).returncode != 0:
+            subprocess.run(["umount", "-l", str(disk)], check=True)
+
+
+def test_sweeps_started_in_the_same_second_keep_their_own_folder(tmp_path):
+    """Two sweeps of a study whose configured Hydra folder is the same (as when they start in
+    the same second) each keep their multirun.yaml."""
+    common = ("-m", "algorithm=random_search", "problem=archimedean", "budget=50",
+              f"hydra.sweep.dir={tmp_path / 'sweep'}", f"results_dir={tmp_path}")
+    for seed in (0, 1):
+        done = metaknot(*common, f"seed={seed},{seed + 10}", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    first = (tmp_path / "sweep" / "multirun.yaml").read_text()
+    second = (tmp_path / "sweep-2" / "multirun.yaml").read_text()
+    assert "seed=0,10" in first and "seed=1,11" in second
+
+
+SIGNAL_IN_PLAN = """
+import os, signal, sys
+import metaknot.experiments.sweep as sweep
+from metaknot.experiments.app import main
+
+plan = sweep.plan
+
+def signalled(*args, **kwargs):  # the signal arrives while the sweep is validated
+    os.kill(os.getpid(), signal.SIGTERM)
+    return plan(*args, **kwargs)
+
+sweep.plan = signalled
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_a_signal_while_the_sweep_is_planned_stops_it_before_any_run(tmp_path):
+    with open(tmp_path / "stderr", "w") as err:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", SIGNAL_IN_PLAN, "-m", "launcher=joblib",
+             "hydra.launcher.n_jobs=2", "algorithm=ga", "seed=0,1", "budget=100",
+             f"results_dir={tmp_path}"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=err,
+            env=ENV, start_new_session=True)
+    try:
+        assert proc.wait(timeout=300) == 143
+        deadline = time.monotonic() + 5
+        while living_processes(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert living_processes(proc.pid) == []  # the warm-up workers too
+    finally:
+        if living_processes(proc.pid):
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert (tmp_path / "stderr").read_text().strip() == (
+        "interrupted before any run started; run the same command to start again")
+    assert not (tmp_path / "default" / "runs").exists()
