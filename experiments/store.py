@@ -50,16 +50,18 @@ _META_KEY = b"metaknot"
 RUN_FILE = re.compile(r"(?P<run_id>[0-9a-f]{16})\.parquet")
 FAILED_FILE = re.compile(r"(?P<run_id>[0-9a-f]{16})\.[0-9TZ]+\.[0-9]+(\.[0-9a-f]+)?\.parquet")
 TRACE_PREFIX = "trace."
-#: Record statuses of a run that is complete: stored under ``runs/`` (never run again). Any
-#: other status (``failed``) is an attempt, kept under ``failed/``; its run is run again.
-COMPLETE_STATUSES = frozenset({"ok"})
+#: Record statuses of a run that is complete: stored under ``runs/`` (never run again). A run
+#: that failed its budget audit (``budget_violation``) is complete too: running it again would
+#: repeat what its optimizer did, and reports leave it out with a note. Any other status
+#: (``failed``) is an attempt, kept under ``failed/``; its run is run again.
+COMPLETE_STATUSES = frozenset({"ok", "budget_violation"})
 #: A run starts only if the study's file system has this much free space (a record takes
 #: about 20 KB), so a full disk does not cost the computation of runs that cannot be stored.
 MIN_FREE_BYTES = 256 << 10
 #: Record fields with a fixed kind of value (checked when a record is read or counted).
 TEXT_FIELDS = ("run_id", "status")
 NUMBER_FIELDS = ("best_f", "rmse", "euclidean_distance", "max_deviation", "n_control_points",
-                 "n_evaluations", "budget", "seed")
+                 "n_evaluations", "budget", "seed", "audited_fits", "accounted_fits")
 
 
 class StoreError(ValueError):

@@ -36,7 +36,7 @@ from metaknot.experiments.report.tables import (
     summary_table,
 )
 from metaknot.experiments.spec import run_spec
-from metaknot.experiments.store import Store, load_study
+from metaknot.experiments.store import COMPLETE_STATUSES, Store, load_study
 
 ALPHA = 0.05
 #: Real algorithms behind the synthetic methods (their configurations must rebuild).
@@ -113,7 +113,7 @@ def _write(study_dir: Path, runs: list[dict]) -> Path:
         trace = _trace(record["budget"], final, rmse, record["n_control_points"])
         store.write(record, best_x=best_x, trace=trace)
     assert len(list(store.runs_dir.glob("*.parquet"))) == sum(
-        r["status"] == "ok" for r in runs), "run ids collide"
+        r["status"] in COMPLETE_STATUSES for r in runs), "run ids collide"
     return study_dir
 
 
@@ -560,6 +560,24 @@ def test_failed_runs_are_left_out_with_a_note(tmp_path):
     report = build(study, tmp_path / "report", figures=False, log=None)
     assert report.tables["cells"].runs.tolist() == [6, 6]
     assert "2 run(s) failed and are left out" in report.markdown.read_text()
+
+
+def test_runs_that_failed_their_budget_audit_are_stored_and_left_out_with_a_note(tmp_path):
+    runs = [_run(m, seed, 300, f + 0.1 * seed) for m, f in (("A", 1), ("B", 2))
+            for seed in range(6)]
+    cheats = [_run("B", seed, 300, 0.01, status="budget_violation", audited_fits=5000,
+                   accounted_fits=300) for seed in (6, 7, 8)]
+    study = _write(tmp_path / "s", runs + cheats)
+    assert len(list((study / "runs").glob("*.parquet"))) == 15  # complete: not run again
+    comparison = prepare(study)
+    assert len(comparison.runs) == 12 and (comparison.runs.status == "ok").all()
+    (note,) = comparison.notes
+    assert note.startswith("3 run(s) are left out because their audit found fits beyond "
+                           "their budget (status budget_violation: ")
+    assert all(c["run_id"] in note for c in cheats)
+    report = build(study, tmp_path / "report", figures=False, log=None)
+    assert report.tables["cells"].runs.tolist() == [6, 6]
+    assert "left out because their audit found fits" in report.markdown.read_text()
 
 
 def test_a_study_where_every_run_failed(tmp_path):

@@ -159,9 +159,7 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
         solution = problem.decode(np.asarray(run["best_x"]))
         fit = solution.fit
         points = problem.points
-        closed = getattr(problem, "closed", False)  # a periodic spline: the whole period
-        u = np.linspace(0.0, 1.0, 1500) if closed else \
-            np.linspace(problem.params[0], problem.params[-1], 1500)
+        u = np.linspace(*problem.curve.knot_bounds, 1500)  # a closed curve's whole period
         curve = fit.spline(u)
         knots = fit.spline(fit.interior_knots) if len(fit.interior_knots) else np.empty(
             (0, points.shape[1]))
