@@ -94,6 +94,9 @@ class NloptKnots(Optimizer):
         Number of coarse grid values of K (``variable_count`` only, >= 2).
     """
 
+    #: ``nlopt:<algorithm>`` in the registry sets this parameter (``nlopt:LN_SBPLX``).
+    variant_parameter = "algorithm"
+
     encodings = ("continuous",)
 
     def __init__(self, algorithm: str = "LN_BOBYQA", local_algorithm: str = "LN_BOBYQA",

@@ -358,3 +358,13 @@ def test_global_methods_stay_feasible_and_improve_on_the_averaging_start(curve, 
         assert result.best_f <= start * (1 + 1e-9), algorithm
         if algorithm != "GN_ISRES":
             assert result.best_f < start * (1 - 1e-3), (algorithm, result.best_f / start)
+
+
+def test_nlopt_algorithms_by_name():
+    """``nlopt:<algorithm>`` resolves like ``pymoo:GA`` and ``nevergrad:NGOpt``."""
+    import metaknot as mk
+
+    optimizer = mk.get_optimizer("nlopt:LN_SBPLX")
+    assert optimizer.algorithm == "LN_SBPLX" and optimizer.name == "nlopt"
+    with pytest.raises(ValueError, match="LN_NOPE"):
+        mk.get_optimizer("nlopt:LN_NOPE")

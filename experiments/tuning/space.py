@@ -19,6 +19,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from metaknot.validate import is_real
+
 from ..spec import ConfigError
 
 __all__ = ["PROBLEM_PARAMETERS", "Parameter", "SearchSpace"]
@@ -89,8 +91,7 @@ def _parameter(name: str, entry: Any, earlier: dict[str, Parameter]) -> Paramete
         raise ConfigError(f"{key}.choices: only for type categorical")
     low, high = entry.get("low"), entry.get("high")
     for bound, value in (("low", low), ("high", high)):
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value):
+        if not is_real(value) or not math.isfinite(value):
             raise ConfigError(f"{key}.{bound}: a finite number, got {value!r}")
         if kind == "int" and float(value) != int(value):
             raise ConfigError(f"{key}.{bound}: an integer for type int, got {value!r}")
@@ -106,7 +107,7 @@ def _parameter(name: str, entry: Any, earlier: dict[str, Parameter]) -> Paramete
     if step is not None:
         if log:
             raise ConfigError(f"{key}: step and log cannot be combined (Optuna)")
-        if isinstance(step, bool) or not isinstance(step, int | float) or step <= 0:
+        if not is_real(step) or step <= 0:
             raise ConfigError(f"{key}.step: a number > 0, got {step!r}")
     return Parameter(name, kind, float(low), float(high), log,
                      None if step is None else float(step), when=when_items)
