@@ -7,6 +7,8 @@ from types import ModuleType
 
 import numpy as np
 
+from metaknot.problems import FreeKnotSpace
+
 __all__ = ["FinitePenalty", "optional_import", "refuse_variable_count"]
 
 
@@ -22,7 +24,7 @@ def optional_import(module: str, optimizer: str) -> ModuleType:
 def refuse_variable_count(problem: object, optimizer: str) -> None:
     """A ``ValueError`` for a ``FreeKnots(variable_count=True)`` problem: the adapters search a
     fixed number of knots (nlopt also searches the count)."""
-    if getattr(problem, "variable_count", False):
+    if isinstance(problem, FreeKnotSpace) and problem.variable_count:
         raise ValueError(f"optimizer {optimizer!r} searches a fixed number of knots; use "
                          "variable_count=False (or nlopt, which also searches K)")
 

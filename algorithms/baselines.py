@@ -21,9 +21,8 @@ import numpy as np
 from metaknot.bspline import averaging_knots, fit_spline, fitpack
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Encoding, Problem
-from metaknot.problems import KnotProblem
+from metaknot.problems import FreeKnotSpace, KnotSpace
 from metaknot.registry import register
-from metaknot.task import problem_type
 
 __all__ = ["AveragingKnots", "FitpackKnots", "UniformKnots", "knots_to_candidate", "with_count"]
 
@@ -48,7 +47,8 @@ def knots_to_candidate(problem: Problem, knots: np.ndarray) -> np.ndarray:
     0/1 mask of those data points."""
     encoding = problem.encoding
     if encoding.kind == "continuous":
-        return problem.pad(knots) if getattr(problem, "variable_count", False) else np.sort(knots)
+        variable = isinstance(problem, FreeKnotSpace) and problem.variable_count
+        return problem.pad(knots) if variable else np.sort(knots)
     u = problem.params
     last = problem.last_candidate_point
     j = np.clip(np.searchsorted(u, knots), 1, u.size - 1)
@@ -82,10 +82,11 @@ class _KnotCountBaseline(Optimizer):
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
-        if not issubclass(problem_type(problem), KnotProblem):
+        if not isinstance(problem, KnotSpace):
             raise ValueError(f"optimizer {self.name!r} needs a knot problem; got {problem.name!r}")
         kind = problem.encoding.kind
-        self.free_count = kind == "binary" or bool(getattr(problem, "variable_count", False))
+        self.free_count = kind == "binary" or (isinstance(problem, FreeKnotSpace)
+                                               and problem.variable_count)
         if self.free_count:
             cap = problem.n_knots if kind == "continuous" else \
                 problem.data.n_points - problem.degree - 1

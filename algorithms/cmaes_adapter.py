@@ -15,6 +15,7 @@ import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
+from metaknot.problems import FreeKnotSpace
 from metaknot.registry import register
 
 from ._adapters import FinitePenalty, optional_import, refuse_variable_count
@@ -52,7 +53,7 @@ class CMAESKnots(Optimizer):
         self.data_gap = check_param("data_gap", data_gap, low=0)
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
-        if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots")):
+        if not isinstance(problem, FreeKnotSpace):
             raise ValueError(f"optimizer 'cmaes' needs a FreeKnots problem; got {problem.name!r}")
         refuse_variable_count(problem, "cmaes")
         _require_cmaes()

@@ -93,7 +93,7 @@ class FreeKnotFront(Optimizer):
         self.box = KnotMap(problem.params, problem.degree, kind="sorted",
                            min_gap=self.min_gap, data_gap=0.0)
         self.pareto = getattr(problem, "n_objectives", 1) == 2
-        self.variable = bool(getattr(problem, "variable_count", False))
+        self.variable = bool(problem.variable_count)  # check_free_knots: a FreeKnotSpace
         self.counts = list(range(1, problem.n_knots + 1)) if self.variable else \
             [problem.n_knots]
         #: per count: (lowest error or objective value seen, its knots)

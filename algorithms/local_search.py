@@ -20,9 +20,8 @@ import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
-from metaknot.problems import KnotProblem
+from metaknot.problems import KnotSpace
 from metaknot.registry import register
-from metaknot.task import problem_type
 
 from .baselines import AveragingKnots
 
@@ -96,7 +95,7 @@ class LocalSearch(Optimizer):
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
-        if not issubclass(problem_type(problem), KnotProblem):
+        if not isinstance(problem, KnotSpace):
             raise ValueError(f"optimizer {self.name!r} needs a knot problem; got {problem.name!r}")
         self._start = AveragingKnots(batch_size=self.batch_size)
         self._start.setup(problem, rng)

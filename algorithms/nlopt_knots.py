@@ -28,7 +28,7 @@ import numpy as np
 from metaknot.bspline import averaging_knots
 from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problems import FreeKnots
+from metaknot.problems import FreeKnots, FreeKnotSpace
 from metaknot.registry import register
 
 from .knot_map import KnotMap
@@ -49,9 +49,10 @@ def _check_name(name: str, value: object, valid: tuple[str, ...]) -> str:
 
 
 def check_free_knots(name: str, problem: FreeKnots, min_gap: float) -> None:
-    """Refuse a problem that is not a FreeKnots (duck-typed, so wrappers of one, counting or
-    logging, work as well) or has no room for its knots at gaps of ``min_gap``."""
-    if not all(hasattr(problem, a) for a in ("params", "degree", "n_knots", "pad")):
+    """Refuse a problem that is not a FreeKnots (a :class:`FreeKnotSpace`: duck-typed, so
+    wrappers of one, counting or logging, work as well) or has no room for its knots at gaps of
+    ``min_gap``."""
+    if not isinstance(problem, FreeKnotSpace):
         raise ValueError(f"optimizer {name!r} needs a FreeKnots problem (continuous knot "
                          f"positions); got {problem.name!r}")
     if (problem.n_knots + 1) * min_gap >= 1:

@@ -24,7 +24,7 @@ import numpy as np
 
 from .problem import Encoding, Problem
 
-__all__ = ["Task", "problem_type"]
+__all__ = ["Task"]
 
 #: Problem members whose absence from a task deserves its own explanation: ``evaluate*`` and
 #: ``decode*`` (``evaluate``, ``evaluate_with_metrics``, ``evaluate_near``, ``decode``, ...).
@@ -169,9 +169,3 @@ def _read_only(value: Any) -> Any:
         call.__name__ = getattr(method, "__name__", "method")
         return call
     return value
-
-
-def problem_type(problem: Problem | Task) -> type:
-    """The class of a problem, seen directly or through a :class:`Task`."""
-    return problem.problem_type if isinstance(problem, Task) else type(problem)
-

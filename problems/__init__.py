@@ -11,7 +11,15 @@ from .curves import (
     load_points,
     vivaldi,
 )
-from .knot_problems import FreeKnots, KnotIndices, KnotProblem, KnotSelection, KnotSolution
+from .knot_problems import (
+    FreeKnots,
+    FreeKnotSpace,
+    KnotIndices,
+    KnotProblem,
+    KnotSelection,
+    KnotSolution,
+    KnotSpace,
+)
 from .objectives import BIC, OBJECTIVES, DataInfo, ErrorBounded, Objective, Paper, get_objective
 
 __all__ = [
@@ -20,11 +28,13 @@ __all__ = [
     "OBJECTIVES",
     "DataInfo",
     "ErrorBounded",
+    "FreeKnotSpace",
     "FreeKnots",
     "KnotIndices",
     "KnotProblem",
     "KnotSelection",
     "KnotSolution",
+    "KnotSpace",
     "Objective",
     "Paper",
     "PointSet",

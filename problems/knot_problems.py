@@ -15,7 +15,7 @@ code and score it with an objective chosen by name (see :mod:`metaknot.problems.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -32,7 +32,33 @@ from metaknot.validate import is_integer
 from .curves import PointSet, get_curve
 from .objectives import DataInfo, Objective, get_objective
 
-__all__ = ["FreeKnots", "KnotIndices", "KnotProblem", "KnotSelection", "KnotSolution"]
+__all__ = ["FreeKnotSpace", "FreeKnots", "KnotIndices", "KnotProblem", "KnotSelection",
+           "KnotSolution", "KnotSpace"]
+
+
+@runtime_checkable
+class KnotSpace(Protocol):
+    """What an optimizer may rely on of a knot problem, seen directly or through its
+    :class:`~metaknot.Task`: the data parameters and points, the degree, whether the curve is
+    closed, and the highest data index a knot may sit at. ``isinstance(problem, KnotSpace)`` is
+    the one test of "a knot problem" (duck-typed: wrappers of one pass too)."""
+
+    params: np.ndarray
+    points: np.ndarray
+    degree: int
+    closed: bool
+    last_candidate_point: int
+
+
+@runtime_checkable
+class FreeKnotSpace(KnotSpace, Protocol):
+    """A knot problem over continuous knot positions (:class:`FreeKnots`): ``n_knots``
+    positions, NaN-padded to fewer with ``variable_count`` (:meth:`FreeKnots.pad`)."""
+
+    n_knots: int
+    variable_count: bool
+
+    def pad(self, positions: ArrayLike) -> np.ndarray: ...
 
 
 @dataclass(frozen=True, eq=False)

@@ -322,3 +322,28 @@ def test_evaluators_and_their_tasks_are_freed():
         assert [ref() for ref in gone] == [None, None, None]
     finally:
         gc.enable()
+
+
+def test_knot_spaces_are_recognised_through_a_task():
+    """Optimizers test what a problem offers with the declared protocols, on the task too."""
+    from metaknot.problems import FreeKnotSpace, KnotSpace
+
+    free = mk.Evaluator(FreeKnots(SPIRAL, n_knots=4), 10).task
+    mask = mk.Evaluator(KnotSelection(SPIRAL), 10).task
+    assert isinstance(free, FreeKnotSpace) and isinstance(free, KnotSpace)
+    assert isinstance(mask, KnotSpace) and not isinstance(mask, FreeKnotSpace)
+
+    class Plain(mk.Problem):
+        encoding = mk.Encoding.binary(3)
+
+        def evaluate(self, X):
+            return np.zeros(len(X))
+
+        def decode(self, x):
+            return x
+
+    assert not isinstance(mk.Evaluator(Plain(), 5).task, KnotSpace)
+    with pytest.raises(ValueError, match="needs a knot problem"):
+        mk.minimize(Plain(), "local_search", budget=5, seed=0)
+    with pytest.raises(ValueError, match="needs a FreeKnots problem"):
+        mk.minimize(KnotSelection(SPIRAL), "nlopt", budget=5, seed=0)
