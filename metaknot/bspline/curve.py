@@ -77,15 +77,17 @@ class Closure:
 
 def closure(points: ArrayLike) -> Closure:
     """Is ``points`` a closed outline? Yes if the chord from the last point back to the first
-    is at most :data:`CLOSING_CHORD_SPACINGS` times the median distance between consecutive
-    points; the last point repeats the first if it is within :data:`REPEAT_SPACINGS` of it.
-    Sequences of fewer than 4 points are open."""
+    is at most :data:`CLOSING_CHORD_SPACINGS` typical point spacings; the last point repeats
+    the first if it is within :data:`REPEAT_SPACINGS` of them. The typical spacing is the
+    largest of the median distance between consecutive points and the first and last steps
+    (an outline sampled unevenly may have its widest steps at the seam). Sequences of fewer than
+    4 points are open."""
     q = np.asarray(points, dtype=np.float64)
     q = q[:, None] if q.ndim == 1 else q
     if len(q) < 4:
         return Closure(False, False, np.inf)
     steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
-    spacing = float(np.median(steps))
+    spacing = float(max(np.median(steps), steps[0], steps[-1]))
     chord = float(np.linalg.norm(q[-1] - q[0]))
     if spacing <= 0:
         spacing = float(steps.max()) if steps.max() > 0 else 1.0
