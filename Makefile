@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test chromium postgres lint bench seed-paper clean
+.PHONY: demo test docs chromium postgres lint bench seed-paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,9 @@ demo: $(STAMP)  ## a small study (DE, GA, random search on the seed curves), the
 
 test: $(STAMP) chromium postgres  ## the whole test suite (slow studies at CI size)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -q
+
+docs: $(STAMP)  ## the documentation site into site/, strict: a broken link or reference fails
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site
 
 chromium:  ## the headless browser the report test opens report.html in (Debian's chromium)
 	@command -v chromium >/dev/null || { apt-get update -q && \
@@ -40,4 +43,4 @@ seed-paper: $(STAMP)  ## the seed paper's study over 30 seeds (about 6 minutes o
 	$(BIN)/metaknot report results/seed_paper
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build site *.egg-info .pytest_cache

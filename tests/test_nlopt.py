@@ -347,7 +347,7 @@ class Tally(FreeKnots):
 def test_global_methods_stay_feasible_and_improve_on_the_averaging_start(curve, k):
     """The data-tied gap keeps almost every candidate feasible; CRS2 and MLSL beat the
     averaging knots within 5,000 evaluations (ISRES, an evolution strategy that needs many more
-    generations, need not: see the README)."""
+    generations, need not: see docs/results/quality.md)."""
     options = {"objective": "paper", "objective_options": {"error_floor": 0.0}}
     reference = FreeKnots(curve, n_knots=k, **options)
     start = reference.evaluate(averaging_knots(reference.params, k, 3)[None, :])[0]
