@@ -30,6 +30,21 @@ def test_closure_by_the_closing_chord_in_point_spacings():
     assert not closure(get_curve("archimedean").points).closed
     assert closure(get_curve("epitrochoid").points).repeats_first
     assert not closure(ring[:3]).closed  # too few points to tell
+    # values of one coordinate end near where they started, yet trace no outline
+    values = np.sin(np.linspace(0, 3, 50))
+    assert np.abs(values[-1] - values[0]) < 2.5 * np.abs(np.diff(values)).max()
+    assert not closure(values).closed and not closure(values[:, None]).closed
+
+
+def test_closure_reads_the_seam_step_as_a_spacing():
+    """An outline sampled densely along its sides but with its widest step at the seam (as
+    glyph outlines resampled per segment are) is closed, not an open curve with a gap."""
+    angle = np.concatenate((np.linspace(0.0, 2 * np.pi - 0.3, 200), [2 * np.pi - 0.15]))
+    outline = np.column_stack((np.cos(angle), np.sin(angle)))
+    steps = np.linalg.norm(np.diff(outline, axis=0), axis=1)
+    chord = np.linalg.norm(outline[-1] - outline[0])
+    assert chord > 2.5 * np.median(steps)  # by the median step alone it would look open
+    assert closure(outline).closed
 
 
 def test_open_and_closed_curves_fit_as_the_kernels_do():

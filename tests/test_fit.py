@@ -392,3 +392,14 @@ def test_few_points_open_and_closed(n: int) -> None:
         u = result.params
         assert max_deviation(result.spline, u, result.points) <= result.tolerance
         assert result.n_control_points <= result.fitpack["n_control_points"]
+
+
+def test_one_column_says_what_was_assumed(tmp_path) -> None:
+    """A file of one column is fitted as a 1-D open curve of values, and the output says so
+    (it ends near where it started, yet is no outline to close)."""
+    np.savetxt(tmp_path / "values.csv", np.sin(np.linspace(0, 3, 50)))
+    done = run_fit("values.csv", "--tol", "1e-2", "--budget", "500", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "one column: read as a 1-D curve of values" in done.stdout
+    assert "--function" in done.stdout.splitlines()[0]
+    assert "open (clamped)" in done.stdout and "closed" not in done.stdout.split("auto:")[0]

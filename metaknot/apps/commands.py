@@ -115,8 +115,11 @@ def fit(args: argparse.Namespace) -> int:
         raise ValueError(f"--function: {args.points} needs two or more columns (x, f(x)); it "
                          f"has {points.shape[1]}")
     n, dims = points.shape[0], points.shape[1] - (1 if args.function else 0)
-    print(f"read {n} points ({dims}-D{', function of x' if args.function else ''}) from "
-          f"{args.points}", flush=True)
+    what = f"{dims}-D{', function of x' if args.function else ''}"
+    if points.shape[1] == 1:
+        what = ("one column: read as a 1-D curve of values; for y = f(x) give x as the first "
+                "column and --function")
+    print(f"read {n} points ({what}) from {args.points}", flush=True)
     result = fit_points(points, args.tol, relative=args.relative, metric=args.metric,
                  function=args.function, degree=args.degree,
                  parameterization=args.parameterization, closed=args.closed,

@@ -72,6 +72,8 @@ class Closure:
         """Why, in words (for ``metaknot fit``'s output)."""
         if self.repeats_first:
             return "its last point repeats the first"
+        if not np.isfinite(self.chord_spacings):
+            return "one coordinate or fewer than 4 points: no outline to close"
         return f"the closing chord is {self.chord_spacings:.3g} point spacings"
 
 
@@ -81,10 +83,11 @@ def closure(points: ArrayLike) -> Closure:
     the first if it is within :data:`REPEAT_SPACINGS` of them. The typical spacing is the
     largest of the median distance between consecutive points and the first and last steps
     (an outline sampled unevenly may have its widest steps at the seam). Sequences of fewer than
-    4 points are open."""
+    4 points are open, and so are values of one coordinate (a 1-D sequence traces a line back
+    and forth; it has no outline to close)."""
     q = np.asarray(points, dtype=np.float64)
     q = q[:, None] if q.ndim == 1 else q
-    if len(q) < 4:
+    if len(q) < 4 or q.shape[1] < 2:
         return Closure(False, False, np.inf)
     steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
     spacing = float(max(np.median(steps), steps[0], steps[-1]))
