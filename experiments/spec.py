@@ -304,6 +304,38 @@ class RunSpec:
             raise ConfigError(f"algorithm ({self.algorithm}): {exc}") from None
 
 
+def _suite_instance(problem: Mapping[str, Any]) -> Any:
+    """The suite instance ``problem.instance`` names (``None`` if it names none)."""
+    name = problem.get("instance")
+    if name is None:
+        return None
+    if problem.get("points") is not None or problem.get("curve") is not None:
+        raise ConfigError("problem.instance: a suite instance replaces problem.curve and "
+                          "problem.points; leave those null (problem=suite does)")
+    from metaknot.suite import get_instance
+
+    try:
+        return get_instance(str(name))
+    except ValueError as exc:
+        raise ConfigError(f"problem.instance: {exc}") from None
+
+
+def _suite_task(problem: Mapping[str, Any], instance: Any) -> Any:
+    """The suite task ``problem.task`` names on ``instance`` (``None`` if it names none)."""
+    name = problem.get("task")
+    if name is None:
+        return None
+    if instance is None:
+        raise ConfigError("problem.task: a suite task needs a suite instance "
+                          "(problem=suite problem.instance=ID)")
+    from metaknot.suite.tasks import get_task
+
+    try:
+        return get_task(instance, str(name))
+    except ValueError as exc:
+        raise ConfigError(f"problem.task: {exc}") from None
+
+
 def check_study(cfg: Mapping[str, Any]) -> tuple[str, str]:
     """The configuration's ``study`` name and ``results_dir``, checked."""
     study = cfg.get("study")
@@ -345,11 +377,14 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     problem = _section(cfg, "problem")
     _unknown("problem", problem, {"name", "curve", "points", "params_column", "n_points",
                                   "noise", "noise_seed", "degree", "parameterization",
-                                  "fingerprint", "closed"})
+                                  "fingerprint", "closed", "instance", "task"})
     from metaknot.problems import CURVES
 
     curve, points = problem.get("curve"), problem.get("points")
-    if points is not None:
+    instance = _suite_instance(problem)
+    if instance is not None:
+        curve = points = None
+    elif points is not None:
         if not isinstance(points, str) or points == "???":
             raise ConfigError(f"problem.points: a .csv or .npy file, got {points!r}")
         if not Path(points).is_file():
@@ -363,7 +398,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     degree = _int("problem.degree", problem.get("degree", 3), low=1, high=5)
     name = problem.get("name")
     if name is None:
-        name = curve if curve is not None else Path(points).stem
+        name = instance.id if instance is not None else curve if curve is not None else \
+            Path(points).stem
     elif not isinstance(name, str):
         raise ConfigError(f"problem.name: a label, got {name!r}")
     problem_out = {
@@ -386,6 +422,9 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     closed = problem.get("closed", False)
     if not isinstance(closed, bool):
         raise ConfigError(f"problem.closed: true or false, got {closed!r}")
+    if instance is not None:  # only when set, as closed: run ids of other problems stay
+        problem_out["instance"] = instance.id
+        closed = instance.closed
     if closed:  # only when set, so the run ids of open problems stay as they were
         problem_out["closed"] = True
 
@@ -430,6 +469,11 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
                              tuple(OBJECTIVES))
     objective_out = {"name": objective_name,
                      **_check_signature("objective", OBJECTIVES[objective_name], objective)}
+
+    task = _suite_task(problem, instance)
+    if task is not None:  # the suite's task decides the encoding and the objective
+        problem_out["task"] = task.id
+        encoding_out, objective_out = dict(task.encoding), dict(task.objective)
 
     algorithm_name, params, cls = _algorithm(_section(cfg, "algorithm"))
     config = {
@@ -530,7 +574,11 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
 
     problem, encoding = config["problem"], config["encoding"]
     try:
-        if problem["points"] is not None:
+        if problem.get("instance") is not None:
+            from metaknot.suite import get_instance
+
+            data = get_instance(problem["instance"]).point_set()
+        elif problem["points"] is not None:
             data = load_points(problem["points"], params_column=problem["params_column"])
         else:
             kwargs = {} if problem["n_points"] is None else {"n_points": problem["n_points"]}

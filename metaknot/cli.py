@@ -2,7 +2,7 @@
 tune`` (hyperparameter studies with Optuna), ``metaknot fit`` (a user's points within a
 tolerance), ``metaknot report`` (statistical comparison of a
 stored study), ``metaknot demo`` (optimizers on the seed
-curves), ``metaknot list``."""
+curves), ``metaknot suite`` (the benchmark suite), ``metaknot list``."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from .apps import commands
+from .apps import commands, suite_command
 from .registry import available_optimizers, available_problems
 
 
@@ -27,6 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     lst = sub.add_parser("list", help="registered problems and optimizers")
     lst.set_defaults(func=_list)
     commands.add_fit(sub)
+    suite_command.add_suite(sub)
     report = sub.add_parser("report", help="statistical comparison report of a stored study",
                             description="Tables, tests and figures of a study in the results "
                                         "store, as report.html (self-contained), report.md, "

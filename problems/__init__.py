@@ -20,12 +20,22 @@ from .knot_problems import (
     KnotSolution,
     KnotSpace,
 )
-from .objectives import BIC, OBJECTIVES, DataInfo, ErrorBounded, Objective, Paper, get_objective
+from .objectives import (
+    BIC,
+    OBJECTIVES,
+    RMSE,
+    DataInfo,
+    ErrorBounded,
+    Objective,
+    Paper,
+    get_objective,
+)
 
 __all__ = [
     "BIC",
     "CURVES",
     "OBJECTIVES",
+    "RMSE",
     "DataInfo",
     "ErrorBounded",
     "FreeKnotSpace",

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from metaknot.bspline import BatchFit
 
-__all__ = ["BIC", "OBJECTIVES", "DataInfo", "ErrorBounded", "Objective", "Paper", "Pareto",
+__all__ = ["BIC", "OBJECTIVES", "RMSE", "DataInfo", "ErrorBounded", "Objective", "Paper", "Pareto",
            "get_objective"]
 
 
@@ -164,6 +164,22 @@ class ErrorBounded(Objective):
         return np.where(fit.feasible, value, np.inf)
 
 
+class RMSE(Objective):
+    """Root-mean-square point distance of the fit, for a fixed number of knots.
+
+    With the knot count fixed (``indices`` and ``free`` encodings without a variable count) the
+    control points are fixed too, and the error is all that is left to minimise: the suite's
+    ``fixed_k`` tasks. On an encoding that varies the count it rewards more knots (down to
+    interpolation), so use ``error_bounded``, ``bic`` or ``pareto`` there.
+    """
+
+    name = "rmse"
+    ratio_scale = True
+
+    def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
+        return np.where(fit.feasible, np.sqrt(fit.sse / data.n_points), np.inf)
+
+
 class Pareto(Objective):
     """Two objectives, both minimised: control points and error — the whole trade-off.
 
@@ -219,11 +235,13 @@ class Pareto(Objective):
         return np.where(fit.feasible[:, None], values, np.inf)
 
 
-OBJECTIVES: dict[str, type[Objective]] = {o.name: o for o in (Paper, BIC, ErrorBounded, Pareto)}
+OBJECTIVES: dict[str, type[Objective]] = {o.name: o for o in (Paper, BIC, ErrorBounded, RMSE,
+                                                               Pareto)}
 
 
 def get_objective(objective: str | Objective, **options: Any) -> Objective:
-    """An objective by name (``paper``, ``bic``, ``error_bounded``) with its options."""
+    """An objective by name (``paper``, ``bic``, ``error_bounded``, ``rmse``, ``pareto``) with
+    its options."""
     if isinstance(objective, Objective):
         if options:
             raise ValueError("objective options only apply when the objective is given by name")

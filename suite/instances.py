@@ -76,19 +76,26 @@ class Instance:
         """What the data are and their source (the generator's docstring)."""
         return " ".join((self.generate.__doc__ or "").split())
 
+    def _clean(self) -> PointSet:
+        if self.kind == "function":
+            x, y = self.generate()
+            return PointSet(np.asarray(y, dtype=np.float64)[:, None], name=self.id,
+                            params=np.asarray(x, dtype=np.float64))
+        return PointSet(np.asarray(self.generate(), dtype=np.float64), name=self.id)
+
+    @property
+    def sigma(self) -> float:
+        """The noise's standard deviation in data units: ``noise`` times the scale of the data
+        without noise (0 for an instance without noise)."""
+        return self.noise * self._clean().scale if self.noise else 0.0
+
     def point_set(self) -> PointSet:
         """The instance's data: points (``f(x)`` as one column for a function, with ``x`` as
         the explicit parameters), noise included."""
-        if self.kind == "function":
-            x, y = self.generate()
-            data = PointSet(np.asarray(y, dtype=np.float64)[:, None], name=self.id,
-                            params=np.asarray(x, dtype=np.float64))
-        else:
-            data = PointSet(np.asarray(self.generate(), dtype=np.float64), name=self.id)
+        data = self._clean()
         if not self.noise:
             return data
-        sigma = self.noise * data.scale
-        noisy = add_noise(data, sigma, np.random.SeedSequence(self.noise_seed))
+        noisy = add_noise(data, self.sigma, np.random.SeedSequence(self.noise_seed))
         return replace(noisy, name=self.id)
 
     @property

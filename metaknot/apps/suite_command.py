@@ -1,0 +1,82 @@
+"""``metaknot suite``: the benchmark suite's instances, tasks and best-known values."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+__all__ = ["add_suite"]
+
+
+def add_suite(sub: Any) -> None:
+    """Add the ``suite`` command (``list``, ``tasks``, ``best``) to the subcommands ``sub``."""
+    parser = sub.add_parser("suite", help="the benchmark suite: instances, tasks, best-known "
+                                          "values",
+                            description="The knot-placement benchmark suite (metaknot.suite, "
+                                        "docs/guide/suite.md).")
+    actions = parser.add_subparsers(dest="action", required=True)
+    listing = actions.add_parser("list", help="the instances: id, family, kind, points, "
+                                              "dimension, definition")
+    listing.add_argument("--family", default=None, help="only this family")
+    listing.add_argument("--no-noise", action="store_true", help="base instances only")
+    listing.set_defaults(func=_list)
+    show = actions.add_parser("tasks", help="the tasks of an instance and their best-known "
+                                            "values")
+    show.add_argument("instance")
+    show.set_defaults(func=_tasks)
+    best = actions.add_parser(
+        "best", help="search the tasks again and store every value that improves",
+        description="Run the portfolio of metaknot.suite.best (exhaustive search where the "
+                    "space is small) on every task with a best-known value and store what "
+                    "improves; a stored value is never replaced by a worse one.")
+    best.add_argument("--budget", type=int, default=2000, help="evaluations per method run")
+    best.add_argument("--seeds", type=int, default=1, help="seeds per method (0, 1, ...)")
+    best.add_argument("--family", default=None, help="only this family")
+    best.add_argument("--instance", nargs="+", default=None, help="only these instances")
+    best.add_argument("--file", default=None,
+                      help="the best-known file (default: the one the package ships)")
+    best.set_defaults(func=_best)
+
+
+def _list(args: argparse.Namespace) -> int:
+    from metaknot.suite import instances
+
+    found = instances(family=args.family, noise=not args.no_noise)
+    for instance in found:
+        data = instance.point_set()
+        print(f"{instance.id:32} {instance.family:18} {instance.kind:8} {data.n_points:5} "
+              f"{data.dim}-D  {instance.definition[:60]}")
+    families = {i.family for i in found}
+    print(f"{len(found)} instances in {len(families)} families")
+    return 0
+
+
+def _tasks(args: argparse.Namespace) -> int:
+    from metaknot.suite import get_instance
+    from metaknot.suite.best import load_best_known
+    from metaknot.suite.tasks import tasks
+
+    entries = load_best_known()
+    for task in tasks(get_instance(args.instance)):
+        entry = entries.get((task.instance, task.id))
+        best = "no best-known value" if entry is None else (
+            f"best {entry.value:.6g} ({entry.method}{', proven' if entry.proven else ''}; "
+            f"{entry.metrics.get('n_control_points', float('nan')):.0f} control points)")
+        settings = ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}"
+                             for k, v in {**task.encoding, **task.objective}.items())
+        print(f"{task.id:24} {settings}\n{'':24} {best}")
+    return 0
+
+
+def _best(args: argparse.Namespace) -> int:
+    from metaknot.suite import instances
+    from metaknot.suite.best import BEST_KNOWN_FILE, improve
+
+    if args.budget < 1 or args.seeds < 1:
+        raise ValueError("--budget and --seeds must be at least 1")
+    ids = args.instance or [i.id for i in instances(family=args.family)]
+    counts = improve(ids, budget=args.budget, seeds=range(args.seeds),
+                     path=args.file or BEST_KNOWN_FILE)
+    print(f"{counts['searched']} tasks searched: {counts['improved']} improved, "
+          f"{counts['new']} new, {counts['kept']} kept")
+    return 0

@@ -1,0 +1,254 @@
+"""Best-known values of the suite's tasks: the knots, who found them, and whether optimal.
+
+Every (instance, task) of kind ``fixed_k``, ``tolerance`` or ``seed`` carries the lowest
+objective value found so far, the interior knots and candidate that reach it, the method, budget
+and seed that found it, and ``proven``: true when an exhaustive search over every candidate of
+the task's encoding found it (index sets of a small ``fixed_k`` task, e.g. titanium's 49 points
+at ``K = 3``). The values ship in ``metaknot/suite/data/best_known.json``;
+:func:`improve` (``metaknot suite best``) searches again with a portfolio of the strongest
+methods and never replaces a value by a worse one. Pareto fronts (task ``front``) have no
+single best-known value here yet.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import os
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from metaknot.problems import KnotProblem
+
+from .tasks import Task, get_task
+
+__all__ = [
+    "BEST_KNOWN_FILE",
+    "KINDS_WITH_BEST",
+    "PORTFOLIO",
+    "BestKnown",
+    "improve",
+    "load_best_known",
+    "save_best_known",
+    "search",
+]
+
+BEST_KNOWN_FILE = Path(__file__).with_name("data") / "best_known.json"
+KINDS_WITH_BEST = ("fixed_k", "tolerance", "seed")
+#: The methods :func:`search` runs per encoding (registered optimizers and their options).
+PORTFOLIO: dict[str, tuple[tuple[str, dict[str, Any]], ...]] = {
+    "indices": (("ga", {}), ("local_search", {}), ("one_plus_one", {})),
+    "mask": (("ga", {}), ("local_search", {}), ("one_plus_one", {})),
+    "free": (("nlopt", {"restarts": 20}),),
+}
+#: Index-set tasks with at most this many candidates are searched exhaustively.
+EXHAUSTIVE_LIMIT = 300_000
+#: A new value replaces a stored one only if lower by more than this relative margin.
+IMPROVEMENT = 1e-12
+_FORMAT_VERSION = 1
+
+
+@dataclass
+class BestKnown:
+    """The best value known for one task on one instance.
+
+    Attributes
+    ----------
+    instance, task
+        Ids of the instance and the task.
+    value
+        The objective value.
+    knots
+        The interior knots (parameter values) that reach it.
+    candidate
+        The candidate in the task's encoding: data indices of the knots (``mask``,
+        ``indices``) or the knot positions (``free``).
+    method, budget, seed
+        Who found it: a registered optimizer (``exhaustive`` for a complete enumeration, or
+        ``<optimizer> via indices`` for a ``free`` task reached by the best index set),
+        its evaluation budget and seed.
+    proven
+        True if no candidate of the encoding does better (exhaustive search).
+    metrics
+        ``n_control_points``, ``rmse`` and ``max_deviation`` of the fit.
+    """
+
+    instance: str
+    task: str
+    value: float
+    knots: list[float]
+    candidate: list[float]
+    method: str
+    budget: int
+    seed: int | None
+    proven: bool = False
+    metrics: dict[str, float] = field(default_factory=dict)
+
+
+def load_best_known(path: str | Path = BEST_KNOWN_FILE) -> dict[tuple[str, str], BestKnown]:
+    """The stored best-known values by ``(instance, task)`` (empty if the file is missing)."""
+    path = Path(path)
+    if not path.exists():
+        return {}
+    data = json.loads(path.read_text())
+    if data.get("version") != _FORMAT_VERSION:
+        raise ValueError(f"{path}: best-known values of format {data.get('version')!r}; this "
+                         f"version reads format {_FORMAT_VERSION}")
+    return {(e["instance"], e["task"]): BestKnown(**e) for e in data["entries"]}
+
+
+def save_best_known(entries: dict[tuple[str, str], BestKnown],
+                    path: str | Path = BEST_KNOWN_FILE) -> None:
+    """Write ``entries`` (sorted, one per line) atomically: a temporary file renamed over."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lines = [json.dumps(asdict(entries[key]), separators=(",", ":"))
+             for key in sorted(entries)]
+    text = (f'{{"version": {_FORMAT_VERSION}, "entries": [\n' + ",\n".join(lines) + "\n]}\n")
+    temporary = path.with_name(path.name + ".tmp")
+    temporary.write_text(text)
+    os.replace(temporary, path)
+
+
+def _entry(task: Task, problem: KnotProblem, x: np.ndarray, value: float, method: str,
+           budget: int, seed: int | None, proven: bool = False) -> BestKnown:
+    solution = problem.decode(x)
+    metrics = solution.metrics()
+    knots = problem._interior_knots(solution.x)
+    kind = task.encoding["kind"]
+    if kind == "mask":
+        candidate = np.flatnonzero(solution.x).astype(float) + 1
+    elif kind == "indices":
+        candidate = np.sort(solution.x).astype(float)
+    else:
+        candidate = np.sort(solution.x)
+    return BestKnown(task.instance, task.id, float(value), [float(k) for k in knots],
+                     [float(c) for c in candidate], method, int(budget), seed, proven,
+                     {k: float(metrics[k]) for k in ("n_control_points", "rmse",
+                                                     "max_deviation")})
+
+
+def candidate_of(entry: BestKnown, problem: KnotProblem) -> np.ndarray:
+    """The entry's candidate as the task's problem takes it."""
+    c = np.asarray(entry.candidate, dtype=np.float64)
+    if problem.encoding.kind == "binary":
+        x = np.zeros(problem.encoding.n_var, dtype=np.int64)
+        x[c.astype(np.int64) - 1] = 1
+        return x
+    if problem.encoding.kind == "integer":
+        return c.astype(np.int64)
+    return c
+
+
+def _exhaustive(task: Task, problem: KnotProblem) -> BestKnown | None:
+    """The best index set of a small ``indices`` task by complete enumeration."""
+    n_var, high = problem.encoding.n_var, int(problem.encoding.upper[0])
+    if math.comb(high, n_var) > EXHAUSTIVE_LIMIT:
+        return None
+    best_value, best_x = np.inf, None
+    combos = itertools.combinations(range(1, high + 1), n_var)
+    while chunk := list(itertools.islice(combos, 20_000)):
+        X = np.array(chunk, dtype=np.int64)
+        values = problem.evaluate(X)
+        i = int(np.argmin(values))
+        if values[i] < best_value:
+            best_value, best_x = float(values[i]), X[i]
+    if best_x is None:
+        return None
+    return _entry(task, problem, best_x, best_value, "exhaustive", math.comb(high, n_var), None,
+                  proven=True)
+
+
+def search(task: Task, *, budget: int, seeds: Sequence[int] = (0,),
+           start: BestKnown | None = None) -> BestKnown | None:
+    """The best candidate the portfolio finds for ``task`` (``None`` if nothing feasible).
+
+    Index-set tasks small enough are enumerated (and proven); the others run every method of
+    :data:`PORTFOLIO` for the task's encoding with each seed. A ``free`` task also tries
+    ``start`` (the best index set of the same ``K``: its knots are free positions too).
+    """
+    from metaknot import minimize
+
+    problem = task.problem()
+    kind = task.encoding["kind"]
+    if kind == "indices":
+        found = _exhaustive(task, problem)
+        if found is not None:
+            return found
+    best: BestKnown | None = None
+    for name, options in PORTFOLIO[kind]:
+        for seed in seeds:
+            result = minimize(problem, name, budget=budget, seed=seed,
+                              optimizer_kwargs=options)
+            if result.best_x is not None and (best is None or result.best_f < best.value):
+                best = _entry(task, problem, result.best_x, result.best_f, name, budget, seed)
+    if start is not None and kind == "free":
+        x = np.asarray(start.knots, dtype=np.float64)
+        value = float(problem.evaluate(x[None, :])[0])
+        if np.isfinite(value) and (best is None or value < best.value):
+            best = _entry(task, problem, x, value, f"{start.method} via indices", start.budget,
+                          start.seed, proven=False)
+    return best
+
+
+def improve(instance_ids: Iterable[str], *, budget: int, seeds: Sequence[int] = (0,),
+            path: str | Path = BEST_KNOWN_FILE,
+            report: Callable[[str], None] = print) -> dict[str, int]:
+    """Search every task with a best-known value on ``instance_ids`` and store what improves.
+
+    A value is replaced only by a lower one (by more than a relative ``1e-12``); a proven
+    value is never searched again. The file is written after each instance, so an interrupted
+    search keeps what it found. Returns counts: ``searched``, ``improved``, ``new``, ``kept``.
+    """
+    from .tasks import tasks
+
+    entries = load_best_known(path)
+    counts = {"searched": 0, "improved": 0, "new": 0, "kept": 0}
+    instance_ids = list(instance_ids)
+    for number, instance_id in enumerate(instance_ids, 1):
+        report(f"[{number}/{len(instance_ids)}] {instance_id}")
+        by_k: dict[int, BestKnown] = {}
+        for task in tasks(instance_id):
+            if task.kind not in KINDS_WITH_BEST:
+                continue
+            key = (task.instance, task.id)
+            old = entries.get(key)
+            if old is not None and old.proven:
+                counts["kept"] += 1
+                found = old
+            else:
+                counts["searched"] += 1
+                found = search(task, budget=budget, seeds=seeds,
+                               start=by_k.get(task.encoding.get("n_knots", -1)))
+                if found is None:
+                    report(f"{instance_id} {task.id}: nothing feasible found")
+                    found = old
+                elif old is None:
+                    counts["new"] += 1
+                    entries[key] = found
+                elif found.value < old.value - IMPROVEMENT * abs(old.value):
+                    counts["improved"] += 1
+                    report(f"{instance_id} {task.id}: {old.value:.10g} -> {found.value:.10g} "
+                           f"({found.method})")
+                    entries[key] = found
+                else:
+                    counts["kept"] += 1
+                    found = old
+            if found is not None and task.encoding["kind"] == "indices":
+                by_k[task.encoding["n_knots"]] = found
+        save_best_known(entries, path)
+    return counts
+
+
+def best_known_value(instance: str, task_id: str,
+                     entries: dict[tuple[str, str], BestKnown] | None = None) -> float | None:
+    """The best-known value of ``task_id`` on ``instance`` (``None`` if there is none)."""
+    entries = load_best_known() if entries is None else entries
+    entry = entries.get((instance, task_id))
+    get_task(instance, task_id)  # an unknown task is an error, not "no value"
+    return None if entry is None else entry.value
