@@ -9,7 +9,13 @@ The simple local method any population method must beat at equal budget:
    batch: every knot removed, a knot inserted at the middle data point of every knot span (masks
    only; indices keep K), and every knot shifted by ``±1..max_step`` data points (onto free
    points). The best neighbour replaces the incumbent if it is better; when none is, the search
-   is at a local optimum and stops (``finished``), leaving the rest of the budget unused.
+   is at a local optimum.
+3. **Iterate** (``iterated=True``, the default): from the best solution found so far, make
+   ``kick`` random moves of the same kinds (drawn from the run's generator) and improve again
+   from there; repeat until the budget is spent. This is an iterated local search (Lourenço,
+   Martin & Stützle 2003) that always restarts from the best, the simplest acceptance rule.
+   With ``iterated=False`` the search stops at its first local optimum (``finished``), leaving
+   the rest of the budget unused, as the plain variant always did.
 """
 
 from __future__ import annotations
@@ -77,7 +83,8 @@ def index_neighbours(x: np.ndarray, lower: int, upper: int, max_step: int = 1) -
 
 @register("local_search")
 class LocalSearch(Optimizer):
-    """Best-improvement local search from the averaging knots (see the module notes).
+    """Best-improvement local search from the averaging knots, iterated from the best solution
+    by random kicks until the budget is spent (see the module notes).
 
     Parameters
     ----------
@@ -85,13 +92,23 @@ class LocalSearch(Optimizer):
         Largest shift of a knot, in data points (>= 1).
     batch_size
         Candidates per batch of the start's scan over K (masks).
+    iterated
+        Kick the best solution and search again at every local optimum (default); False
+        stops at the first local optimum.
+    kick
+        Random moves of a kick (>= 1).
     """
 
     encodings = ("binary", "integer")
 
-    def __init__(self, max_step: int = 2, batch_size: int = 64) -> None:
+    def __init__(self, max_step: int = 2, batch_size: int = 64, iterated: bool = True,
+                 kick: int = 3) -> None:
         self.max_step = check_param("max_step", max_step, low=1, integer=True)
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
+        if not isinstance(iterated, bool | np.bool_):
+            raise ValueError(f"iterated must be true or false; got {iterated!r}")
+        self.iterated = bool(iterated)
+        self.kick = check_param("kick", kick, low=1, integer=True)
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
@@ -101,30 +118,61 @@ class LocalSearch(Optimizer):
         self._start.setup(problem, rng)
         self.incumbent: np.ndarray | None = None
         self.incumbent_f = np.inf
+        self.best_x: np.ndarray | None = None
+        self.best_f = np.inf
         self._scanning = True
+        self._kicked = False  # the last batch was a kick: its candidate becomes the incumbent
         self._stuck = False
         self.steps = 0
+        self.kicks = 0
+        self._failed_kicks = 0  # kicks since the best last improved: each makes the next longer
+        self._best_at_kick = np.inf
+        self._cannot_kick = False
 
-    def _neighbours(self) -> np.ndarray:
+    def _neighbours(self, x: np.ndarray) -> np.ndarray:
         encoding = self.problem.encoding
         if encoding.kind == "binary":
-            return mask_neighbours(self.incumbent, self.max_step)
-        return index_neighbours(self.incumbent, int(encoding.lower.min()),
-                                int(encoding.upper.max()), self.max_step)
+            return mask_neighbours(x, self.max_step)
+        return index_neighbours(x, int(encoding.lower.min()), int(encoding.upper.max()),
+                                self.max_step)
+
+    def _kicked_best(self) -> np.ndarray | None:
+        """The best solution after ``kick`` random moves (None if it has no neighbour)."""
+        x = self.best_x
+        for _ in range(self.kick + self._failed_kicks):
+            moves = self._neighbours(x)
+            if len(moves) == 0:
+                return None
+            x = moves[self.rng.integers(len(moves))]
+        return x[None, :]
 
     def ask(self) -> np.ndarray:
-        """The start's scan, then the incumbent's neighbours (none once at a local optimum)."""
+        """The start's scan, then the incumbent's neighbours; at a local optimum, a kick of the
+        best solution (iterated) or nothing (plain)."""
         if self._scanning:
             batch = self._start.ask()
             if len(batch):
                 return batch
             self._scanning = False
+        empty = np.empty((0, self.problem.encoding.n_var), dtype=np.int64)
         if self.incumbent is None or not np.isfinite(self.incumbent_f):
             self._stuck = True  # no feasible start: nothing to improve
-            return np.empty((0, self.problem.encoding.n_var), dtype=np.int64)
-        moves = self._neighbours()
+            return empty
+        if self._stuck and self.iterated:
+            kicked = self._kicked_best()
+            if kicked is None:
+                self._cannot_kick = True  # the best has no neighbour: nothing left to try
+            else:
+                self._stuck, self._kicked = False, True
+                self.kicks += 1
+                self._best_at_kick = self.best_f
+                return kicked
+        if self._stuck:
+            return empty
+        moves = self._neighbours(self.incumbent)
         if len(moves) == 0:
             self._stuck = True
+            return self.ask() if self.iterated and self.best_x is not None else empty
         return moves
 
     def move_origin(self) -> np.ndarray | None:
@@ -134,12 +182,21 @@ class LocalSearch(Optimizer):
 
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         best = int(np.argmin(F))
-        if F[best] < self.incumbent_f:
+        if self._kicked:  # search on from the kicked solution, whatever its value
+            self._kicked = False
+            self.incumbent, self.incumbent_f = np.array(X[best], copy=True), float(F[best])
+        elif F[best] < self.incumbent_f:
             self.incumbent, self.incumbent_f = np.array(X[best], copy=True), float(F[best])
             if not self._scanning:
                 self.steps += 1
         elif not self._scanning:
             self._stuck = True  # no neighbour is better: a local optimum
+            if self.kicks:
+                improved = self.incumbent_f < self._best_at_kick
+                self._failed_kicks = 0 if improved else self._failed_kicks + 1
+        if self.incumbent is not None and self.incumbent_f < self.best_f:
+            self.best_x, self.best_f = self.incumbent.copy(), self.incumbent_f
 
     def finished(self) -> bool:
-        return self._stuck
+        return self._stuck and not (self.iterated and self.best_x is not None
+                                    and np.isfinite(self.best_f) and not self._cannot_kick)

@@ -153,7 +153,7 @@ DEFAULTS = {
     "ga": {"population": 50, "tournament_size": 2, "crossover": "uniform", "crossover_rate": 0.9,
            "mutation_rate": None, "elite": 1, "index_mutation": "step", "max_step": 3},
     "one_plus_one": {"rate": None, "offspring": 1, "max_step": 1},
-    "local_search": {"max_step": 2, "batch_size": 64},
+    "local_search": {"max_step": 2, "batch_size": 64, "iterated": True, "kick": 3},
     "random_search": {"batch_size": 100},
     "nlopt": {"algorithm": "LN_BOBYQA", "local_algorithm": "LN_BOBYQA", "restarts": 0,
               "min_gap": 1e-4, "data_gap": None, "box_map": "auto", "span_range": 4.0,
@@ -260,7 +260,7 @@ def test_local_search_uses_max_step_on_masks():
 
 
 def test_local_search_counts_its_improving_steps_and_copies_the_incumbent():
-    ls = LocalSearch(max_step=1)
+    ls = LocalSearch(max_step=1, iterated=False)
     problem = KnotIndices(get_curve("vivaldi", n_points=60), n_knots=6)
     evaluator = set_up(ls, problem)
     assert ls.steps == 0
@@ -292,9 +292,10 @@ def test_local_search_without_a_feasible_start_finishes():
 def test_local_search_with_no_neighbour_finishes():
     # six points, degree 1: the four interior indices are all knots, no move is possible
     problem = KnotIndices(get_curve("archimedean", n_points=6), n_knots=4, degree=1)
-    ls = LocalSearch()
-    result = mk.minimize(problem, ls, budget=50, seed=0)
-    assert ls.finished() and result.n_evaluations == 1
+    for iterated in (False, True):  # no kick is possible either
+        ls = LocalSearch(iterated=iterated)
+        result = mk.minimize(problem, ls, budget=50, seed=0)
+        assert ls.finished() and result.n_evaluations == 1
 
 
 def test_local_search_with_one_neighbour_evaluates_it():

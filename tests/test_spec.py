@@ -338,10 +338,15 @@ def test_yaml_settings_equal_the_code_defaults(group):
         if path.stem == "points":
             continue
         node = yaml_of(path)
-        bare = {"curve": node["curve"]} if group == "problem" else {"kind": node["kind"]}
+        overrides = []
+        if path.stem == "suite":  # an instance must be named: the one the suite lists first
+            node["instance"] = "galvez_f1"
+            overrides = ["problem.instance=galvez_f1"]
+        bare = {"kind": node["kind"]} if group == "encoding" else {
+            k: node[k] for k in ("curve", "instance") if k in node}
         full = run_spec(plain_cfg(**{group: node}), check_build=False)
         assert run_spec(plain_cfg(**{group: bare}), check_build=False).run_id == full.run_id
-        assert spec_of(f"{group}={path.stem}", "budget=100",
+        assert spec_of(f"{group}={path.stem}", "budget=100", *overrides,
                        check_build=False).config[group] == full.config[group]
 
 
