@@ -1,0 +1,137 @@
+"""Best-known values of the suite: every stored knot vector re-evaluated by an independent
+reference fit (scipy's make_lsq_spline for open data, FITPACK's periodic least squares for
+closed outlines), the exhaustive proofs, and the rule that a value is never replaced by a worse
+one."""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import json
+
+import numpy as np
+import pytest
+from scipy.interpolate import make_lsq_spline, splev, splprep
+
+from metaknot.suite import instances
+from metaknot.suite.best import (
+    KINDS_WITH_BEST,
+    BestKnown,
+    candidate_of,
+    improve,
+    load_best_known,
+    save_best_known,
+)
+from metaknot.suite.tasks import get_task, tasks
+
+ENTRIES = load_best_known()
+
+
+def reference_residuals(problem, knots: np.ndarray) -> np.ndarray:
+    """Point distances of the least-squares spline with interior ``knots``, by scipy."""
+    u, q, p = problem.params, problem.points, problem.degree
+    if problem.closed:
+        from metaknot.bspline.periodic import periodic_knot_vector
+
+        t = periodic_knot_vector(knots, p)
+        tck, _ = splprep(np.vstack((q, q[:1])).T, u=np.append(u, 1.0), k=p, task=-1, t=t,
+                         per=1, quiet=1)
+        fitted = np.array(splev(u, tck)).T
+    else:
+        t = np.r_[[u[0]] * (p + 1), knots, [u[-1]] * (p + 1)]
+        fitted = make_lsq_spline(u, q, t, k=p)(u)
+    return np.linalg.norm(q - fitted.reshape(q.shape), axis=1)
+
+
+def reference_value(task, problem, knots: np.ndarray) -> float:
+    """The task's objective written out from its definition (metaknot.suite.tasks)."""
+    distances = reference_residuals(problem, knots)
+    n = len(distances)
+    sse, max_dev = float(distances @ distances), float(distances.max())
+    cp = len(knots) + (1 if problem.closed else problem.degree + 1)
+    scale = problem.data.scale
+    objective = task.objective
+    if objective["name"] == "rmse":
+        return np.sqrt(sse / n)
+    if objective["name"] == "error_bounded":
+        tol = objective["tolerance"] or objective["relative_tolerance"] * scale
+        err = max_dev if objective["metric"] == "max_deviation" else np.sqrt(sse / n)
+        return cp + err / tol if err <= tol else n + 2 + err / tol
+    assert objective["name"] == "paper"
+    return cp * max(np.sqrt(sse), objective["error_floor"] * scale * np.sqrt(n))
+
+
+def test_every_task_has_a_best_known_value() -> None:
+    wanted = {(t.instance, t.id) for i in instances(plugins=False) for t in tasks(i)
+              if t.kind in KINDS_WITH_BEST}
+    assert wanted - set(ENTRIES) == set()
+    assert set(ENTRIES) - wanted == set()  # nothing stored for tasks that do not exist
+
+
+@pytest.mark.parametrize("key", sorted(ENTRIES), ids="/".join)
+def test_stored_knots_give_the_stored_value(key: tuple[str, str]) -> None:
+    entry = ENTRIES[key]
+    task = get_task(*key)
+    problem = task.problem()
+    knots = np.asarray(entry.knots)
+    assert np.all(np.diff(knots) > 0)
+    assert reference_value(task, problem, knots) == pytest.approx(entry.value, rel=1e-9,
+                                                                  abs=1e-12)
+    # the stored candidate is the same knots in the task's encoding, scored the same by the
+    # framework's own evaluation
+    x = candidate_of(entry, problem)
+    assert float(problem.evaluate(x[None, :])[0]) == pytest.approx(entry.value, rel=1e-9)
+    assert entry.metrics["n_control_points"] == len(knots) + problem.curve.extra_control_points
+
+
+def test_small_index_tasks_are_proven_by_enumeration() -> None:
+    """Titanium (49 points) at K = 3: the stored optimum beats every one of the C(47, 3) index
+    sets, each fitted here by scipy (a sample: every 97th set, plus the stored one)."""
+    entry = ENTRIES[("titanium", "fixed_k_small.indices")]
+    assert entry.proven and entry.method == "exhaustive"
+    task = get_task("titanium", "fixed_k_small.indices")
+    problem = task.problem()
+    sets = list(itertools.combinations(range(1, problem.curve.n_points - 1), 3))
+    assert entry.budget == len(sets) == 16215
+    for chosen in sets[::97]:
+        value = reference_value(task, problem, problem.params[list(chosen)])
+        assert value >= entry.value * (1 - 1e-12)
+    # and no optimizer does better
+    from metaknot import minimize
+
+    for name in ("ga", "local_search"):
+        result = minimize(problem, name, budget=2000, seed=1)
+        assert result.best_f >= entry.value * (1 - 1e-12)
+
+
+def test_a_value_is_never_replaced_by_a_worse_one(tmp_path) -> None:
+    path = tmp_path / "best.json"
+    # a value lower than a short search reaches (made up here) is kept as it is
+    stored = ENTRIES[("titanium", "seed")]
+    claimed = dataclasses.replace(stored, value=stored.value / 2, method="made-up")
+    save_best_known({("titanium", "seed"): claimed}, path)
+    improve(["titanium"], budget=300, path=path, report=lambda _: None)
+    assert load_best_known(path)[("titanium", "seed")] == claimed
+    # a worse stored value (the same knots claimed at a higher value) is improved
+    worse = dataclasses.replace(stored, value=stored.value * 2, method="made-up")
+    save_best_known({("titanium", "seed"): worse}, path)
+    counts = improve(["titanium"], budget=300, path=path, report=lambda _: None)
+    assert counts["improved"] >= 1
+    assert load_best_known(path)[("titanium", "seed")].value < worse.value
+    # every task of the instance is filled in, and proven values are not searched again
+    assert {t for (_, t) in load_best_known(path)} == {
+        t.id for t in tasks("titanium") if t.kind in KINDS_WITH_BEST}
+    again = improve(["titanium"], budget=1, path=path, report=lambda _: None)
+    assert again["searched"] == len(load_best_known(path)) - 1  # the proven one is skipped
+
+
+def test_the_file_round_trips_and_refuses_other_formats(tmp_path) -> None:
+    path = tmp_path / "best.json"
+    entry = BestKnown("titanium", "seed", 1.5, [0.1, 0.2], [3.0, 7.0], "ga", 100, 0)
+    save_best_known({("titanium", "seed"): entry}, path)
+    assert load_best_known(path) == {("titanium", "seed"): entry}
+    assert not list(tmp_path.glob("*.tmp"))
+    path.write_text(json.dumps({"version": 99, "entries": []}))
+    with pytest.raises(ValueError, match="format 99"):
+        load_best_known(path)
+    assert load_best_known(tmp_path / "missing.json") == {}
