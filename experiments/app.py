@@ -38,9 +38,7 @@ def register_hydra_plugins() -> None:
     register the configs of plugin optimizers (:func:`register_plugin_configs`)."""
     from hydra.core.plugins import Plugins
 
-    # the plugin scan re-executes Hydra's core plugin modules: let it run before the sweeper
-    # module subclasses BasicSweeper, or the subclass would refer to a stale class
-    plugins = Plugins.instance()
+    plugins = Plugins.instance()  # the plugin scan first: it may import the sweeper module
     from hydra_plugins.metaknot_study_sweeper.study_sweeper import StudySweeper
 
     plugins.register(StudySweeper)
