@@ -60,7 +60,18 @@ def test_single_run_from_the_command_line(tmp_path):
     (row,) = study.runs.to_dict("records")
     assert row["algorithm"] == "ga" and row["data"] == "vivaldi" and row["seed"] == 3
     assert row["n_evaluations"] == 400 and row["status"] == "ok"
-    assert row["run_id"] in done.stdout
+    # the outcome: objective, RMSE, the control points (the first and last twelve of many)
+    lines = done.stdout.splitlines()
+    assert lines[0] == f"run {row['run_id']}: ok, 400 of 400 evaluations"
+    assert lines[1] == (f"  objective (paper) {row['best_f']:.6g}, RMSE {row['rmse']:.4g}, "
+                        f"max deviation {row['max_deviation']:.4g}, "
+                        f"{row['n_control_points']} control points")
+    control = np.asarray(row["spline.coefficients"])[: row["n_control_points"]]
+    assert row["n_control_points"] > 24 and lines[2] == "  control points:"
+    shown = [[float(v) for v in line.split()] for line in lines[3:15] + lines[16:28]]
+    np.testing.assert_allclose(shown, np.vstack((control[:12], control[-12:])), rtol=1e-5)
+    assert lines[15] == f"    ... {len(control) - 24} more ..."
+    assert lines[28:] == [f"  record: {tmp_path / 'default' / 'runs' / row['run_id']}.parquet"]
     again = metaknot("algorithm=ga", "problem=vivaldi", "seed=3", "budget=400",
                      f"results_dir={tmp_path}", cwd=tmp_path)
     assert again.returncode == 0 and "already stored" in again.stdout
