@@ -256,9 +256,58 @@ def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
             f"move it into {spec.study_dir / kept.parent.name}/ once there is space")
 
 
+def check_choices(args: list[str]) -> str | None:
+    """The first config group choice of ``args`` (Hydra overrides, swept or not) that does not
+    exist, as a one-line error with the closest names, or ``None`` if every choice exists.
+    ``null`` is refused too: Hydra composes no job from a group set to null. Other errors
+    (override syntax) are left for Hydra to report."""
+    import difflib
+
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        loader = GlobalHydra.instance().config_loader()
+    try:
+        overrides = OverridesParser.create(config_loader=loader).parse_overrides(
+            [a for a in args if not a.startswith("-")])
+    except HydraException:
+        return None
+    for override in overrides:
+        group = override.key_or_group.replace(".", "/")
+        parent, _, name = group.rpartition("/")
+        if override.is_delete() or name not in loader.list_groups(parent):
+            continue
+        if not override.is_sweep_override():
+            value = override.value()
+            values = ["null" if value is None else str(value)]
+        elif override.is_discrete_sweep():
+            values = list(override.sweep_string_iterator())
+        else:
+            continue  # a glob: Hydra picks among the existing choices
+        options = loader.get_group_options(group)
+        for value in values:
+            key = f"{override.key_or_group}={value:.80}"
+            if value == "null":
+                instead = f"sweep {override.key_or_group}=default,NAME to compare NAME with " \
+                    "the defaults" if "default" in options else "or choose one of " \
+                    f"{', '.join(options)}"
+                return (f"{key}: not a choice; leave {override.key_or_group}= out for none, "
+                        f"{instead}")
+            if value not in options:
+                close = difflib.get_close_matches(value, options, n=3, cutoff=0.6)
+                hint = f"did you mean {' or '.join(close)}? " if close else ""
+                return (f"{key}: no such {name} config; {hint}(choices: "
+                        f"{', '.join(options)})")
+    return None
+
+
 def _check_single_run(overrides: list[str]) -> str | None:
     """The configuration error of a single run, in one line (``None`` if it can run). Errors
-    of Hydra itself (override syntax, unknown config) are left for Hydra to report."""
+    of Hydra itself (override syntax) are left for Hydra to report, unknown choices for
+    :func:`check_choices`."""
     from hydra import compose, initialize_config_dir
     from hydra.errors import HydraException
 
@@ -294,11 +343,12 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"metaknot run: error: {exc}", file=sys.stderr)
         return 2
-    if not any(a.startswith("-") for a in args):  # a single run: check it before Hydra starts
-        error = _check_single_run(args)
-        if error:
-            print(f"metaknot run: error: {error}", file=sys.stderr)
-            return 2
+    error = check_choices(args)
+    if error is None and not any(a.startswith("-") for a in args):  # a single run
+        error = _check_single_run(args)  # checked before Hydra starts
+    if error:
+        print(f"metaknot run: error: {error}", file=sys.stderr)
+        return 2
     try:
         with interrupt_on_signals():
             return launch(task, "config", args)

@@ -316,6 +316,39 @@ def test_a_missing_or_repeated_preset_is_one_line(tmp_path, capsys):
         (line,) = capsys.readouterr().err.strip().splitlines()
         assert line.startswith("metaknot run: error: --preset: ") and message in line
 
+
+@pytest.mark.parametrize("args", [["method=dolphin_indice"],
+                                  ["-m", "method=ga_indices,dolphin_indice", "seed=0,1"]])
+def test_a_mistyped_config_choice_is_one_line_with_the_closest_names(tmp_path, capsys, args):
+    from metaknot.experiments.app import main
+
+    assert main([*args, f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("metaknot run: error: method=dolphin_indice: ") and \
+        "did you mean dolphin_indices" in line, line
+    assert not (tmp_path / "default").exists()
+
+
+@pytest.mark.parametrize("args", [["method=null"], ["-m", "method=null,ga_indices"]])
+def test_a_method_set_to_null_is_one_line_naming_the_default_method(tmp_path, capsys, args):
+    from metaknot.experiments.app import main
+
+    assert main([*args, f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("metaknot run: error: method=null: ") and \
+        "method=default,NAME" in line, line
+    assert not (tmp_path / "default").exists()
+
+
+def test_a_sweep_compares_a_method_with_the_defaults(tmp_path):
+    done = metaknot("-m", "method=default,ga_indices", "problem=archimedean", "budget=60",
+                    f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    runs = load_study(tmp_path / "default").runs
+    assert sorted(zip(runs.label, runs.algorithm, runs.encoding, strict=True)) == [
+        ("dolphin", "dolphin", "binary"), ("ga", "ga", "integer")]
+
+
 # --------------------------------------------------------------------------------------------
 # Ctrl-C and kill: the workers stop, every record stays, one line, exit 130/143, resume
 
