@@ -258,9 +258,10 @@ def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
 
 def check_choices(args: list[str]) -> str | None:
     """The first config group choice of ``args`` (Hydra overrides, swept or not) that does not
-    exist, as a one-line error with the closest names, or ``None`` if every choice exists.
-    ``null`` is refused too: Hydra composes no job from a group set to null. Other errors
-    (override syntax) are left for Hydra to report."""
+    exist, as a one-line error with the closest names, or ``None`` if every choice exists;
+    an algorithm (``algorithm=NAME`` or ``algorithm._name_=NAME``) is looked up in the
+    optimizer registry, which names the closest. ``null`` is refused too: Hydra composes no
+    job from a group set to null. Other errors (override syntax) are left for Hydra."""
     import difflib
 
     from hydra import initialize_config_dir
@@ -278,7 +279,8 @@ def check_choices(args: list[str]) -> str | None:
     for override in overrides:
         group = override.key_or_group.replace(".", "/")
         parent, _, name = group.rpartition("/")
-        if override.is_delete() or name not in loader.list_groups(parent):
+        is_group = not override.is_delete() and name in loader.list_groups(parent)
+        if not is_group and override.key_or_group != "algorithm._name_":
             continue
         if not override.is_sweep_override():
             value = override.value()
@@ -287,9 +289,15 @@ def check_choices(args: list[str]) -> str | None:
             values = list(override.sweep_string_iterator())
         else:
             continue  # a glob: Hydra picks among the existing choices
-        options = loader.get_group_options(group)
+        options = loader.get_group_options(group) if is_group else []
         for value in values:
             key = f"{override.key_or_group}={value:.80}"
+            if group in ("algorithm", "algorithm/_name_") and value not in options:
+                unknown = _unknown_optimizer(value)
+                if unknown:
+                    return f"{key}: {unknown}"
+            if not is_group:
+                continue
             if value == "null":
                 instead = f"sweep {override.key_or_group}=default,NAME to compare NAME with " \
                     "the defaults" if "default" in options else "or choose one of " \
@@ -301,6 +309,18 @@ def check_choices(args: list[str]) -> str | None:
                 hint = f"did you mean {' or '.join(close)}? " if close else ""
                 return (f"{key}: no such {name} config; {hint}(choices: "
                         f"{', '.join(options)})")
+    return None
+
+
+def _unknown_optimizer(name: str) -> str | None:
+    """The registry's answer (one line, with the closest names) if it has no optimizer
+    ``name``, else ``None``."""
+    from metaknot.registry import _lookup
+
+    try:
+        _lookup("optimizer", name)
+    except ValueError as exc:
+        return str(exc)
     return None
 
 

@@ -340,6 +340,22 @@ def test_a_method_set_to_null_is_one_line_naming_the_default_method(tmp_path, ca
     assert not (tmp_path / "default").exists()
 
 
+@pytest.mark.parametrize(("args", "key"), [
+    (["algorithm=dolphn"], "algorithm"), (["-m", "algorithm=ga,dolphn"], "algorithm"),
+    (["algorithm._name_=dolphn"], "algorithm._name_"),
+    (["-m", "algorithm._name_=ga,dolphn", "seed=0,1"], "algorithm._name_"),
+])
+def test_a_mistyped_algorithm_is_one_line_from_the_optimizer_registry(tmp_path, capsys, args,
+                                                                       key):
+    from metaknot.experiments.app import main
+
+    assert main([*args, f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"metaknot run: error: {key}=dolphn: unknown optimizer 'dolphn'. "
+                           "Did you mean 'dolphin'? Available: "), line
+    assert not (tmp_path / "default").exists()
+
+
 def test_a_sweep_compares_a_method_with_the_defaults(tmp_path):
     done = metaknot("-m", "method=default,ga_indices", "problem=archimedean", "budget=60",
                     f"results_dir={tmp_path}", cwd=tmp_path)
