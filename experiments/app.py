@@ -27,7 +27,7 @@ from omegaconf import OmegaConf
 from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
 from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
-from .store import Store, read_record, spline_fields
+from .store import DEFAULT_STUDY, Store, default_study_note, read_record, spline_fields
 
 if TYPE_CHECKING:
     from metaknot.result import RunResult
@@ -214,6 +214,8 @@ def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
             raise SystemExit(1)
         else:
             print(describe_run(read_record(where), where))
+            if spec.study == DEFAULT_STUDY:
+                print(default_study_note(spec.study_dir), file=sys.stderr)
     return outcome
 
 

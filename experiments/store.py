@@ -57,6 +57,8 @@ TRACE_PREFIX = "trace."
 #: repeat what its optimizer did, and reports leave it out with a note. Any other status
 #: (``failed``) is an attempt, kept under ``failed/``; its run is run again.
 COMPLETE_STATUSES = frozenset({"ok", "budget_violation"})
+#: The study of the runs made without ``study=`` (``study: default`` in experiments/conf).
+DEFAULT_STUDY = "default"
 #: A run starts only if the study's file system has this much free space (a record takes
 #: about 20 KB), so a full disk does not cost the computation of runs that cannot be stored.
 MIN_FREE_BYTES = 256 << 10
@@ -99,6 +101,12 @@ def stored_fit(record: Mapping[str, Any], params: np.ndarray,
                      int(record["spline.degree"]))
     kind = PeriodicFit if bool(record["spline.closed"]) else SplineFit
     return kind(spline, np.asarray(params), np.asarray(points))
+
+
+def default_study_note(study_dir: Path) -> str:
+    """The line a single run or a sweep prints when it writes into the default study."""
+    return (f"metaknot run: note: these runs go to the default study {study_dir}, which every "
+            "run made without study= shares; give study=NAME to keep an experiment apart")
 
 
 class StoreError(ValueError):

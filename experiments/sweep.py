@@ -33,7 +33,7 @@ from tqdm.auto import tqdm
 
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
 from .spec import ConfigError, RunSpec, run_spec
-from .store import COMPLETE_STATUSES, Store
+from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, default_study_note
 
 __all__ = ["expand", "plan", "summary", "sweep"]
 
@@ -248,6 +248,9 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
         print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
         if not the_plan.to_run:
             return []
+        default = [spec for _, spec in the_plan.to_run if spec.study == DEFAULT_STUDY]
+        if default:
+            print(default_study_note(default[0].study_dir), file=sys.stderr, flush=True)
         returns = _launch(sweeper, the_plan, sweep_dir)
     except Interrupted as stop:
         if warming is not None:

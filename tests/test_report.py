@@ -533,6 +533,32 @@ def test_methods_that_never_share_a_cell(tmp_path):
     assert "no cell where both methods ran" in report.markdown.read_text()
 
 
+def test_a_study_whose_methods_did_not_run_on_the_same_instances_says_so(tmp_path):
+    shared = [_run(m, seed, 300, f + 0.1 * seed) for m, f in (("A", 1), ("B", 2))
+              for seed in range(6)]
+    a_alone = [_run("A", seed, 300, 1 + 0.1 * seed, data="vivaldi") for seed in range(6)]
+    assert prepare(_write(tmp_path / "s", shared)).notes == []
+    study = _write(tmp_path / "mixed", shared + a_alone)
+    (note,) = prepare(study).notes
+    assert note.startswith("Not every method ran on each of the 2 instance and budget pairs "
+                           "(A 2, B 1): the study may mix separate experiments"), note
+    report = build(study, tmp_path / "report", figures=False, log=None)
+    assert "the study may mix separate experiments" in report.markdown.read_text()
+
+
+def test_the_default_study_says_its_runs_may_come_from_unrelated_experiments(tmp_path):
+    one_cell = [_run(m, seed, 300, f + 0.1 * seed) for m, f in (("A", 1), ("B", 2))
+                for seed in range(6)]
+    assert prepare(_write(tmp_path / "a" / "default", one_cell)).notes == []
+    two_budgets = one_cell + [_run(m, seed, 1000, f + 0.1 * seed) for m, f in (("A", 1),
+                              ("B", 2)) for seed in range(6)]
+    assert prepare(_write(tmp_path / "b" / "s", two_budgets)).notes == []
+    (note,) = prepare(_write(tmp_path / "c" / "default", two_budgets)).notes
+    assert note == ("This is the default study, which every run made without study= shares: "
+                    "its 2 method(s) on 1 instance(s) and 2 budget(s) may come from unrelated "
+                    "experiments; give study=NAME to keep an experiment apart.")
+
+
 def test_cell_without_common_seeds(tmp_path):
     runs = [_run("A", seed, 300, 1.0 + seed) for seed in range(6)]
     runs += [_run("B", seed, 300, 2.0 + seed) for seed in range(6, 12)]

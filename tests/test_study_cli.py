@@ -365,6 +365,27 @@ def test_a_sweep_compares_a_method_with_the_defaults(tmp_path):
         ("dolphin", "dolphin", "binary"), ("ga", "ga", "integer")]
 
 
+NOTE = "metaknot run: note: these runs go to the default study "
+
+
+def test_runs_into_the_default_study_say_so(tmp_path):
+    """A single run or a sweep without study= prints one note naming the default study; one
+    with a study of its own, or with nothing left to run, does not."""
+    for args, study in ((["algorithm=ga"], "default"), (["-m", "seed=1,2"], "default"),
+                        (["algorithm=ga", "study=mine"], "mine"),
+                        (["-m", "seed=1,2", "study=mine"], "mine"), (["-m", "seed=1,2"], None)):
+        done = metaknot(*args, "problem=archimedean", "budget=40", f"results_dir={tmp_path}",
+                        cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        notes = [line for line in done.stderr.splitlines() if line.startswith(NOTE)]
+        if study == "default":
+            assert notes == [f"{NOTE}{tmp_path / 'default'}, which every run made without "
+                             "study= shares; give study=NAME to keep an experiment apart"], args
+        else:
+            assert notes == [], args
+        assert (tmp_path / (study or "default") / "runs").is_dir()
+
+
 # --------------------------------------------------------------------------------------------
 # Ctrl-C and kill: the workers stop, every record stays, one line, exit 130/143, resume
 
