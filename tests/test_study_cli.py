@@ -440,8 +440,9 @@ def test_an_interrupted_joblib_sweep_stops_its_workers_and_resumes(tmp_path, sig
     stderr = (tmp_path / "stderr").read_text()
     assert "Traceback" not in stderr and "Error" not in stderr, stderr
     lines = stderr.strip().splitlines()
-    assert plan_line(lines[0])["to_run"] == 12 and len(lines) == 2, stderr
-    stored, total = map(int, INTERRUPTED.fullmatch(lines[1]).groups())
+    assert plan_line(lines[0])["to_run"] == 12 and len(lines) == 3, stderr
+    assert lines[1].startswith(NOTE)  # no study=: the default study
+    stored, total = map(int, INTERRUPTED.fullmatch(lines[2]).groups())
     before = snapshot(runs_dir)
     assert 3 <= stored == len(before) < total == 12
     assert list((tmp_path / "default" / "tmp").iterdir()) == []
@@ -537,7 +538,8 @@ def test_a_sweep_on_a_disk_that_fills_up_accounts_for_every_run(tmp_path):
     study, kept = results / "default", spare / "metaknot-unsaved" / "default"
     lines = done.stderr.strip().splitlines()
     assert "Traceback" not in done.stderr and plan_line(lines[0])["to_run"] == 10
-    assert lines[1:] == [
+    assert lines[1].startswith(NOTE)  # no study=: the default study
+    assert lines[2:] == [
         f"study {study}: 4 ok, 5 not run, 1 not stored; 4 of 10 runs stored",
         f"  5 not run: [Errno 28] No space left on device (0 KiB free, a run needs 256 KiB): "
         f"'{study}'",
