@@ -279,6 +279,8 @@ def test_a_bad_points_file_is_reported_as_a_problem_error(tmp_path):
 
 
 ALGORITHM_YAMLS = sorted((CONFIG_DIR / "algorithm").glob("*.yaml"))
+#: The method presets that name a method (``method=default`` is none: the configured one).
+METHOD_PRESETS = sorted(p for p in (CONFIG_DIR / "method").glob("*.yaml") if p.stem != "default")
 
 
 def first_encoding(name: str) -> str:
@@ -634,7 +636,7 @@ def test_fitpack_front_preset():
     values = sweep_values(cfg.hydra.sweeper.params)
     assert values["problem"] == list(CURVES)
     assert values["encoding.n_knots"] == ["fitpack:1e-4", "fitpack:1e-6"]
-    single = {p.stem for p in (CONFIG_DIR / "method").glob("*.yaml")  # not the fronts
+    single = {p.stem for p in METHOD_PRESETS  # not the fronts
               if {"override /objective": "pareto"} not in yaml_of(p)["defaults"]}
     assert {"nsga2_mask", "front_free"}.isdisjoint(single)
     assert set(values["method"]) == single
@@ -658,8 +660,15 @@ def test_smoke_preset():
     assert spec.config["objective"]["name"] == "paper"
 
 
-@pytest.mark.parametrize("path", sorted((CONFIG_DIR / "method").glob("*.yaml")),
-                         ids=lambda p: p.stem)
+def test_the_default_method_changes_nothing():
+    for args in ((), ("algorithm=ga", "encoding=indices", "encoding.n_knots=5")):
+        plain = spec_of(*args, "problem=archimedean")
+        default = spec_of("method=default", *args, "problem=archimedean")
+        assert default.config == plain.config and default.run_id == plain.run_id
+        assert default.label == plain.label == plain.algorithm
+
+
+@pytest.mark.parametrize("path", METHOD_PRESETS, ids=lambda p: p.stem)
 def test_method_preset_composes_to_what_it_names(path):
     node = yaml_of(path)
     chosen = {k.split("/")[-1]: v for entry in node["defaults"] for k, v in entry.items()}
