@@ -19,14 +19,18 @@ import os
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from omegaconf import OmegaConf
 
 from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
 from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
-from .store import Store
+from .store import DEFAULT_STUDY, Store, default_study_note, read_record, spline_fields
+
+if TYPE_CHECKING:
+    from metaknot.result import RunResult
 
 __all__ = ["execute", "main", "register_hydra_plugins", "register_plugin_configs"]
 
@@ -38,9 +42,7 @@ def register_hydra_plugins() -> None:
     register the configs of plugin optimizers (:func:`register_plugin_configs`)."""
     from hydra.core.plugins import Plugins
 
-    # the plugin scan re-executes Hydra's core plugin modules: let it run before the sweeper
-    # module subclasses BasicSweeper, or the subclass would refer to a stale class
-    plugins = Plugins.instance()
+    plugins = Plugins.instance()  # the plugin scan first: it may import the sweeper module
     from hydra_plugins.metaknot_study_sweeper.study_sweeper import StudySweeper
 
     plugins.register(StudySweeper)
@@ -116,7 +118,7 @@ def execute(spec: RunSpec, *, multirun: bool = False,
         "kernel_threads": numba.get_num_threads(),
         "config": json.dumps(spec.config, sort_keys=True, default=str),
     }
-    result, error = None, None
+    problem = optimizer = error = None
     try:
         incompatible = spec.compatible()
         if incompatible:
@@ -129,17 +131,14 @@ def execute(spec: RunSpec, *, multirun: bool = False,
     except Exception as exc:
         if raise_errors or isinstance(exc, ConfigError):
             raise
-        result = getattr(exc, "partial_result", None)
         error = f"{type(exc).__name__}: {exc}"
-    if result is not None:
-        record = {**base, **result.record()}
-        trace = result.trace.columns()
-        best_x = result.best_x
-    else:
-        record = {**base, **_failed_record(spec)}
-        trace, best_x = None, None
+        result = getattr(exc, "partial_result", None) or _nothing_evaluated(
+            spec, problem, optimizer, error)
+    fit = getattr(result.solution, "fit", None)
+    record = {**base, **result.record(), **({} if fit is None else spline_fields(fit))}
     if error is not None:
         record["status"], record["error"] = "failed", error
+    trace, best_x = result.trace.columns(), result.best_x
     try:
         path = store.write(record, best_x=best_x, trace=trace)
     except OSError as exc:  # a full disk, a folder without write permission: keep it elsewhere
@@ -164,21 +163,25 @@ def _reason(exc: OSError) -> str:
     return os.strerror(exc.errno) if exc.errno else type(exc).__name__
 
 
-def _failed_record(spec: RunSpec) -> dict[str, Any]:
-    """The settings of a run that failed before anything was evaluated."""
-    problem, encoding = spec.config["problem"], spec.config["encoding"]
-    objective = dict(spec.config["objective"])
-    params = {f"algorithm.{k}": v for k, v in spec.config["algorithm"].items() if k != "_name_"}
-    problem_name, kind = ENCODINGS[encoding["kind"]]
-    return {
-        "problem": problem_name, "encoding": kind,
-        "data": problem["name"], "noise": problem["noise"], "degree": problem["degree"],
-        "parameterization": problem["parameterization"],
-        "objective": objective.pop("name"),
-        **{f"objective.{k}": v for k, v in objective.items()},
-        "algorithm": spec.algorithm, **params, "seed": spec.seed, "budget": spec.budget,
-        "n_evaluations": 0, "status": "failed",
-    }
+def _nothing_evaluated(spec: RunSpec, problem: Any, optimizer: Any, error: str) -> RunResult:
+    """The result of a run that failed before its first evaluation, so that its record is
+    built as every run's is (:meth:`~metaknot.result.RunResult.record`): the settings of its
+    problem and optimizer (where they could be built), no outcome."""
+    from metaknot.callbacks import TraceRecorder
+    from metaknot.result import RunResult
+
+    seed = spec.optimizer_seed()
+    return RunResult(
+        problem=ENCODINGS[spec.config["encoding"]["kind"]][0] if problem is None
+        else problem.name,
+        optimizer=spec.algorithm if optimizer is None else optimizer.name,
+        seed=spec.seed, seed_spawn_key=tuple(int(k) for k in seed.spawn_key),
+        budget=spec.budget, n_evaluations=0, best_x=None, best_f=float("inf"),
+        trace=TraceRecorder(spec.config["checkpoints_per_decade"]).trace(), elapsed=0.0,
+        problem_info={} if problem is None else problem.describe(),
+        optimizer_params={} if optimizer is None else optimizer.params(),
+        metric_names=() if problem is None else tuple(problem.metric_names),
+        status="failed", error=error)
 
 
 def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
@@ -210,8 +213,38 @@ def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
                   file=sys.stderr)
             raise SystemExit(1)
         else:
-            print(f"run {spec.run_id}: {outcome['status']}; record in {where}")
+            print(describe_run(read_record(where), where))
+            if spec.study == DEFAULT_STUDY:
+                print(default_study_note(spec.study_dir), file=sys.stderr)
     return outcome
+
+
+#: Control points a single run prints in full (more: the first and last few).
+SHOWN_CONTROL_POINTS = 24
+
+
+def describe_run(record: dict[str, Any], path: str | Path) -> str:
+    """What a single ``metaknot run`` prints: the run's status, objective, RMSE and control
+    points (the distinct ones: the first ``n_control_points`` coefficients of its spline),
+    and where its record is."""
+    lines = [f"run {record['run_id']}: {record['status']}, {record['n_evaluations']:,} of "
+             f"{record['budget']:,} evaluations"]
+    if record.get("error"):
+        lines.append(f"  error: {record['error']}")
+    if np.isfinite(record.get("best_f", np.nan)):
+        lines.append(f"  objective ({record['objective']}) {record['best_f']:.6g}, RMSE "
+                     f"{record['rmse']:.4g}, max deviation {record['max_deviation']:.4g}, "
+                     f"{record['n_control_points']} control points")
+    coefficients = record.get("spline.coefficients")
+    if coefficients is not None:
+        points = np.asarray(coefficients)[: record["n_control_points"]]
+        rows = [" ".join(f"{value:>12.6g}" for value in point) for point in points]
+        if len(rows) > SHOWN_CONTROL_POINTS:
+            half = SHOWN_CONTROL_POINTS // 2
+            rows = [*rows[:half], f"  ... {len(rows) - 2 * half} more ...", *rows[-half:]]
+        lines += ["  control points:", *(f"  {row}" for row in rows)]
+    lines.append(f"  record: {path}")
+    return "\n".join(lines)
 
 
 def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
@@ -225,9 +258,78 @@ def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
             f"move it into {spec.study_dir / kept.parent.name}/ once there is space")
 
 
+def check_choices(args: list[str]) -> str | None:
+    """The first config group choice of ``args`` (Hydra overrides, swept or not) that does not
+    exist, as a one-line error with the closest names, or ``None`` if every choice exists;
+    an algorithm (``algorithm=NAME`` or ``algorithm._name_=NAME``) is looked up in the
+    optimizer registry, which names the closest. ``null`` is refused too: Hydra composes no
+    job from a group set to null. Other errors (override syntax) are left for Hydra."""
+    import difflib
+
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        loader = GlobalHydra.instance().config_loader()
+    try:
+        overrides = OverridesParser.create(config_loader=loader).parse_overrides(
+            [a for a in args if not a.startswith("-")])
+    except HydraException:
+        return None
+    for override in overrides:
+        group = override.key_or_group.replace(".", "/")
+        parent, _, name = group.rpartition("/")
+        is_group = not override.is_delete() and name in loader.list_groups(parent)
+        if not is_group and override.key_or_group != "algorithm._name_":
+            continue
+        if not override.is_sweep_override():
+            value = override.value()
+            values = ["null" if value is None else str(value)]
+        elif override.is_discrete_sweep():
+            values = list(override.sweep_string_iterator())
+        else:
+            continue  # a glob: Hydra picks among the existing choices
+        options = loader.get_group_options(group) if is_group else []
+        for value in values:
+            key = f"{override.key_or_group}={value:.80}"
+            if group in ("algorithm", "algorithm/_name_") and value not in options:
+                unknown = _unknown_optimizer(value)
+                if unknown:
+                    return f"{key}: {unknown}"
+            if not is_group:
+                continue
+            if value == "null":
+                instead = f"sweep {override.key_or_group}=default,NAME to compare NAME with " \
+                    "the defaults" if "default" in options else "or choose one of " \
+                    f"{', '.join(options)}"
+                return (f"{key}: not a choice; leave {override.key_or_group}= out for none, "
+                        f"{instead}")
+            if value not in options:
+                close = difflib.get_close_matches(value, options, n=3, cutoff=0.6)
+                hint = f"did you mean {' or '.join(close)}? " if close else ""
+                return (f"{key}: no such {name} config; {hint}(choices: "
+                        f"{', '.join(options)})")
+    return None
+
+
+def _unknown_optimizer(name: str) -> str | None:
+    """The registry's answer (one line, with the closest names) if it has no optimizer
+    ``name``, else ``None``."""
+    from metaknot.registry import _lookup
+
+    try:
+        _lookup("optimizer", name)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 def _check_single_run(overrides: list[str]) -> str | None:
     """The configuration error of a single run, in one line (``None`` if it can run). Errors
-    of Hydra itself (override syntax, unknown config) are left for Hydra to report."""
+    of Hydra itself (override syntax) are left for Hydra to report, unknown choices for
+    :func:`check_choices`."""
     from hydra import compose, initialize_config_dir
     from hydra.errors import HydraException
 
@@ -263,11 +365,12 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"metaknot run: error: {exc}", file=sys.stderr)
         return 2
-    if not any(a.startswith("-") for a in args):  # a single run: check it before Hydra starts
-        error = _check_single_run(args)
-        if error:
-            print(f"metaknot run: error: {error}", file=sys.stderr)
-            return 2
+    error = check_choices(args)
+    if error is None and not any(a.startswith("-") for a in args):  # a single run
+        error = _check_single_run(args)  # checked before Hydra starts
+    if error:
+        print(f"metaknot run: error: {error}", file=sys.stderr)
+        return 2
     try:
         with interrupt_on_signals():
             return launch(task, "config", args)

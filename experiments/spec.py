@@ -293,6 +293,21 @@ class RunSpec:
         """The problem of this run (with the replicate's noise unless ``noise=False``)."""
         return _build_problem(self.config, self.noise_seed() if noise else None)
 
+    def build_curve(self, *, noise: bool = True):
+        """The data of this run as its curve model (:func:`metaknot.bspline.curve.make_curve`):
+        the points, with the replicate's noise unless ``noise=False``, and their parameters,
+        as the run's problem has them (without building the problem)."""
+        from metaknot.bspline.curve import make_curve
+
+        problem = self.config["problem"]
+        data = _build_data(self.config, self.noise_seed() if noise else None)
+        try:
+            return make_curve(data.points, degree=problem["degree"],
+                              parameterization=problem["parameterization"],
+                              closed=problem.get("closed", False), params=data.params)
+        except ValueError as exc:
+            raise ConfigError(f"problem: {exc}") from None
+
     def build_optimizer(self):
         """The optimizer of this run, with its hyperparameters."""
         from metaknot.registry import get_optimizer
@@ -561,18 +576,11 @@ def _file_digest(path: str) -> str:
         return hashlib.file_digest(file, "sha256").hexdigest()[:16]
 
 
-def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | None):
-    from metaknot.problems import (
-        FreeKnots,
-        KnotIndices,
-        KnotSelection,
-        add_noise,
-        get_curve,
-        get_objective,
-        load_points,
-    )
+def _build_data(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | None):
+    """The run's data points (a ``PointSet``), with noise when ``noise_seed`` is given."""
+    from metaknot.problems import add_noise, get_curve, load_points
 
-    problem, encoding = config["problem"], config["encoding"]
+    problem = config["problem"]
     try:
         if problem.get("instance") is not None:
             from metaknot.suite import get_instance
@@ -590,6 +598,14 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
         data = add_noise(data, problem["noise"], noise_seed)
         data = type(data)(data.points, name=problem["name"], params=data.params,
                           noise=data.noise, noise_seed=data.noise_seed)
+    return data
+
+
+def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | None):
+    from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_objective
+
+    problem, encoding = config["problem"], config["encoding"]
+    data = _build_data(config, noise_seed)
     options = dict(config["objective"])
     name = options.pop("name")
     try:

@@ -40,8 +40,10 @@ import pyarrow.parquet as pq
 if TYPE_CHECKING:  # pandas loads only when a study is read (run workers do not need it)
     import pandas as pd
 
-__all__ = ["COMPLETE_STATUSES", "MIN_FREE_BYTES", "STORE_FORMAT", "Store", "StoreError",
-           "Study", "load_study"]
+    from metaknot.bspline import CurveFit
+
+__all__ = ["COMPLETE_STATUSES", "MIN_FREE_BYTES", "SPLINE_FIELDS", "STORE_FORMAT", "Store",
+           "StoreError", "Study", "load_study", "read_record", "spline_fields", "stored_fit"]
 
 #: Written into every record file's Parquet metadata; files without it are foreign.
 STORE_FORMAT = "metaknot-run-record/1"
@@ -55,13 +57,56 @@ TRACE_PREFIX = "trace."
 #: repeat what its optimizer did, and reports leave it out with a note. Any other status
 #: (``failed``) is an attempt, kept under ``failed/``; its run is run again.
 COMPLETE_STATUSES = frozenset({"ok", "budget_violation"})
+#: The study of the runs made without ``study=`` (``study: default`` in experiments/conf).
+DEFAULT_STUDY = "default"
 #: A run starts only if the study's file system has this much free space (a record takes
 #: about 20 KB), so a full disk does not cost the computation of runs that cannot be stored.
 MIN_FREE_BYTES = 256 << 10
 #: Record fields with a fixed kind of value (checked when a record is read or counted).
 TEXT_FIELDS = ("run_id", "status")
 NUMBER_FIELDS = ("best_f", "rmse", "euclidean_distance", "max_deviation", "n_control_points",
-                 "n_evaluations", "budget", "seed", "audited_fits", "accounted_fits")
+                 "n_evaluations", "budget", "seed", "audited_fits", "accounted_fits",
+                 "spline.degree")
+#: The fitted spline of a run's best candidate, stored so that a report draws it without
+#: rebuilding the problem (:func:`spline_fields`, :func:`stored_fit`): the full knot vector,
+#: every coefficient on it (scipy's ``BSpline.c``, ``(n, d)``: a closed curve's first
+#: ``degree`` control points repeat at the end), the degree, and whether the curve is closed.
+SPLINE_FIELDS = ("spline.knots", "spline.coefficients", "spline.degree", "spline.closed")
+
+
+def spline_fields(fit: CurveFit) -> dict[str, Any]:
+    """The record fields (:data:`SPLINE_FIELDS`) of a fitted spline."""
+    from metaknot.bspline.periodic import PeriodicFit
+
+    return {"spline.knots": np.asarray(fit.spline.t, dtype=np.float64),
+            "spline.coefficients": np.asarray(fit.spline.c, dtype=np.float64),
+            "spline.degree": int(fit.spline.k), "spline.closed": isinstance(fit, PeriodicFit)}
+
+
+def stored_fit(record: Mapping[str, Any], params: np.ndarray,
+               points: np.ndarray) -> CurveFit | None:
+    """The fitted spline a record stores, as a fit of the run's data (parameters ``params``,
+    points ``points``), or ``None`` if the record holds none (written before records stored
+    the spline, or a run without a solution)."""
+    knots = record.get("spline.knots")
+    if not isinstance(knots, list | np.ndarray):
+        return None
+    from scipy.interpolate import BSpline
+
+    from metaknot.bspline import SplineFit
+    from metaknot.bspline.periodic import PeriodicFit
+
+    spline = BSpline(np.asarray(knots, dtype=np.float64),
+                     np.asarray(list(record["spline.coefficients"]), dtype=np.float64),
+                     int(record["spline.degree"]))
+    kind = PeriodicFit if bool(record["spline.closed"]) else SplineFit
+    return kind(spline, np.asarray(params), np.asarray(points))
+
+
+def default_study_note(study_dir: Path) -> str:
+    """The line a single run or a sweep prints when it writes into the default study."""
+    return (f"metaknot run: note: these runs go to the default study {study_dir}, which every "
+            "run made without study= shares; give study=NAME to keep an experiment apart")
 
 
 class StoreError(ValueError):
@@ -241,6 +286,9 @@ def _to_table(record: Mapping[str, Any], best_x: np.ndarray | None,
     for key, value in record.items():
         if isinstance(value, np.generic):
             value = value.item()
+        if isinstance(value, np.ndarray):  # a list column (nested for a 2-D array)
+            columns[key] = pa.array([value.tolist()])
+            continue
         if isinstance(value, dict | list | tuple):
             value = json.dumps(value, sort_keys=True, default=str)
         columns[key] = pa.array([value])
@@ -259,7 +307,15 @@ def _to_table(record: Mapping[str, Any], best_x: np.ndarray | None,
     return table.replace_schema_metadata({_META_KEY: STORE_FORMAT.encode()})
 
 
-def _read(path: Path) -> dict[str, Any]:
+def read_record(path: str | os.PathLike) -> dict[str, Any]:
+    """One record file, checked, as a dict (``best_x``, the trace and the spline as lists).
+
+    Raises
+    ------
+    StoreError
+        If the file is not a sound run record (named).
+    """
+    path = Path(path)
     try:
         table = pq.read_table(path)
     except Exception as exc:  # pyarrow raises several types for damaged files
@@ -376,7 +432,7 @@ def load_study(path: str | os.PathLike) -> Study:
                              f"{names if len(names) <= 80 else names[:77] + '...'}")
     rows, traces = [], []
     for entry, run_id in _run_files(store.runs_dir):
-        row = _read(entry)
+        row = read_record(entry)
         if row.get("run_id") != run_id:
             raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r:.40}, not "
                              f"of {run_id!r}")
@@ -386,7 +442,7 @@ def load_study(path: str | os.PathLike) -> Study:
         if not FAILED_FILE.fullmatch(entry.name):
             raise StoreError(f"{entry}: not a metaknot failed-run record; move it out of the "
                              "study")
-        failures.append(_read(entry))
+        failures.append(read_record(entry))
     ok_ids = {r["run_id"] for r in rows}
     latest: dict[str, dict[str, Any]] = {}
     for row in sorted(failures, key=lambda r: r.get("timestamp") or ""):

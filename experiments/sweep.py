@@ -17,23 +17,25 @@
 from __future__ import annotations
 
 import copy
+import itertools
 import os
 import sys
 import threading
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from hydra.core.override_parser.overrides_parser import OverridesParser
+from hydra.errors import HydraException
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
 from .spec import ConfigError, RunSpec, run_spec
-from .store import COMPLETE_STATUSES, Store
+from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, default_study_note
 
-__all__ = ["plan", "summary", "sweep"]
+__all__ = ["expand", "plan", "summary", "sweep"]
 
 
 class Plan:
@@ -65,13 +67,35 @@ class Plan:
         return "\n".join(lines)
 
 
+def expand(parser: OverridesParser, params: Mapping[str, Any],
+           arguments: list[str]) -> list[list[str]]:
+    """Every job of a sweep: the product of the swept values of ``hydra.sweeper.params`` and
+    then the command line (a key given in both takes the command line's values, in the
+    position of its first mention), each job a list of ``key=value`` overrides.
+
+    Raises
+    ------
+    ConfigError
+        For a sweep other than a list or a range (``a=1,2``, ``a=range(0,5)``).
+    """
+    lines = [f"{key}={value}" for key, value in params.items()] + list(arguments)
+    choices: dict[str, list[str]] = {}
+    for override in parser.parse_overrides(lines):
+        key = override.get_key_element()
+        if not override.is_sweep_override():
+            choices[key] = [f"{key}={override.get_value_element_as_str()}"]
+        elif override.is_discrete_sweep():
+            choices[key] = [f"{key}={value}" for value in override.sweep_string_iterator()]
+        else:
+            raise ConfigError(f"{key}: a study sweeps lists and ranges (a=1,2,3 or "
+                              f"a='range(0,10)'); got {override.input_line:.80}")
+    return [list(job) for job in itertools.product(*choices.values())]
+
+
 def plan(sweeper: Any, arguments: list[str]) -> tuple[Plan, Path]:
     """Expand and validate a sweep; see the module notes."""
-    params_conf = sweeper._parse_config()
-    params_conf.extend(arguments)
     parser = OverridesParser.create(config_loader=sweeper.hydra_context.config_loader)
-    overrides = parser.parse_overrides(params_conf)
-    jobs = [job for batch in sweeper.split_arguments(overrides, None) for job in batch]
+    jobs = expand(parser, sweeper.params, arguments)
     composer = _Composer(sweeper, parser)
     result = Plan()
     seen: set[str] = set()
@@ -80,7 +104,7 @@ def plan(sweeper: Any, arguments: list[str]) -> tuple[Plan, Path]:
     study_dir = None
     for job in jobs:
         try:
-            spec = run_spec(composer(job), check_build=False)
+            spec = run_spec(_compose(composer, job), check_build=False)
             key = _build_key(spec)
             if key not in checked:  # build once per setting, the seed aside
                 if spec.compatible() is None:
@@ -109,6 +133,17 @@ def plan(sweeper: Any, arguments: list[str]) -> tuple[Plan, Path]:
     return result, study_dir
 
 
+def _compose(composer: _Composer, job: list[str]) -> Any:
+    """The job's configuration; Hydra's composition errors as one line."""
+    try:
+        return composer(job)
+    except (HydraException, ValueError) as exc:
+        if isinstance(exc, ConfigError):
+            raise
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        raise ConfigError(lines[0] if lines else type(exc).__name__) from None
+
+
 class _Composer:
     """Each job's configuration, composing with Hydra once per choice of config groups.
 
@@ -124,8 +159,9 @@ class _Composer:
     def __init__(self, sweeper: Any, parser: OverridesParser) -> None:
         self.sweeper = sweeper
         self.parser = parser
-        self.repository = sweeper.hydra_context.config_loader.repository
+        self.loader = sweeper.hydra_context.config_loader
         self._bases: dict[tuple[str, ...], dict[str, Any] | None] = {}
+        self._groups: dict[str, list[str]] = {}
 
     def __call__(self, job: list[str]) -> Any:
         structural, values = [], []
@@ -133,8 +169,7 @@ class _Composer:
             simple = not (override.is_add() or override.is_delete() or override.is_force_add()
                           or override.package is not None or "$" in override.input_line)
             key = override.key_or_group
-            if simple and not self.repository.group_exists(key.replace(".", "/")) \
-                    and not key.startswith("hydra"):
+            if simple and not key.startswith("hydra") and not self._is_group(key):
                 values.append(override)
             else:
                 structural.append(override.input_line)
@@ -150,9 +185,15 @@ class _Composer:
             _set(plain, override.key_or_group, override.value())
         return plain
 
+    def _is_group(self, key: str) -> bool:
+        """Whether ``key`` (``algorithm``, ``hydra.launcher``) names a config group."""
+        parent, _, name = key.replace(".", "/").rpartition("/")
+        if parent not in self._groups:
+            self._groups[parent] = self.loader.list_groups(parent)
+        return name in self._groups[parent]
+
     def _load(self, job: list[str]) -> Any:
-        loader = self.sweeper.hydra_context.config_loader
-        return loader.load_sweep_config(self.sweeper.config, list(job))
+        return self.loader.load_sweep_config(self.sweeper.config, list(job))
 
 
 def _has_interpolations(cfg: Any) -> bool:
@@ -207,6 +248,9 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
         print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
         if not the_plan.to_run:
             return []
+        default = [spec for _, spec in the_plan.to_run if spec.study == DEFAULT_STUDY]
+        if default:
+            print(default_study_note(default[0].study_dir), file=sys.stderr, flush=True)
         returns = _launch(sweeper, the_plan, sweep_dir)
     except Interrupted as stop:
         if warming is not None:
@@ -339,13 +383,15 @@ def _warm_joblib_workers(config: Any) -> threading.Thread | None:
     if launcher is None or "Joblib" not in str(launcher.get("_target_", "")) \
             or launcher_workers(config) < 2:
         return None
-    from hydra_plugins.hydra_joblib_launcher._core import process_joblib_cfg
     from joblib import Parallel, delayed
 
     settings = {k: v for k, v in OmegaConf.to_container(launcher, resolve=True).items()
                 if k != "_target_"}
     settings["backend"] = "loky"
-    process_joblib_cfg(settings)
+    for key in ("pre_dispatch", "batch_size", "max_nbytes"):  # "100": a count, as the
+        value = settings.get(key)                                # launcher reads it
+        if isinstance(value, str) and value.isdigit():
+            settings[key] = int(value)
     workers = launcher_workers(config)
 
     def warm() -> None:

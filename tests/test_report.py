@@ -533,6 +533,32 @@ def test_methods_that_never_share_a_cell(tmp_path):
     assert "no cell where both methods ran" in report.markdown.read_text()
 
 
+def test_a_study_whose_methods_did_not_run_on_the_same_instances_says_so(tmp_path):
+    shared = [_run(m, seed, 300, f + 0.1 * seed) for m, f in (("A", 1), ("B", 2))
+              for seed in range(6)]
+    a_alone = [_run("A", seed, 300, 1 + 0.1 * seed, data="vivaldi") for seed in range(6)]
+    assert prepare(_write(tmp_path / "s", shared)).notes == []
+    study = _write(tmp_path / "mixed", shared + a_alone)
+    (note,) = prepare(study).notes
+    assert note.startswith("Not every method ran on each of the 2 instance and budget pairs "
+                           "(A 2, B 1): the study may mix separate experiments"), note
+    report = build(study, tmp_path / "report", figures=False, log=None)
+    assert "the study may mix separate experiments" in report.markdown.read_text()
+
+
+def test_the_default_study_says_its_runs_may_come_from_unrelated_experiments(tmp_path):
+    one_cell = [_run(m, seed, 300, f + 0.1 * seed) for m, f in (("A", 1), ("B", 2))
+                for seed in range(6)]
+    assert prepare(_write(tmp_path / "a" / "default", one_cell)).notes == []
+    two_budgets = one_cell + [_run(m, seed, 1000, f + 0.1 * seed) for m, f in (("A", 1),
+                              ("B", 2)) for seed in range(6)]
+    assert prepare(_write(tmp_path / "b" / "s", two_budgets)).notes == []
+    (note,) = prepare(_write(tmp_path / "c" / "default", two_budgets)).notes
+    assert note == ("This is the default study, which every run made without study= shares: "
+                    "its 2 method(s) on 1 instance(s) and 2 budget(s) may come from unrelated "
+                    "experiments; give study=NAME to keep an experiment apart.")
+
+
 def test_cell_without_common_seeds(tmp_path):
     runs = [_run("A", seed, 300, 1.0 + seed) for seed in range(6)]
     runs += [_run("B", seed, 300, 2.0 + seed) for seed in range(6, 12)]
@@ -929,6 +955,23 @@ def test_instances_follow_the_data_then_the_settings(tmp_path):
 # 9. end to end on a real study
 
 
+def test_a_record_without_its_spline_is_drawn_from_its_candidate(tmp_path, monkeypatch):
+    """Records written before records stored the spline: the curves figure decodes the stored
+    candidate with the rebuilt problem."""
+    runs = [_run(method, seed, 300, 1.0 + seed / 10 + (method == "B"), n_control_points=20)
+            for method in ("A", "B") for seed in range(3)]
+    comparison = prepare(_write(tmp_path / "s", runs))
+    assert not any(c.startswith("spline.") for c in comparison.runs.columns)
+    rebuilt = []
+    original = figures_module.rebuild_problem
+    monkeypatch.setattr(figures_module, "rebuild_problem",
+                        lambda run: rebuilt.append(run.run_id) or original(run))
+    figure = figures_module.fitted_curves_figure(comparison, "archimedean")
+    assert len(figure.axes) == 2 and len(rebuilt) == 2
+    medians = comparison.runs[comparison.runs.seed == 1]
+    assert sorted(rebuilt) == sorted(medians.run_id)
+
+
 @pytest.mark.slow
 def test_report_of_a_real_study(tmp_path, monkeypatch):
     done = subprocess.run(
@@ -940,15 +983,19 @@ def test_report_of_a_real_study(tmp_path, monkeypatch):
     runs = load_study(study).runs
     assert len(runs) == 12 and (runs.status == "ok").all()
 
-    rebuilt: list[tuple[pd.Series, object]] = []
-    original = figures_module.rebuild_problem
+    drawn: list[tuple[pd.Series, object]] = []
+    original = figures_module.run_fit
 
-    def recording(run):
-        problem = original(run)
-        rebuilt.append((run, problem))
-        return problem
+    def recording(run, curve):
+        fit = original(run, curve)
+        drawn.append((run, fit))
+        return fit
 
-    monkeypatch.setattr(figures_module, "rebuild_problem", recording)
+    def refused(run):
+        raise AssertionError("the records store their splines: no problem is rebuilt")
+
+    monkeypatch.setattr(figures_module, "run_fit", recording)
+    monkeypatch.setattr(figures_module, "rebuild_problem", refused)
     before = _snapshot(study)
     report = build(study, tmp_path / "report", log=None)
     assert _snapshot(study) == before
@@ -959,15 +1006,19 @@ def test_report_of_a_real_study(tmp_path, monkeypatch):
     assert {p.stem for p in (tmp_path / "report" / "figures").glob("*.svg")} == names
     assert report.html.read_text().count("<img ") == 4
 
-    # the curves are the median run of each method, rebuilt from its stored candidate
+    # the curves are the median run of each method, the spline its record stores: the one
+    # its stored candidate decodes to
     comparison = prepare(study)
     for method in ("ga", "random_search"):
         part = comparison.runs[comparison.runs.method == method]
         median = part.sort_values(["best_f", "seed"], kind="stable").iloc[(len(part) - 1) // 2]
-        assert median.run_id in {run.run_id for run, _ in rebuilt}, method
-    assert rebuilt
-    for run, problem in rebuilt:
-        fit = problem.decode(np.asarray(run["best_x"])).fit
+        assert median.run_id in {run.run_id for run, _ in drawn}, method
+    assert drawn
+    for run, fit in drawn:
+        decoded = figures_module._spec(run).build_problem().decode(
+            np.asarray(run["best_x"])).fit
+        np.testing.assert_array_equal(fit.spline.t, decoded.spline.t)
+        np.testing.assert_array_equal(fit.spline.c, decoded.spline.c)
         assert fit.n_control_points == run["n_control_points"]
         assert fit.rmse == pytest.approx(run["rmse"], rel=1e-9)
 

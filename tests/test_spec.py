@@ -17,9 +17,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
-from hydra._internal.callbacks import Callbacks
-from hydra._internal.config_loader_impl import ConfigLoaderImpl
-from hydra._internal.utils import create_config_search_path
+from hydra.core.config_loader import ConfigLoader
+from hydra.core.global_hydra import GlobalHydra
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.core.utils import setup_globals
 from hydra.errors import CompactHydraException
@@ -38,7 +37,7 @@ from metaknot.experiments.spec import (
     run_spec,
 )
 from metaknot.experiments.store import Store
-from metaknot.experiments.sweep import _Composer, plan
+from metaknot.experiments.sweep import _Composer, expand, plan
 from metaknot.problems import FreeKnots, KnotIndices, add_noise, get_curve
 
 register_hydra_plugins()
@@ -280,6 +279,8 @@ def test_a_bad_points_file_is_reported_as_a_problem_error(tmp_path):
 
 
 ALGORITHM_YAMLS = sorted((CONFIG_DIR / "algorithm").glob("*.yaml"))
+#: The method presets that name a method (``method=default`` is none: the configured one).
+METHOD_PRESETS = sorted(p for p in (CONFIG_DIR / "method").glob("*.yaml") if p.stem != "default")
 
 
 def first_encoding(name: str) -> str:
@@ -640,7 +641,7 @@ def test_fitpack_front_preset():
     values = sweep_values(cfg.hydra.sweeper.params)
     assert values["problem"] == list(CURVES)
     assert values["encoding.n_knots"] == ["fitpack:1e-4", "fitpack:1e-6"]
-    single = {p.stem for p in (CONFIG_DIR / "method").glob("*.yaml")  # not the fronts
+    single = {p.stem for p in METHOD_PRESETS  # not the fronts
               if {"override /objective": "pareto"} not in yaml_of(p)["defaults"]}
     assert {"nsga2_mask", "front_free"}.isdisjoint(single)
     assert set(values["method"]) == single
@@ -664,8 +665,15 @@ def test_smoke_preset():
     assert spec.config["objective"]["name"] == "paper"
 
 
-@pytest.mark.parametrize("path", sorted((CONFIG_DIR / "method").glob("*.yaml")),
-                         ids=lambda p: p.stem)
+def test_the_default_method_changes_nothing():
+    for args in ((), ("algorithm=ga", "encoding=indices", "encoding.n_knots=5")):
+        plain = spec_of(*args, "problem=archimedean")
+        default = spec_of("method=default", *args, "problem=archimedean")
+        assert default.config == plain.config and default.run_id == plain.run_id
+        assert default.label == plain.label == plain.algorithm
+
+
+@pytest.mark.parametrize("path", METHOD_PRESETS, ids=lambda p: p.stem)
 def test_method_preset_composes_to_what_it_names(path):
     node = yaml_of(path)
     chosen = {k.split("/")[-1]: v for entry in node["defaults"] for k, v in entry.items()}
@@ -709,16 +717,16 @@ def test_launcher_preset_composes(path):
 # the sweep: fast composition and the plan
 
 
-def config_loader() -> ConfigLoaderImpl:
+def config_loader() -> ConfigLoader:
     setup_globals()  # the ${now:} resolver of hydra.sweep.dir
-    return ConfigLoaderImpl(
-        config_search_path=create_config_search_path("pkg://metaknot.experiments.conf"))
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        return GlobalHydra.instance().config_loader()
 
 
 class CountingLoader:
     """The config loader, counting full compositions."""
 
-    def __init__(self, loader: ConfigLoaderImpl) -> None:
+    def __init__(self, loader: ConfigLoader) -> None:
         self.loader, self.calls = loader, 0
 
     def __getattr__(self, name):
@@ -737,7 +745,7 @@ def study_sweeper(arguments: list[str]):
     cfg = loader.load_configuration("config", overrides=arguments, run_mode=RunMode.MULTIRUN)
     sweeper = StudySweeper(max_batch_size=cfg.hydra.sweeper.max_batch_size,
                            params=OmegaConf.to_container(cfg.hydra.sweeper.params))
-    sweeper.setup(hydra_context=HydraContext(config_loader=loader, callbacks=Callbacks()),
+    sweeper.setup(hydra_context=HydraContext(config_loader=loader, callbacks=None),
                   task_function=lambda _: None, config=cfg)
     return sweeper
 
@@ -745,8 +753,7 @@ def study_sweeper(arguments: list[str]):
 def sweep_jobs(sweeper, arguments: list[str]) -> list[list[str]]:
     """Every job of a sweep, as the study sweeper expands it."""
     parser = OverridesParser.create(config_loader=sweeper.hydra_context.config_loader)
-    overrides = parser.parse_overrides([*sweeper._parse_config(), *arguments])
-    return [job for batch in sweeper.split_arguments(overrides, None) for job in batch]
+    return expand(parser, sweeper.params, arguments)
 
 
 def compare_with_full_composition(arguments: list[str], select=None):

@@ -195,6 +195,38 @@ def test_label_is_stored_but_not_part_of_the_identity(tmp_path):
     assert load_study(tmp_path / "s").runs.loc[0, "label"] == "my-ga"
 
 
+@pytest.mark.parametrize("closed", [False, True])
+def test_a_record_stores_the_fitted_spline(tmp_path, closed):
+    """Knots, coefficients, degree and closedness of the best candidate's spline: the record
+    alone gives the fitted curve, which :func:`stored_fit` turns back into the fit a decode
+    of the stored candidate gives."""
+    config = _config(tmp_path, budget=100)
+    if closed:
+        config["problem"].update(name="epitrochoid", curve="epitrochoid", closed=True)
+    spec = run_spec(config)
+    assert execute(spec)["status"] == "ok"
+    row = load_study(tmp_path / "s").runs.iloc[0]
+    fit = _direct(spec).solution.fit
+    np.testing.assert_array_equal(row["spline.knots"], fit.spline.t)
+    np.testing.assert_array_equal(np.array(row["spline.coefficients"]), fit.spline.c)
+    assert (row["spline.degree"], row["spline.closed"]) == (3, closed)
+    curve = spec.build_curve()
+    stored = store_module.stored_fit(row, curve.params, curve.points)
+    assert type(stored) is type(fit)
+    np.testing.assert_array_equal(stored.interior_knots, fit.interior_knots)
+    np.testing.assert_array_equal(stored.control_points, fit.control_points)
+    assert stored.n_control_points == row["n_control_points"]
+    assert stored.rmse == pytest.approx(row["rmse"], rel=1e-12)
+    u = np.linspace(*curve.knot_bounds, 50, endpoint=not closed)
+    np.testing.assert_allclose(stored.spline(u), fit.spline(u), rtol=0, atol=1e-12)
+
+
+def test_a_record_without_a_spline_has_no_stored_fit():
+    assert store_module.stored_fit({"run_id": RUN_A}, np.zeros(3), np.zeros((3, 2))) is None
+    assert store_module.stored_fit({"spline.knots": np.nan}, np.zeros(3),
+                                   np.zeros((3, 2))) is None
+
+
 # --------------------------------------------------------------------------------------------
 # 2. a stored run is skipped: no recompute, no rewrite
 
@@ -372,6 +404,30 @@ def test_a_run_that_crashes_before_evaluating_is_stored_with_its_settings(
     assert row["objective"] == "paper" and row["objective.error_floor"] == 1e-5
     assert (row["seed"], row["budget"], row["label"]) == (0, spec.budget, "test_crash")
     assert len(study.trace) == 0 and len(study.failures) == 1
+
+
+def test_a_run_that_fails_before_evaluating_has_the_fields_of_a_finished_run(
+        tmp_path, crash_optimizer):
+    """Its record is built as every run's is: each setting of the problem, the seed and the
+    budget has the value a finished run of the same problem records, and no field of a
+    finished run is missing but those of its outcome (the spline, the timings, the trace's
+    metrics)."""
+    finished = _spec(tmp_path, algorithm="random_search", budget=50)
+    crashed = _spec(tmp_path, algorithm=crash_optimizer, crash_at=1, budget=50)
+    assert execute(finished)["status"] == "ok"
+    failed_path = execute(crashed)["path"]
+    ok = store_module.read_record(Store(finished.study_dir).path(finished.run_id))
+    failed = store_module.read_record(failed_path)
+    settings = [*crashed.build_problem().describe(), "problem", "seed", "seed_spawn_key",
+                "budget", "study", "kernel_threads"]
+    assert {key: failed.get(key, "missing") for key in settings} == \
+        {key: ok[key] for key in settings}
+    outcome = {*store_module.SPLINE_FIELDS, *TIMINGS}
+    missing = {key for key in set(ok) - set(failed)  # the optimizers differ, and the trace
+               if not key.startswith(("algorithm.", store_module.TRACE_PREFIX))}
+    assert missing <= outcome, missing - outcome
+    assert (failed["status"], failed["n_evaluations"], failed["best_x"]) == ("failed", 0, None)
+    assert (failed["algorithm"], failed["algorithm.crash_at"]) == ("test_crash", 1)
 
 
 def test_every_attempt_of_a_failing_run_is_kept(tmp_path, crash_optimizer):

@@ -60,7 +60,18 @@ def test_single_run_from_the_command_line(tmp_path):
     (row,) = study.runs.to_dict("records")
     assert row["algorithm"] == "ga" and row["data"] == "vivaldi" and row["seed"] == 3
     assert row["n_evaluations"] == 400 and row["status"] == "ok"
-    assert row["run_id"] in done.stdout
+    # the outcome: objective, RMSE, the control points (the first and last twelve of many)
+    lines = done.stdout.splitlines()
+    assert lines[0] == f"run {row['run_id']}: ok, 400 of 400 evaluations"
+    assert lines[1] == (f"  objective (paper) {row['best_f']:.6g}, RMSE {row['rmse']:.4g}, "
+                        f"max deviation {row['max_deviation']:.4g}, "
+                        f"{row['n_control_points']} control points")
+    control = np.asarray(row["spline.coefficients"])[: row["n_control_points"]]
+    assert row["n_control_points"] > 24 and lines[2] == "  control points:"
+    shown = [[float(v) for v in line.split()] for line in lines[3:15] + lines[16:28]]
+    np.testing.assert_allclose(shown, np.vstack((control[:12], control[-12:])), rtol=1e-5)
+    assert lines[15] == f"    ... {len(control) - 24} more ..."
+    assert lines[28:] == [f"  record: {tmp_path / 'default' / 'runs' / row['run_id']}.parquet"]
     again = metaknot("algorithm=ga", "problem=vivaldi", "seed=3", "budget=400",
                      f"results_dir={tmp_path}", cwd=tmp_path)
     assert again.returncode == 0 and "already stored" in again.stdout
@@ -305,6 +316,76 @@ def test_a_missing_or_repeated_preset_is_one_line(tmp_path, capsys):
         (line,) = capsys.readouterr().err.strip().splitlines()
         assert line.startswith("metaknot run: error: --preset: ") and message in line
 
+
+@pytest.mark.parametrize("args", [["method=dolphin_indice"],
+                                  ["-m", "method=ga_indices,dolphin_indice", "seed=0,1"]])
+def test_a_mistyped_config_choice_is_one_line_with_the_closest_names(tmp_path, capsys, args):
+    from metaknot.experiments.app import main
+
+    assert main([*args, f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("metaknot run: error: method=dolphin_indice: ") and \
+        "did you mean dolphin_indices" in line, line
+    assert not (tmp_path / "default").exists()
+
+
+@pytest.mark.parametrize("args", [["method=null"], ["-m", "method=null,ga_indices"]])
+def test_a_method_set_to_null_is_one_line_naming_the_default_method(tmp_path, capsys, args):
+    from metaknot.experiments.app import main
+
+    assert main([*args, f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("metaknot run: error: method=null: ") and \
+        "method=default,NAME" in line, line
+    assert not (tmp_path / "default").exists()
+
+
+@pytest.mark.parametrize(("args", "key"), [
+    (["algorithm=dolphn"], "algorithm"), (["-m", "algorithm=ga,dolphn"], "algorithm"),
+    (["algorithm._name_=dolphn"], "algorithm._name_"),
+    (["-m", "algorithm._name_=ga,dolphn", "seed=0,1"], "algorithm._name_"),
+])
+def test_a_mistyped_algorithm_is_one_line_from_the_optimizer_registry(tmp_path, capsys, args,
+                                                                       key):
+    from metaknot.experiments.app import main
+
+    assert main([*args, f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"metaknot run: error: {key}=dolphn: unknown optimizer 'dolphn'. "
+                           "Did you mean 'dolphin'? Available: "), line
+    assert not (tmp_path / "default").exists()
+
+
+def test_a_sweep_compares_a_method_with_the_defaults(tmp_path):
+    done = metaknot("-m", "method=default,ga_indices", "problem=archimedean", "budget=60",
+                    f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    runs = load_study(tmp_path / "default").runs
+    assert sorted(zip(runs.label, runs.algorithm, runs.encoding, strict=True)) == [
+        ("dolphin", "dolphin", "binary"), ("ga", "ga", "integer")]
+
+
+NOTE = "metaknot run: note: these runs go to the default study "
+
+
+def test_runs_into_the_default_study_say_so(tmp_path):
+    """A single run or a sweep without study= prints one note naming the default study; one
+    with a study of its own, or with nothing left to run, does not."""
+    for args, study in ((["algorithm=ga"], "default"), (["-m", "seed=1,2"], "default"),
+                        (["algorithm=ga", "study=mine"], "mine"),
+                        (["-m", "seed=1,2", "study=mine"], "mine"), (["-m", "seed=1,2"], None)):
+        done = metaknot(*args, "problem=archimedean", "budget=40", f"results_dir={tmp_path}",
+                        cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        notes = [line for line in done.stderr.splitlines() if line.startswith(NOTE)]
+        if study == "default":
+            assert notes == [f"{NOTE}{tmp_path / 'default'}, which every run made without "
+                             "study= shares; give study=NAME to keep an experiment apart"], args
+        else:
+            assert notes == [], args
+        assert (tmp_path / (study or "default") / "runs").is_dir()
+
+
 # --------------------------------------------------------------------------------------------
 # Ctrl-C and kill: the workers stop, every record stays, one line, exit 130/143, resume
 
@@ -359,8 +440,9 @@ def test_an_interrupted_joblib_sweep_stops_its_workers_and_resumes(tmp_path, sig
     stderr = (tmp_path / "stderr").read_text()
     assert "Traceback" not in stderr and "Error" not in stderr, stderr
     lines = stderr.strip().splitlines()
-    assert plan_line(lines[0])["to_run"] == 12 and len(lines) == 2, stderr
-    stored, total = map(int, INTERRUPTED.fullmatch(lines[1]).groups())
+    assert plan_line(lines[0])["to_run"] == 12 and len(lines) == 3, stderr
+    assert lines[1].startswith(NOTE)  # no study=: the default study
+    stored, total = map(int, INTERRUPTED.fullmatch(lines[2]).groups())
     before = snapshot(runs_dir)
     assert 3 <= stored == len(before) < total == 12
     assert list((tmp_path / "default" / "tmp").iterdir()) == []
@@ -456,7 +538,8 @@ def test_a_sweep_on_a_disk_that_fills_up_accounts_for_every_run(tmp_path):
     study, kept = results / "default", spare / "metaknot-unsaved" / "default"
     lines = done.stderr.strip().splitlines()
     assert "Traceback" not in done.stderr and plan_line(lines[0])["to_run"] == 10
-    assert lines[1:] == [
+    assert lines[1].startswith(NOTE)  # no study=: the default study
+    assert lines[2:] == [
         f"study {study}: 4 ok, 5 not run, 1 not stored; 4 of 10 runs stored",
         f"  5 not run: [Errno 28] No space left on device (0 KiB free, a run needs 256 KiB): "
         f"'{study}'",

@@ -217,15 +217,21 @@ def test_a_pruned_trial_stops_after_the_instance_it_was_pruned_at(tmp_path) -> N
             [f"ratio:{spec.train[0].key}"]
 
 
-def test_resuming_adds_trials_and_keeps_the_earlier_ones(tmp_path) -> None:
+def test_resuming_adds_trials_and_keeps_the_earlier_ones(tmp_path, capsys) -> None:
+    def added() -> list[str]:  # the line saying how many trials were added
+        return [line for line in capsys.readouterr().out.splitlines() if ": added " in line]
+
     spec = spec_of(tmp_path, "n_trials=3", "evaluate=false", "pruner=none")
     tune(spec, progress=False)
+    assert added() == ["tune tune-dolphin: added 3 trials (3 complete); the study holds 3"]
     before = [(t.number, t.params, t.value) for t in stored_trials(spec)]
     tune(spec_of(tmp_path, "n_trials=5", "evaluate=false", "pruner=none"), progress=False)
+    assert added() == ["tune tune-dolphin: added 2 trials (2 complete); the study holds 5"]
     after = [(t.number, t.params, t.value) for t in stored_trials(spec)]
     assert len(after) == 5 and after[:3] == before
     tune(spec_of(tmp_path, "n_trials=5", "evaluate=false", "pruner=none"), progress=False)
     assert len(stored_trials(spec)) == 5  # already there: nothing added
+    assert added() == ["tune tune-dolphin: added no trials; the study holds 5"]
 
 
 def test_a_study_with_other_settings_is_refused_and_kept(tmp_path) -> None:

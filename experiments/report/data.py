@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from metaknot.experiments.store import StoreError, Study, load_study
+from metaknot.experiments.store import DEFAULT_STUDY, StoreError, Study, load_study
 
 __all__ = ["METRICS", "Comparison", "ReportError", "prepare"]
 
@@ -111,12 +111,36 @@ def prepare(study: Study | str | Path) -> Comparison:
             f"{study.path}: {int(duplicated.sum())} runs share instance, budget, method and "
             "seed but differ in their settings; give the variants different labels "
             "(label=... in the configuration) to compare them")
+    mixture = _mixture_note(ok, study.name)
+    if mixture:
+        notes.append(mixture)
     instances = _order(ok["instance"], ok["data"])
     methods = sorted(ok["method"].unique(), key=lambda m: (_mean_rank(ok, m), m))
     budgets = sorted(int(b) for b in ok["budget"].unique())
     trace = study.trace.merge(ok[["run_id", "instance", "method", "budget"]], on="run_id")
     return Comparison(study=study, runs=ok.reset_index(drop=True), trace=trace,
                       instances=instances, methods=methods, budgets=budgets, notes=notes)
+
+
+def _mixture_note(runs: pd.DataFrame, study_name: str) -> str | None:
+    """Why the runs may not be one experiment (``None`` if nothing suggests it): the methods
+    were not all run on the same instances and budgets, or the study is the default one
+    (every run made without ``study=``) and spans several instances or budgets."""
+    cells = runs.groupby("method")[["instance", "budget"]].apply(
+        lambda group: frozenset(zip(group["instance"], group["budget"], strict=True)))
+    n_cells = len(frozenset().union(*cells))
+    notes = []
+    if cells.nunique() > 1:
+        counts = ", ".join(f"{method} {len(c)}" for method, c in cells.items())
+        notes.append(f"Not every method ran on each of the {n_cells} instance and budget pairs "
+                     f"({counts}): the study may mix separate experiments (or a sweep is "
+                     "unfinished); compare methods only where they share runs.")
+    if study_name == DEFAULT_STUDY and n_cells > 1:
+        notes.append(f"This is the default study, which every run made without study= shares: "
+                     f"its {len(cells)} method(s) on {runs['instance'].nunique()} instance(s) "
+                     f"and {runs['budget'].nunique()} budget(s) may come from unrelated "
+                     "experiments; give study=NAME to keep an experiment apart.")
+    return " ".join(notes) or None
 
 
 def _methods(runs: pd.DataFrame) -> pd.Series:

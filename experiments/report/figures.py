@@ -1,8 +1,9 @@
 """The report's figures (matplotlib / seaborn), each a function returning a ``Figure``.
 
 Convergence and fixed-target views read the stored trace (its log-spaced checkpoints are shared
-by all runs, so no interpolation is needed); fitted curves are rebuilt from each run's stored
-best candidate, never re-optimised.
+by all runs, so no interpolation is needed); fitted curves are the splines the records store
+(a record written before records stored its spline: its stored best candidate decoded by its
+rebuilt problem), never re-optimised.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from .tables import FriedmanResult
 
 __all__ = ["budget_figure", "cd_diagram", "convergence_figure", "ecdf_figure",
            "fitted_curves_figure", "front_figure", "palette", "rebuild_problem",
-           "target_hits"]
+           "run_curve", "run_fit", "target_hits"]
 
 TARGETS = 10
 
@@ -127,13 +128,34 @@ def ecdf_figure(comparison: Comparison, instances: list[str], title: str) -> plt
     return fig
 
 
-def rebuild_problem(run: pd.Series) -> Any:
-    """The run's problem, rebuilt from its stored configuration (same data, same noise)."""
+def _spec(run: pd.Series) -> Any:
+    """The run's spec, from its stored configuration."""
     from metaknot.experiments.spec import run_spec
 
     config = json.loads(run["config"])
-    spec = run_spec({**config, "study": "report", "results_dir": "."}, check_build=False)
-    return spec.build_problem()
+    return run_spec({**config, "study": "report", "results_dir": "."}, check_build=False)
+
+
+def run_curve(run: pd.Series) -> Any:
+    """The run's data as its curve model (same points, same noise, same parameters)."""
+    return _spec(run).build_curve()
+
+
+def rebuild_problem(run: pd.Series) -> Any:
+    """The run's problem, rebuilt from its stored configuration (same data, same noise)."""
+    return _spec(run).build_problem()
+
+
+def run_fit(run: pd.Series, curve: Any) -> Any:
+    """The run's fitted spline on its data (``curve``): the spline its record stores, or, for
+    a record written before records stored it, the decode of its stored candidate by its
+    rebuilt problem."""
+    from metaknot.experiments.store import stored_fit
+
+    fit = stored_fit(run, curve.params, curve.points)
+    if fit is None:
+        fit = rebuild_problem(run).decode(np.asarray(run["best_x"])).fit
+    return fit
 
 
 def _median_run(runs: pd.DataFrame) -> pd.Series:
@@ -155,11 +177,10 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
         run = _median_run(runs[runs.method == method])
         projection = "3d" if dim == 3 else None
         ax = fig.add_subplot(rows, columns, k + 1, projection=projection)
-        problem = rebuild_problem(run)
-        solution = problem.decode(np.asarray(run["best_x"]))
-        fit = solution.fit
-        points = problem.points
-        u = np.linspace(*problem.curve.knot_bounds, 1500)  # a closed curve's whole period
+        data = run_curve(run)
+        fit = run_fit(run, data)
+        points = data.points
+        u = np.linspace(*data.knot_bounds, 1500)  # a closed curve's whole period
         curve = fit.spline(u)
         knots = fit.spline(fit.interior_knots) if len(fit.interior_knots) else np.empty(
             (0, points.shape[1]))
@@ -167,7 +188,7 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
             return tuple(a[:, i] for i in range(min(dim, 3)))
 
         if dim == 1:
-            ax.plot(problem.params, points[:, 0], ".", color="0.6", ms=3, label="data")
+            ax.plot(data.params, points[:, 0], ".", color="0.6", ms=3, label="data")
             ax.plot(u, curve[:, 0], color=colours[method], lw=1.2, label="fit")
             ax.plot(fit.interior_knots, knots[:, 0], "x", color="crimson", ms=5, label="knots")
         else:
@@ -186,12 +207,13 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
     return fig
 
 
-def fitpack_front(problem: Any, n: int = 40) -> pd.DataFrame:
-    """FITPACK's own smoothing fits (``splprep``) over ``n`` smoothing factors: control points
-    and RMSE (one row per control-point count, the best RMSE)."""
+def fitpack_front(data: Any, n: int = 40) -> pd.DataFrame:
+    """FITPACK's own smoothing fits (``splprep``) of ``data`` (a run's curve model)
+    over ``n`` smoothing factors: control points and RMSE (one row per control-point count,
+    the best RMSE)."""
     from metaknot.bspline import fitpack
 
-    columns = fitpack.front(problem.params, problem.points, problem.degree, n)
+    columns = fitpack.front(data.params, data.points, data.degree, n)
     return pd.DataFrame({"n_control_points": columns["n_control_points"],
                          "rmse": columns["rmse"]})
 
@@ -202,8 +224,7 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
     runs = comparison.runs[comparison.runs.instance == instance]
     colours = palette(comparison)
     fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
-    problem = rebuild_problem(runs.sort_values("seed").iloc[0])
-    front = fitpack_front(problem)
+    front = fitpack_front(run_curve(runs.sort_values("seed").iloc[0]))
     ax.plot(front.n_control_points, front.rmse, "-", color="0.3", lw=1.2, marker=".",
             label="FITPACK (splprep) front")
     has_fronts = "front" in runs and runs["front"].map(lambda v: isinstance(v, str)).any()

@@ -43,8 +43,10 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
           f"{len(spec.train_seeds)} seeds, {spec.budget:,} evaluations per run; storage "
           f"{storage_description(spec)}", flush=True)
     references(spec, study)
+    before = len(study.get_trials(deepcopy=False))
     for line in fail_trials_of_dead_workers(study, run_workers(spec, progress=progress)):
         print(line, flush=True)
+    print(trials_added(spec, study, before), flush=True)
     try:
         best = study.best_trial
     except ValueError:
@@ -67,6 +69,19 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     print(f"run it: {outputs.run_command(written['best_config'])}")
     print(f"report: {written['report']}")
     return {**written, "best_value": best.value, "best_params": best.params}
+
+
+def trials_added(spec: TuneSpec, study: Any, before: int) -> str:
+    """The line saying how many trials the study got since it held ``before`` (by their
+    state: complete, pruned, fail, ...) and how many it holds now."""
+    from collections import Counter
+
+    trials = study.get_trials(deepcopy=False)
+    states = Counter(trial.state.name.lower() for trial in trials[before:])
+    added = len(trials) - before
+    detail = ", ".join(f"{n} {state}" for state, n in sorted(states.items()))
+    what = f"added {added} trial{'s' * (added != 1)} ({detail})" if added else "added no trials"
+    return f"tune {spec.study}: {what}; the study holds {len(trials)}"
 
 
 def task(cfg: Any) -> None:
