@@ -2,12 +2,12 @@
 
 Single run::
 
-    metaknot run algorithm=ga problem=vivaldi seed=3
+    metaknot run optimizer=ga problem=vivaldi seed=3
 
 Sweep (Hydra multirun; the study sweeper validates every job first, skips the runs already
-stored and the algorithm/encoding pairs that cannot work, and shows a bar over the jobs)::
+stored and the optimizer/encoding pairs that cannot work, and shows a bar over the jobs)::
 
-    metaknot run -m algorithm=dolphin,ga problem=archimedean,vivaldi seed='range(0,30)'
+    metaknot run -m optimizer=dolphin,ga problem=archimedean,vivaldi seed='range(0,30)'
     metaknot run -m experiment=seed_paper launcher=joblib
 """
 
@@ -49,12 +49,12 @@ def register_hydra_plugins() -> None:
 
 def register_plugin_configs() -> None:
     """Give every registered optimizer without a YAML of its own (entry-point plugins) a
-    config ``algorithm=<name>`` built from its signature, so it runs like a built-in."""
+    config ``optimizer=<name>`` built from its signature, so it runs like a built-in."""
     from hydra.core.config_store import ConfigStore
 
     from metaknot.registry import available_optimizers
 
-    shipped = {p.stem for p in (CONFIG_DIR / "algorithm").glob("*.yaml")}
+    shipped = {p.stem for p in (CONFIG_DIR / "optimizer").glob("*.yaml")}
     store = ConfigStore.instance()
     for name in available_optimizers():
         if name not in shipped:
@@ -62,7 +62,7 @@ def register_plugin_configs() -> None:
                 node = algorithm_defaults(name)
             except ConfigError:
                 continue
-            store.store(group="algorithm", name=name, node=node, provider="metaknot")
+            store.store(group="optimizer", name=name, node=node, provider="metaknot")
 
 
 def _in_multirun() -> bool:
@@ -168,7 +168,7 @@ def _failed_record(spec: RunSpec) -> dict[str, Any]:
     """The settings of a run that failed before anything was evaluated."""
     problem, encoding = spec.config["problem"], spec.config["encoding"]
     objective = dict(spec.config["objective"])
-    params = {f"algorithm.{k}": v for k, v in spec.config["algorithm"].items() if k != "_name_"}
+    params = {f"optimizer.{k}": v for k, v in spec.config["optimizer"].items() if k != "_name_"}
     problem_name, kind = ENCODINGS[encoding["kind"]]
     return {
         "problem": problem_name, "encoding": kind,
@@ -176,7 +176,7 @@ def _failed_record(spec: RunSpec) -> dict[str, Any]:
         "parameterization": problem["parameterization"],
         "objective": objective.pop("name"),
         **{f"objective.{k}": v for k, v in objective.items()},
-        "algorithm": spec.algorithm, **params, "seed": spec.seed, "budget": spec.budget,
+        "optimizer": spec.optimizer, **params, "seed": spec.seed, "budget": spec.budget,
         "n_evaluations": 0, "status": "failed",
     }
 

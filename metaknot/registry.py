@@ -119,7 +119,7 @@ def get_optimizer(name: str, **kwargs: Any) -> Optimizer:
     """Instantiate a registered optimizer by name with the given hyperparameters.
 
     A name ``"family:variant"`` selects a variant of an optimizer that declares a
-    ``variant_parameter`` (``"nevergrad:NGOpt"`` is ``nevergrad`` with ``optimizer="NGOpt"``).
+    ``variant_parameter`` (``"nevergrad:NGOpt"`` is ``nevergrad`` with ``variant="NGOpt"``).
     """
     return _lookup("optimizer", name)(**kwargs)
 

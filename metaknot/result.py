@@ -119,7 +119,7 @@ class RunResult:
 
         Problem settings under their own names (``data``, ``data_fingerprint``, ``noise``,
         ``degree``, ``parameterization``, ``encoding``, ``n_knots``, ...), ``objective`` (its
-        name) with ``objective.<option>``, ``algorithm`` with ``algorithm.<hyperparameter>``,
+        name) with ``objective.<option>``, ``optimizer`` with ``optimizer.<hyperparameter>``,
         the seed (``seed``, ``seed_spawn_key``), budget and evaluations used, ``best_f`` and the
         fit metrics, the timings, ``external_fits``, ``delta_evaluations``, the audit's
         ``audited_fits`` and ``accounted_fits``, ``status`` / ``error``. A two-objective run
@@ -127,7 +127,7 @@ class RunResult:
         as JSON (``metaknot.experiments.Study.fronts`` makes a long table of them). The study
         layer adds the run id, study name, versions and time stamp.
         """
-        params = {f"algorithm.{k}": _plain(v) for k, v in self.optimizer_params.items()}
+        params = {f"optimizer.{k}": _plain(v) for k, v in self.optimizer_params.items()}
         front = {} if self.front is None else {
             "hypervolume": 1.0 - float(self.best_f),
             "front_size": len(self.front["objective_0"]),
@@ -136,7 +136,7 @@ class RunResult:
         return {
             **{k: _plain(v) for k, v in self.problem_info.items()},
             "problem": self.problem,
-            "algorithm": self.optimizer,
+            "optimizer": self.optimizer,
             **params,
             "seed": self.seed,
             "seed_spawn_key": ",".join(str(k) for k in self.seed_spawn_key),

@@ -101,7 +101,7 @@ def test_ngopt_surrogate_failure_falls_back_and_the_process_exits():
 
 @pytest.mark.parametrize("algorithm", ["GA", "DE", "BRKGA"])
 def test_pymoo_variants_by_name_and_reproducible(algorithm):
-    assert mk.get_optimizer(f"pymoo:{algorithm}").algorithm == algorithm
+    assert mk.get_optimizer(f"pymoo:{algorithm}").variant == algorithm
     problem = KnotIndices(SPIRAL, n_knots=6)
     runs = [mk.minimize(problem, f"pymoo:{algorithm}", budget=300, seed=4) for _ in range(2)]
     np.testing.assert_array_equal(runs[0].best_x, runs[1].best_x)

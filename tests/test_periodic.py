@@ -261,7 +261,7 @@ def test_a_closed_study_from_the_command_line(tmp_path) -> None:
 
     done = subprocess.run(
         [sys.executable, "-m", "metaknot.cli", "run", "-m", "problem=epitrochoid",
-         "problem.closed=true,false", "algorithm=averaging", "budget=400", "seed=0",
+         "problem.closed=true,false", "optimizer=averaging", "budget=400", "seed=0",
          f"results_dir={tmp_path}", "study=closed"],
         capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr

@@ -226,8 +226,8 @@ def test_record_is_flat_and_complete():
     assert record["data_fingerprint"] == data.fingerprint != SPIRAL.fingerprint
     assert record["density"] == 0.3 and record["degree"] == 3
     assert record["parameterization"] == "centripetal"
-    assert record["algorithm"] == "ga" and record["algorithm.population"] == 20
-    assert record["algorithm.crossover"] == "uniform"
+    assert record["optimizer"] == "ga" and record["optimizer.population"] == 20
+    assert record["optimizer.crossover"] == "uniform"
     assert record["budget"] == record["n_evaluations"] == 100
     fit = result.solution.fit
     assert record["rmse"] == pytest.approx(fit.rmse)
