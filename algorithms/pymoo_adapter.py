@@ -147,7 +147,7 @@ class PymooOptimizer(Optimizer):
 
         problem = self.problem
         if problem.encoding.kind != "binary":
-            raise ValueError("initial='averaging' needs a 0/1 mask problem (knot_selection)")
+            raise ValueError("initial='averaging' needs a 0/1 mask problem (mask)")
         top = problem.data.n_points - problem.degree - 1
         counts = np.unique(np.linspace(1, top, self.population // 2).round().astype(int))
         masks = [knots_to_candidate(problem, averaging_knots(problem.params, k, problem.degree))

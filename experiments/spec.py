@@ -32,8 +32,8 @@ __all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "plain_c
            "run_spec"]
 
 #: Encoding name in the configuration -> (problem's registry name, encoding kind).
-ENCODINGS = {"mask": ("knot_selection", "binary"), "indices": ("knot_indices", "integer"),
-             "free": ("free_knots", "continuous")}
+ENCODINGS = {"mask": ("mask", "binary"), "indices": ("indices", "integer"),
+             "free": ("free", "continuous")}
 #: Top-level keys that define a run (the run id hashes them, normalised).
 RUN_KEYS = ("problem", "encoding", "objective", "optimizer", "budget", "seed",
             "checkpoints_per_decade")

@@ -3,7 +3,9 @@
 metaknot says *optimizer* for the method that searches (``minimize(optimizer=)``, the
 ``metaknot run`` config group ``optimizer=``, the record field ``optimizer``), where configs and
 records once said *algorithm*; the method of a library an adapter runs (nlopt's ``LN_BOBYQA``,
-pymoo's ``GA``, nevergrad's ``NGOpt``) is the optimizer's ``variant``. The old spellings keep
+pymoo's ``GA``, nevergrad's ``NGOpt``) is the optimizer's ``variant``. A knot encoding is named
+as in the configs, ``mask``, ``indices`` or ``free`` (the registered problems were
+``knot_selection``, ``knot_indices``, ``free_knots``). The old spellings keep
 working: command lines, presets and tuning spaces are translated with a one-line note on stderr
 (once per spelling), Python keywords with a :class:`DeprecationWarning`, and stored records
 on read. Run ids hash the old names (:func:`legacy_config`), so a stored run keeps its id.
@@ -13,14 +15,16 @@ See ``docs/guide/glossary.md``.
 from __future__ import annotations
 
 import functools
+import os
 import re
 import sys
 import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
-__all__ = ["OPTIMIZER_KEY", "OPTIMIZER_PARAMETERS", "legacy_config", "new_config",
-           "new_hyperparameters", "new_overrides", "new_record", "note", "renamed_parameters"]
+__all__ = ["OPTIMIZER_KEY", "OPTIMIZER_PARAMETERS", "PROBLEM_NAMES", "deprecated",
+           "legacy_config", "new_config", "new_hyperparameters", "new_overrides",
+           "new_problem_name", "new_record", "note", "renamed_parameters"]
 
 #: The optimizer's config group and record field (new <- old).
 OPTIMIZER_KEY = ("optimizer", "algorithm")
@@ -31,7 +35,30 @@ OPTIMIZER_PARAMETERS: dict[str, dict[str, str]] = {
     "nevergrad": {"optimizer": "variant"},
     "free_front": {"local_algorithm": "local_variant"},
 }
+#: Registered knot problems (old -> new): named by their encoding, as in the configs.
+PROBLEM_NAMES = {"knot_selection": "mask", "knot_indices": "indices", "free_knots": "free"}
 _NOTED: set[str] = set()
+
+
+def deprecated(message: str) -> None:
+    """A :class:`DeprecationWarning` attributed to the first caller outside metaknot's own
+    folders (the line the user wrote, however deep inside metaknot the old name arrived)."""
+    roots = tuple(os.path.dirname(module.__file__) + os.sep
+                  for name, module in list(sys.modules.items())
+                  if name.split(".")[0] == "metaknot" and name.count(".") <= 1
+                  and getattr(module, "__file__", None))
+    frame, level = sys._getframe(1), 2
+    while frame is not None and frame.f_code.co_filename.startswith(roots):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, DeprecationWarning, stacklevel=level)
+
+
+def new_problem_name(name: str) -> str:
+    """The current name of a registered problem (a former one warns)."""
+    if name in PROBLEM_NAMES:
+        deprecated(f"problem {name!r} is deprecated, use {PROBLEM_NAMES[name]!r}")
+        return PROBLEM_NAMES[name]
+    return name
 
 
 def note(old: str, new: str, where: str = "") -> None:
@@ -51,8 +78,7 @@ def renamed_parameters(optimizer: str) -> Callable[[Callable], Callable]:
         @functools.wraps(init)  # inspect.signature sees the new names only
         def wrapper(self: Any, *args: Any, **kwargs: Any) -> None:
             for old in renames.keys() & kwargs.keys():
-                warnings.warn(f"{optimizer}: {old}= is deprecated, use {renames[old]}=",
-                              DeprecationWarning, stacklevel=2)
+                deprecated(f"{optimizer}: {old}= is deprecated, use {renames[old]}=")
                 kwargs[renames[old]] = kwargs.pop(old)
             init(self, *args, **kwargs)
         return wrapper
@@ -104,8 +130,10 @@ def legacy_config(config: Mapping[str, Any]) -> dict[str, Any]:
 
 def new_record(row: dict[str, Any]) -> dict[str, Any]:
     """A stored record's fields under the current names (``algorithm``, ``algorithm.<x>``
-    become ``optimizer``, ``optimizer.<x>``)."""
+    become ``optimizer``, ``optimizer.<x>``; ``problem`` ``knot_selection`` becomes ``mask``)."""
     new, old = OPTIMIZER_KEY
+    if row.get("problem") in PROBLEM_NAMES:
+        row = {**row, "problem": PROBLEM_NAMES[row["problem"]]}
     if old not in row:
         return row
     renames = OPTIMIZER_PARAMETERS.get(row[old], {})

@@ -73,10 +73,10 @@ def test_installed_plugin_runs_by_name(installed: Path) -> None:
         import json
         import metaknot as mk
         names = mk.available_optimizers()
-        runs = [mk.minimize("knot_selection", "hill_climber", budget=300, seed=4,
+        runs = [mk.minimize("mask", "hill_climber", budget=300, seed=4,
                             problem_kwargs={"points": "archimedean"},
                             optimizer_kwargs={"neighbours": 25}) for _ in range(2)]
-        baseline = mk.minimize("knot_selection", "random_search", budget=300, seed=4,
+        baseline = mk.minimize("mask", "random_search", budget=300, seed=4,
                                problem_kwargs={"points": "archimedean"})
         print(json.dumps({
             "listed": "hill_climber" in names,

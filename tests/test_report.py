@@ -87,7 +87,7 @@ def _run(method: str | None, seed: int, budget: int, best_f: float, *, data="arc
     finite = best_f if np.isfinite(best_f) else np.nan
     record = {
         "study": "s", "label": method, "timestamp": f"2024-01-01T00:00:{seed % 60:02d}+00:00",
-        "problem": "knot_selection", "encoding": "binary", "data": data, "noise": 0.0,
+        "problem": "mask", "encoding": "binary", "data": data, "noise": 0.0,
         "degree": 3, "parameterization": "centripetal", "objective": "paper",
         "objective.error_floor": 1e-5, "optimizer": algorithm, "seed": seed, "budget": budget,
         "n_evaluations": budget, "best_f": best_f, "rmse": finite * 1e-3,

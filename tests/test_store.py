@@ -366,7 +366,7 @@ def test_a_run_that_crashes_before_evaluating_is_stored_with_its_settings(
     assert row["status"] == "failed" and row["error"] == "RuntimeError: optimizer exploded"
     assert row["n_evaluations"] == 0 and row["best_x"] is None
     assert (row["problem"], row["encoding"], row["data"]) == (
-        "knot_selection", "binary", "archimedean")
+        "mask", "binary", "archimedean")
     assert (row["optimizer"], row["optimizer.crash_at"], row["optimizer.batch"]) == (
         "test_crash", 1, 10)
     assert row["objective"] == "paper" and row["objective.error_floor"] == 1e-5

@@ -136,3 +136,23 @@ def test_a_tuning_study_in_the_former_spelling_keeps_its_identity(tmp_path, caps
     assert current.optimizer == former.optimizer == "ga"
     assert current.identity() == former.identity()
     assert current.identity()["tune"]["algorithm"] == "ga"  # as studies begun before stored it
+
+
+@pytest.mark.parametrize(("old", "new"), sorted(compat.PROBLEM_NAMES.items()))
+def test_a_former_problem_name_warns_at_the_line_that_names_it(old, new):
+    import metaknot as mk
+
+    options = {"points": "archimedean", **({} if new == "mask" else {"n_knots": 4})}
+    assert mk.get_problem(new, **options).name == new
+    with pytest.warns(DeprecationWarning, match=f"problem {old!r} is deprecated, use {new!r}") \
+            as caught:
+        problem = mk.get_problem(old, **options)
+    assert problem.name == new and caught[0].filename == __file__
+    with pytest.warns(DeprecationWarning) as caught:  # from deep inside minimize, too
+        result = mk.minimize(old, "random_search", budget=20, seed=0, problem_kwargs=options)
+    assert result.problem == new and caught[0].filename == __file__
+
+
+def test_stored_records_name_their_problem_by_its_encoding():
+    runs = load_study(PREVIOUS).runs
+    assert set(runs.problem) == {"mask"} and set(runs.encoding) == {"binary"}

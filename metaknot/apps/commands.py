@@ -77,7 +77,7 @@ def demo(args: argparse.Namespace) -> int:
         data = get_curve(name)
         for optimizer in args.optimizers:
             result = minimize(
-                "knot_selection", optimizer, budget=args.budget, seed=args.seed,
+                "mask", optimizer, budget=args.budget, seed=args.seed,
                 problem_kwargs={"points": data, "degree": args.degree, "objective": "paper"},
                 progress=not args.quiet,
             )
