@@ -22,8 +22,8 @@ import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
-__all__ = ["OPTIMIZER_KEY", "OPTIMIZER_PARAMETERS", "PROBLEM_NAMES", "deprecated",
-           "legacy_config", "new_config", "new_hyperparameters", "new_overrides",
+__all__ = ["KEYWORDS", "OPTIMIZER_KEY", "OPTIMIZER_PARAMETERS", "PROBLEM_NAMES", "Metrics",
+           "deprecated", "legacy_config", "new_config", "new_hyperparameters", "new_overrides",
            "new_problem_name", "new_record", "note", "renamed_parameters"]
 
 #: The optimizer's config group and record field (new <- old).
@@ -35,6 +35,9 @@ OPTIMIZER_PARAMETERS: dict[str, dict[str, str]] = {
     "nevergrad": {"optimizer": "variant"},
     "free_front": {"local_algorithm": "local_variant"},
 }
+#: Keywords of public functions renamed (function -> old -> new): a tolerance is ``tolerance``.
+KEYWORDS: dict[str, dict[str, str]] = {"fit": {"tol": "tolerance"},
+                                       "fewest_within": {"tol": "tolerance"}}
 #: Registered knot problems (old -> new): named by their encoding, as in the configs.
 PROBLEM_NAMES = {"knot_selection": "mask", "knot_indices": "indices", "free_knots": "free"}
 _NOTED: set[str] = set()
@@ -53,6 +56,15 @@ def deprecated(message: str) -> None:
     warnings.warn(message, DeprecationWarning, stacklevel=level)
 
 
+class Metrics(dict):
+    """Metrics by name: a dictionary wherever metaknot gives metrics (``fit.metrics``,
+    ``result.metrics``); calling it, as when some were methods, still works with a warning."""
+
+    def __call__(self) -> Metrics:
+        deprecated("metrics() is deprecated: metrics is a dictionary, write .metrics")
+        return self
+
+
 def new_problem_name(name: str) -> str:
     """The current name of a registered problem (a former one warns)."""
     if name in PROBLEM_NAMES:
@@ -69,18 +81,19 @@ def note(old: str, new: str, where: str = "") -> None:
         print(f"metaknot: {where}{old!r} is deprecated, write {new!r}", file=sys.stderr)
 
 
-def renamed_parameters(optimizer: str) -> Callable[[Callable], Callable]:
-    """Decorate the ``__init__`` of ``optimizer`` so that its old keywords
-    (:data:`OPTIMIZER_PARAMETERS`) still work, with a :class:`DeprecationWarning`."""
-    renames = OPTIMIZER_PARAMETERS[optimizer]
+def renamed_parameters(name: str, table: Mapping[str, Mapping[str, str]] = OPTIMIZER_PARAMETERS
+                       ) -> Callable[[Callable], Callable]:
+    """Decorate the ``__init__`` of the optimizer ``name`` (or the function ``name`` of
+    :data:`KEYWORDS`) so that its old keywords still work, with a :class:`DeprecationWarning`."""
+    renames = table[name]
 
-    def decorate(init: Callable) -> Callable:
-        @functools.wraps(init)  # inspect.signature sees the new names only
-        def wrapper(self: Any, *args: Any, **kwargs: Any) -> None:
+    def decorate(function: Callable) -> Callable:
+        @functools.wraps(function)  # inspect.signature sees the new names only
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
             for old in renames.keys() & kwargs.keys():
-                deprecated(f"{optimizer}: {old}= is deprecated, use {renames[old]}=")
+                deprecated(f"{name}: {old}= is deprecated, use {renames[old]}=")
                 kwargs[renames[old]] = kwargs.pop(old)
-            init(self, *args, **kwargs)
+            return function(*args, **kwargs)
         return wrapper
     return decorate
 

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from .compat import Metrics
 from .progress import Trace
 
 __all__ = ["RunResult"]
@@ -98,12 +100,13 @@ class RunResult:
             rows[-1] = True
         return rows
 
-    def metrics(self) -> dict[str, float]:
-        """The solution's metrics: its ``metrics()``, with NaN for each of the problem's
+    @property
+    def metrics(self) -> Metrics:
+        """The solution's metrics (its ``metrics``), with NaN for each of the problem's
         ``metric_names`` it lacks (all of them if there is no solution)."""
-        found = getattr(self.solution, "metrics", None)
-        values = found() if callable(found) else {}
-        return {**dict.fromkeys(self.metric_names, np.nan), **values}
+        found = getattr(self.solution, "metrics", None) or {}
+        values = found if isinstance(found, Mapping) else found()  # a plugin's method
+        return Metrics({**dict.fromkeys(self.metric_names, np.nan), **values})
 
     def summary(self) -> dict[str, Any]:
         """Flat dictionary of the scalar outcome: names, seed, budget, ``best_f`` (the objective
@@ -111,7 +114,7 @@ class RunResult:
         return {
             "problem": self.problem, "optimizer": self.optimizer, "seed": self.seed,
             "budget": self.budget, "n_evaluations": self.n_evaluations,
-            "best_f": self.best_f, "elapsed": self.elapsed, **self.metrics(),
+            "best_f": self.best_f, "elapsed": self.elapsed, **self.metrics,
         }
 
     def record(self) -> dict[str, Any]:
@@ -143,7 +146,7 @@ class RunResult:
             "budget": self.budget,
             "n_evaluations": self.n_evaluations,
             "best_f": float(self.best_f),
-            **self.metrics(),
+            **self.metrics,
             "elapsed_seconds": float(self.elapsed),
             **{k: float(v) for k, v in self.timings.items()},
             "external_fits": int(self.external_fits),

@@ -80,9 +80,10 @@ class KnotSolution:
     objective_value: float | np.ndarray
     fit: CurveFit
 
+    @property
     def metrics(self) -> dict[str, float]:
         """The fit's metrics (control points, SSE, RMSE, Euclidean distance, max deviation)."""
-        return self.fit.metrics()
+        return self.fit.metrics
 
 
 def _as_point_set(points: PointSet | str | ArrayLike) -> PointSet:

@@ -138,7 +138,7 @@ def test_run_record_carries_a_front_that_dominates_everything_evaluated(optimize
     assert json.loads(record["front"]) == front
     # the solution is the knee: the member nearest the ideal point
     knee = int(np.argmin(np.hypot(F[:, 0], F[:, 1])))
-    assert result.metrics()["n_control_points"] == front["n_control_points"][knee]
+    assert result.metrics["n_control_points"] == front["n_control_points"][knee]
 
 
 @pytest.mark.parametrize("optimizer", ["ga", "dolphin", "one_plus_one", "local_search", "pymoo:GA",

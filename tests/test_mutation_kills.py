@@ -142,7 +142,7 @@ ACCEPTED = [
 
 @pytest.mark.parametrize(("cls", "kwargs"), ACCEPTED)
 def test_boundary_settings_are_accepted_and_kept(cls, kwargs):
-    params = cls(**kwargs).params()
+    params = cls(**kwargs).hyperparameters()
     for key, value in kwargs.items():
         assert params[key] == value and type(params[key]) is type(value), key
 
@@ -166,7 +166,7 @@ DEFAULTS = {
 
 @pytest.mark.parametrize("name", sorted(DEFAULTS))
 def test_defaults_are_the_documented_ones(name):
-    assert mk.get_optimizer(name).params() == DEFAULTS[name]
+    assert mk.get_optimizer(name).hyperparameters() == DEFAULTS[name]
 
 
 # --------------------------------------------------------------------------------------------

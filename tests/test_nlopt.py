@@ -262,7 +262,8 @@ def test_callbacks_see_every_evaluation_and_can_stop_the_run():
 
 def test_registered_by_name():
     optimizer = mk.get_optimizer("nlopt", variant="LN_SBPLX")
-    assert isinstance(optimizer, NloptKnots) and optimizer.params()["variant"] == "LN_SBPLX"
+    assert isinstance(optimizer, NloptKnots)
+    assert optimizer.hyperparameters()["variant"] == "LN_SBPLX"
     assert set(GLOBAL_ALGORITHMS) >= {"GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS"}
 
 

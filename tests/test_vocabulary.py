@@ -104,8 +104,8 @@ def test_a_former_keyword_of_an_optimizer_warns_where_it_is_written(cls, old, ne
     with pytest.warns(DeprecationWarning, match=f"{old}= is deprecated, use {new}=") as caught:
         optimizer = cls(**{old: value})
     assert caught[0].filename == __file__  # the warning points at the caller
-    assert getattr(optimizer, new) == value and optimizer.params()[new] == value
-    assert old not in optimizer.params()
+    assert getattr(optimizer, new) == value and optimizer.hyperparameters()[new] == value
+    assert old not in optimizer.hyperparameters()
 
 
 def test_a_stored_record_reads_under_the_current_names():
@@ -156,3 +156,54 @@ def test_a_former_problem_name_warns_at_the_line_that_names_it(old, new):
 def test_stored_records_name_their_problem_by_its_encoding():
     runs = load_study(PREVIOUS).runs
     assert set(runs.problem) == {"mask"} and set(runs.encoding) == {"binary"}
+
+
+def test_hyperparameters_and_the_former_params():
+    optimizer = NloptKnots(variant="LN_SBPLX", restarts=2)
+    current = optimizer.hyperparameters()
+    assert current["variant"] == "LN_SBPLX" and current["restarts"] == 2
+    with pytest.warns(DeprecationWarning, match=r"use hyperparameters\(\)") as caught:
+        assert optimizer.params() == current
+    assert caught[0].filename == __file__
+
+    class OldStyle(NloptKnots):  # a plugin written for the former name
+        def params(self):
+            return {"steps": 3}
+
+    assert OldStyle().hyperparameters() == {"steps": 3}
+
+
+def test_a_tolerance_is_tolerance_and_tol_still_works(tmp_path, capsys):
+    import numpy as np
+
+    import metaknot as mk
+    from metaknot.cli import main
+
+    x = np.linspace(0, 3, 60)
+    points = np.column_stack([x, np.sin(2 * x)])
+    current = mk.fit(points, tolerance=1e-3, method="removal")
+    with pytest.warns(DeprecationWarning, match="fit: tol= is deprecated, use tolerance=") \
+            as caught:
+        former = mk.fit(points, tol=1e-3, method="removal")
+    assert caught[0].filename == __file__
+    assert current.n_control_points == former.n_control_points
+    assert current.tolerance == former.tolerance == 1e-3
+    np.savetxt(tmp_path / "sine.csv", points, delimiter=",")
+    for option in ("--tolerance", "--tol"):
+        assert main(["fit", str(tmp_path / "sine.csv"), option, "1e-3", "--method", "removal",
+                     "--out", str(tmp_path / option.strip("-"))]) == 0
+        saved = json.loads((tmp_path / option.strip("-") / "fit.json").read_text())
+        assert saved["metrics"]["n_control_points"] == current.n_control_points
+
+
+def test_metrics_is_a_dictionary_everywhere_and_calling_it_still_works():
+    import metaknot as mk
+
+    result = mk.minimize("mask", "random_search", budget=50, seed=0,
+                         problem_kwargs={"points": "archimedean"})
+    for metrics in (result.metrics, result.solution.metrics, result.solution.fit.metrics):
+        assert isinstance(metrics, dict) and metrics["rmse"] == result.metrics["rmse"] > 0
+    with pytest.warns(DeprecationWarning, match="metrics is a dictionary") as caught:
+        assert result.solution.fit.metrics() == result.solution.fit.metrics
+    assert caught[0].filename == __file__
+    assert result.record()["rmse"] == result.metrics["rmse"]
