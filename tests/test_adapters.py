@@ -25,7 +25,7 @@ def test_a_missing_library_is_named(monkeypatch, name, module):
 
 
 def test_nevergrad_variants_by_name():
-    assert mk.get_optimizer("nevergrad:CMA").optimizer == "CMA"
+    assert mk.get_optimizer("nevergrad:CMA").variant == "CMA"
     assert mk.get_optimizer("nevergrad:DiscreteOnePlusOne", batch_size=4).batch_size == 4
     with pytest.raises(ValueError, match="did you mean"):
         mk.minimize(KnotSelection(SPIRAL), "nevergrad:DiscreteOnePlusOn", budget=10, seed=0)
