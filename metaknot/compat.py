@@ -15,7 +15,6 @@ See ``docs/guide/glossary.md``.
 from __future__ import annotations
 
 import functools
-import os
 import re
 import sys
 import warnings
@@ -45,13 +44,10 @@ _NOTED: set[str] = set()
 
 def deprecated(message: str) -> None:
     """A :class:`DeprecationWarning` attributed to the first caller outside metaknot's own
-    folders (the line the user wrote, however deep inside metaknot the old name arrived)."""
-    roots = tuple(os.path.dirname(module.__file__) + os.sep
-                  for name, module in list(sys.modules.items())
-                  if name.split(".")[0] == "metaknot" and name.count(".") <= 1
-                  and getattr(module, "__file__", None))
+    modules (the line the user wrote, however deep inside metaknot the old name arrived)."""
     frame, level = sys._getframe(1), 2
-    while frame is not None and frame.f_code.co_filename.startswith(roots):
+    while frame is not None and frame.f_globals.get("__name__", "").partition(".")[0] \
+            == "metaknot":
         frame, level = frame.f_back, level + 1
     warnings.warn(message, DeprecationWarning, stacklevel=level)
 
