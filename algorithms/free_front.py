@@ -39,6 +39,7 @@ import numpy as np
 
 from metaknot.bspline import averaging_knots
 from metaknot.budget import BudgetExhausted, Evaluator
+from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 
@@ -55,7 +56,7 @@ class FreeKnotFront(Optimizer):
 
     Parameters
     ----------
-    local_algorithm
+    local_variant
         One of :data:`~metaknot.algorithms.nlopt_knots.LOCAL_ALGORITHMS`.
     initial_step
         Initial step of the local runs, in average knot spans (``1 / (K + 1)`` of the unit box).
@@ -74,13 +75,14 @@ class FreeKnotFront(Optimizer):
     encodings = ("continuous",)
     multi_objective = True  # each count's error is minimised; the archive keeps the front
 
-    def __init__(self, local_algorithm: str = "LN_BOBYQA", initial_step: float = 0.5,
+    @renamed_parameters("free_front")
+    def __init__(self, local_variant: str = "LN_BOBYQA", initial_step: float = 0.5,
                  perturbation: float = 0.1, min_gap: float = 1e-4,
                  density_exponent: float = 0.3, batch_size: int = 64) -> None:
-        if local_algorithm not in LOCAL_ALGORITHMS:
-            raise ValueError(f"local_algorithm must be one of {', '.join(LOCAL_ALGORITHMS)}; "
-                             f"got {local_algorithm!r}")
-        self.local_algorithm = local_algorithm
+        if local_variant not in LOCAL_ALGORITHMS:
+            raise ValueError(f"local_variant must be one of {', '.join(LOCAL_ALGORITHMS)}; "
+                             f"got {local_variant!r}")
+        self.local_variant = local_variant
         self.initial_step = check_param("initial_step", initial_step, low=0, low_open=True)
         self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
         self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)
@@ -206,7 +208,7 @@ class FreeKnotFront(Optimizer):
         returns."""
         caught: list[BaseException] = []
         cache: dict[bytes, float] = {}
-        opt = nlopt.opt(getattr(nlopt, self.local_algorithm), k)
+        opt = nlopt.opt(getattr(nlopt, self.local_variant), k)
 
         def objective(y: np.ndarray, grad: np.ndarray) -> float:
             if caught:

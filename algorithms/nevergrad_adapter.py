@@ -1,5 +1,5 @@
 """Any optimizer of nevergrad's registry on every knot problem (``nevergrad``, or by name as
-``nevergrad:<optimizer>``, e.g. ``nevergrad:NGOpt``, ``nevergrad:DiscreteOnePlusOne``,
+``nevergrad:<variant>``, e.g. ``nevergrad:NGOpt``, ``nevergrad:DiscreteOnePlusOne``,
 ``nevergrad:CMA``). nevergrad is an optional dependency (``pip install metaknot[adapters]``).
 
 The candidate is a nevergrad ``Array``: 0/1 with integer casting for masks, integers in the
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
@@ -58,7 +59,7 @@ class NevergradOptimizer(Optimizer):
 
     Parameters
     ----------
-    optimizer
+    variant
         Name in ``nevergrad.optimizers.registry`` (``NGOpt``: nevergrad's own choice).
     batch_size
         Candidates asked and evaluated together (nevergrad's ``num_workers``).
@@ -66,21 +67,22 @@ class NevergradOptimizer(Optimizer):
 
     encodings = ("binary", "integer", "continuous")
     #: ``nevergrad:<name>`` in the registry sets this parameter.
-    variant_parameter = "optimizer"
+    variant_parameter = "variant"
 
-    def __init__(self, optimizer: str = "NGOpt", batch_size: int = 16) -> None:
-        if not isinstance(optimizer, str) or not optimizer:
-            raise ValueError(f"optimizer must be a nevergrad registry name; got {optimizer!r}")
-        self.optimizer = optimizer
+    @renamed_parameters("nevergrad")
+    def __init__(self, variant: str = "NGOpt", batch_size: int = 16) -> None:
+        if not isinstance(variant, str) or not variant:
+            raise ValueError(f"variant must be a nevergrad registry name; got {variant!r}")
+        self.variant = variant
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         ng = _require_nevergrad()
-        if self.optimizer not in ng.optimizers.registry:
+        if self.variant not in ng.optimizers.registry:
             import difflib
 
-            close = difflib.get_close_matches(self.optimizer, list(ng.optimizers.registry), 3)
-            raise ValueError(f"nevergrad has no optimizer {self.optimizer!r}"
+            close = difflib.get_close_matches(self.variant, list(ng.optimizers.registry), 3)
+            raise ValueError(f"nevergrad has no optimizer {self.variant!r}"
                              + (f"; did you mean {', '.join(close)}?" if close else ""))
         refuse_variable_count(problem, "nevergrad")
         super().setup(problem, rng)
@@ -96,7 +98,7 @@ class NevergradOptimizer(Optimizer):
             parametrization.set_integer_casting()
         parametrization.random_state.seed(int(rng.integers(2**31)))
         budget = getattr(problem, "budget", None)
-        self.ng = ng.optimizers.registry[self.optimizer](
+        self.ng = ng.optimizers.registry[self.variant](
             parametrization=parametrization, budget=budget, num_workers=self.batch_size)
         self._asked: list = []
         self.penalty = FinitePenalty()

@@ -27,6 +27,7 @@ import numpy as np
 
 from metaknot.bspline import averaging_knots
 from metaknot.budget import BudgetExhausted, Evaluator
+from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problems import FreeKnots, FreeKnotSpace
 from metaknot.registry import register
@@ -66,9 +67,9 @@ class NloptKnots(Optimizer):
 
     Parameters
     ----------
-    algorithm
+    variant
         One of :data:`ALGORITHMS`.
-    local_algorithm
+    local_variant
         Local optimiser of ``G_MLSL_LDS`` (one of :data:`LOCAL_ALGORITHMS`).
     restarts
         Extra runs from perturbed copies of the best point, sharing the budget equally; budget
@@ -95,17 +96,18 @@ class NloptKnots(Optimizer):
         Number of coarse grid values of K (``variable_count`` only, >= 2).
     """
 
-    #: ``nlopt:<algorithm>`` in the registry sets this parameter (``nlopt:LN_SBPLX``).
-    variant_parameter = "algorithm"
+    #: ``nlopt:<variant>`` in the registry sets this parameter (``nlopt:LN_SBPLX``).
+    variant_parameter = "variant"
 
     encodings = ("continuous",)
 
-    def __init__(self, algorithm: str = "LN_BOBYQA", local_algorithm: str = "LN_BOBYQA",
+    @renamed_parameters("nlopt")
+    def __init__(self, variant: str = "LN_BOBYQA", local_variant: str = "LN_BOBYQA",
                  restarts: int = 0, min_gap: float = 1e-4, data_gap: float | None = None,
                  box_map: str = "auto", span_range: float = 4.0, initial_step: float = 0.1,
                  perturbation: float = 0.05, k_grid: int = 5) -> None:
-        self.algorithm = _check_name("algorithm", algorithm, ALGORITHMS)
-        self.local_algorithm = _check_name("local_algorithm", local_algorithm, LOCAL_ALGORITHMS)
+        self.variant = _check_name("variant", variant, ALGORITHMS)
+        self.local_variant = _check_name("local_variant", local_variant, LOCAL_ALGORITHMS)
         self.restarts = check_param("restarts", restarts, low=0, integer=True)
         self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)
         self.data_gap = None if data_gap is None else check_param("data_gap", data_gap, low=0)
@@ -127,14 +129,14 @@ class NloptKnots(Optimizer):
         """The box map in use (``box_map``, with ``"auto"`` resolved for the algorithm)."""
         if self.box_map != "auto":
             return self.box_map
-        return "sorted" if self.algorithm in LOCAL_ALGORITHMS else "spans"
+        return "sorted" if self.variant in LOCAL_ALGORITHMS else "spans"
 
     @property
     def box(self) -> KnotMap:
         """The box-to-knots map (see :mod:`metaknot.algorithms.knot_map`) for this problem."""
         if getattr(self, "_box", None) is None:
             data_gap = self.data_gap if self.data_gap is not None else (
-                0.0 if self.algorithm in LOCAL_ALGORITHMS else 0.5)
+                0.0 if self.variant in LOCAL_ALGORITHMS else 0.5)
             self._box = KnotMap(self.problem.params, self.problem.degree, kind=self.map,
                                 min_gap=self.min_gap, data_gap=data_gap,
                                 span_range=self.span_range)
@@ -244,14 +246,14 @@ class NloptKnots(Optimizer):
 
     def _build(self, n_knots: int, objective, maxeval: int) -> nlopt.opt:
         nlopt.srand(int(self.rng.integers(2**31)))  # nlopt's RNG, for the GN_* / MLSL draws
-        opt = nlopt.opt(getattr(nlopt, self.algorithm), n_knots)
+        opt = nlopt.opt(getattr(nlopt, self.variant), n_knots)
         opt.set_min_objective(objective)
         opt.set_lower_bounds(np.zeros(n_knots))
         opt.set_upper_bounds(np.ones(n_knots))
         opt.set_initial_step(self.initial_step)
         opt.set_maxeval(int(maxeval))
-        if self.algorithm == "G_MLSL_LDS":
-            local = nlopt.opt(getattr(nlopt, self.local_algorithm), n_knots)
+        if self.variant == "G_MLSL_LDS":
+            local = nlopt.opt(getattr(nlopt, self.local_variant), n_knots)
             local.set_xtol_rel(1e-4)
             local.set_initial_step(self.initial_step)
             opt.set_local_optimizer(local)

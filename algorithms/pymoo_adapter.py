@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
@@ -46,7 +47,7 @@ class PymooOptimizer(Optimizer):
 
     Parameters
     ----------
-    algorithm
+    variant
         ``"GA"``, ``"DE"``, ``"BRKGA"`` (one objective) or ``"NSGA2"`` (NSGA-II: a front of
         control points against error under the objective ``pareto``; on one objective it is a
         GA with crowding).
@@ -59,19 +60,20 @@ class PymooOptimizer(Optimizer):
     """
 
     encodings = ("binary", "integer", "continuous")
-    variant_parameter = "algorithm"
+    variant_parameter = "variant"
 
-    def __init__(self, algorithm: str = "GA", population: int = 50,
+    @renamed_parameters("pymoo")
+    def __init__(self, variant: str = "GA", population: int = 50,
                  initial: str = "random") -> None:
-        if algorithm not in ALGORITHMS:
-            raise ValueError(f"algorithm must be one of {', '.join(ALGORITHMS)}; "
-                             f"got {algorithm!r}")
-        self.algorithm = algorithm
-        self.multi_objective = algorithm == "NSGA2"
+        if variant not in ALGORITHMS:
+            raise ValueError(f"variant must be one of {', '.join(ALGORITHMS)}; "
+                             f"got {variant!r}")
+        self.variant = variant
+        self.multi_objective = variant == "NSGA2"
         if initial not in ("random", "averaging"):
             raise ValueError(f"initial must be 'random' or 'averaging'; got {initial!r}")
-        if initial == "averaging" and algorithm not in ("GA", "NSGA2"):
-            raise ValueError(f"initial='averaging' applies to GA and NSGA2; got {algorithm!r}")
+        if initial == "averaging" and variant not in ("GA", "NSGA2"):
+            raise ValueError(f"initial='averaging' applies to GA and NSGA2; got {variant!r}")
         self.initial = initial
         self.population = check_param("population", population, low=4, integer=True)
 
@@ -84,9 +86,9 @@ class PymooOptimizer(Optimizer):
         encoding = problem.encoding
         n = encoding.n_var
         self.genotype = "keys"
-        if self.algorithm in ("GA", "NSGA2") and encoding.kind == "binary":
+        if self.variant in ("GA", "NSGA2") and encoding.kind == "binary":
             self.genotype = "binary"
-        elif self.algorithm in ("GA", "NSGA2") and encoding.kind == "integer":
+        elif self.variant in ("GA", "NSGA2") and encoding.kind == "integer":
             self.genotype = "integer"
         if self.genotype == "integer":
             lower, upper = encoding.lower.astype(float), encoding.upper.astype(float)
@@ -117,13 +119,13 @@ class PymooOptimizer(Optimizer):
         from pymoo.operators.sampling.rnd import BinaryRandomSampling, IntegerRandomSampling
 
         size = self.population
-        if self.algorithm == "DE":
+        if self.variant == "DE":
             return DE(pop_size=size)
-        if self.algorithm == "BRKGA":
+        if self.variant == "BRKGA":
             elites, mutants = max(1, size // 5), max(1, size // 10)
             return BRKGA(n_elites=elites, n_offsprings=size - elites - mutants,
                          n_mutants=mutants)
-        method = NSGA2 if self.algorithm == "NSGA2" else GA
+        method = NSGA2 if self.variant == "NSGA2" else GA
         if self.genotype == "binary":
             sampling = _spread_sampling() if method is NSGA2 else BinaryRandomSampling()
             if self.initial == "averaging":
@@ -145,7 +147,7 @@ class PymooOptimizer(Optimizer):
 
         problem = self.problem
         if problem.encoding.kind != "binary":
-            raise ValueError("initial='averaging' needs a 0/1 mask problem (knot_selection)")
+            raise ValueError("initial='averaging' needs a 0/1 mask problem (mask)")
         top = problem.data.n_points - problem.degree - 1
         counts = np.unique(np.linspace(1, top, self.population // 2).round().astype(int))
         masks = [knots_to_candidate(problem, averaging_knots(problem.params, k, problem.degree))

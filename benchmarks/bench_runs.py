@@ -129,7 +129,7 @@ def sweep_seconds(workers: int, runs: int, budget: int) -> float:
     seeds = runs // 2
     with tempfile.TemporaryDirectory() as results:
         command = [sys.executable, "-m", "metaknot.cli", "run", "-m", "launcher=joblib",
-                   f"hydra.launcher.n_jobs={workers}", "algorithm=ga,random_search",
+                   f"hydra.launcher.n_jobs={workers}", "optimizer=ga,random_search",
                    "problem=epitrochoid", f"budget={budget}", f"seed=range(0,{seeds})",
                    f"results_dir={results}", "progress=false"]
         start = time.perf_counter()

@@ -2,12 +2,12 @@
 
 Single run::
 
-    metaknot run algorithm=ga problem=vivaldi seed=3
+    metaknot run optimizer=ga problem=vivaldi seed=3
 
 Sweep (Hydra multirun; the study sweeper validates every job first, skips the runs already
-stored and the algorithm/encoding pairs that cannot work, and shows a bar over the jobs)::
+stored and the optimizer/encoding pairs that cannot work, and shows a bar over the jobs)::
 
-    metaknot run -m algorithm=dolphin,ga problem=archimedean,vivaldi seed='range(0,30)'
+    metaknot run -m optimizer=dolphin,ga problem=archimedean,vivaldi seed='range(0,30)'
     metaknot run -m experiment=seed_paper launcher=joblib
 """
 
@@ -51,12 +51,12 @@ def register_hydra_plugins() -> None:
 
 def register_plugin_configs() -> None:
     """Give every registered optimizer without a YAML of its own (entry-point plugins) a
-    config ``algorithm=<name>`` built from its signature, so it runs like a built-in."""
+    config ``optimizer=<name>`` built from its signature, so it runs like a built-in."""
     from hydra.core.config_store import ConfigStore
 
     from metaknot.registry import available_optimizers
 
-    shipped = {p.stem for p in (CONFIG_DIR / "algorithm").glob("*.yaml")}
+    shipped = {p.stem for p in (CONFIG_DIR / "optimizer").glob("*.yaml")}
     store = ConfigStore.instance()
     for name in available_optimizers():
         if name not in shipped:
@@ -64,7 +64,7 @@ def register_plugin_configs() -> None:
                 node = algorithm_defaults(name)
             except ConfigError:
                 continue
-            store.store(group="algorithm", name=name, node=node, provider="metaknot")
+            store.store(group="optimizer", name=name, node=node, provider="metaknot")
 
 
 def _in_multirun() -> bool:
@@ -174,12 +174,12 @@ def _nothing_evaluated(spec: RunSpec, problem: Any, optimizer: Any, error: str) 
     return RunResult(
         problem=ENCODINGS[spec.config["encoding"]["kind"]][0] if problem is None
         else problem.name,
-        optimizer=spec.algorithm if optimizer is None else optimizer.name,
+        optimizer=spec.optimizer if optimizer is None else optimizer.name,
         seed=spec.seed, seed_spawn_key=tuple(int(k) for k in seed.spawn_key),
         budget=spec.budget, n_evaluations=0, best_x=None, best_f=float("inf"),
         trace=TraceRecorder(spec.config["checkpoints_per_decade"]).trace(), elapsed=0.0,
         problem_info={} if problem is None else problem.describe(),
-        optimizer_params={} if optimizer is None else optimizer.params(),
+        optimizer_params={} if optimizer is None else optimizer.hyperparameters(),
         metric_names=() if problem is None else tuple(problem.metric_names),
         status="failed", error=error)
 
@@ -261,7 +261,7 @@ def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
 def check_choices(args: list[str]) -> str | None:
     """The first config group choice of ``args`` (Hydra overrides, swept or not) that does not
     exist, as a one-line error with the closest names, or ``None`` if every choice exists;
-    an algorithm (``algorithm=NAME`` or ``algorithm._name_=NAME``) is looked up in the
+    an optimizer (``optimizer=NAME`` or ``optimizer._name_=NAME``) is looked up in the
     optimizer registry, which names the closest. ``null`` is refused too: Hydra composes no
     job from a group set to null. Other errors (override syntax) are left for Hydra."""
     import difflib
@@ -282,7 +282,7 @@ def check_choices(args: list[str]) -> str | None:
         group = override.key_or_group.replace(".", "/")
         parent, _, name = group.rpartition("/")
         is_group = not override.is_delete() and name in loader.list_groups(parent)
-        if not is_group and override.key_or_group != "algorithm._name_":
+        if not is_group and override.key_or_group != "optimizer._name_":
             continue
         if not override.is_sweep_override():
             value = override.value()
@@ -294,7 +294,7 @@ def check_choices(args: list[str]) -> str | None:
         options = loader.get_group_options(group) if is_group else []
         for value in values:
             key = f"{override.key_or_group}={value:.80}"
-            if group in ("algorithm", "algorithm/_name_") and value not in options:
+            if group in ("optimizer", "optimizer/_name_") and value not in options:
                 unknown = _unknown_optimizer(value)
                 if unknown:
                     return f"{key}: {unknown}"

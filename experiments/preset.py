@@ -2,15 +2,17 @@
 
 A preset names a method, as ``metaknot tune`` writes its best configuration::
 
-    algorithm: {_name_: dolphin, population: 32, pp1: 0.597, power: 0.206}
+    optimizer: {_name_: dolphin, population: 32, pp1: 0.597, power: 0.206}
     encoding: {kind: mask, density: 0.5}     # optional, as are objective: {name: ...}
     label: dolphin-tuned                     # and the label
 
 It is read as plain YAML data and becomes command-line overrides placed before the user's
-(``algorithm=dolphin ++algorithm.population=32 ...``), so the user's own overrides win. It can
+(``optimizer=dolphin ++optimizer.population=32 ...``), so the user's own overrides win. It can
 hold nothing but these settings: no Hydra ``defaults`` or ``hydra`` keys, no ``_target_``,
-no interpolation. A Hydra config directory (``--config-dir``) is code instead: its
-``hydra.callbacks`` and ``_target_`` keys call any Python function. See ``docs/tuning.md``.
+no interpolation. A preset written with ``algorithm:`` (the optimizer's former name) is
+read with a note on stderr, as are such overrides. A Hydra config directory
+(``--config-dir``) is code instead: its ``hydra.callbacks`` and ``_target_`` keys call any
+Python function. See ``docs/tuning.md``.
 """
 
 from __future__ import annotations
@@ -19,12 +21,14 @@ import math
 from pathlib import Path
 from typing import Any
 
+from metaknot.compat import new_config, new_overrides, note
+
 from .spec import ConfigError, _unknown, run_spec
 
 __all__ = ["check_preset", "expand_preset", "load_preset", "preset_overrides"]
 
 #: A preset's sections and the key of each that names the config group to select.
-SECTIONS = {"algorithm": "_name_", "encoding": "kind", "objective": "name"}
+SECTIONS = {"optimizer": "_name_", "encoding": "kind", "objective": "name"}
 KEYS = {*SECTIONS, "label"}
 
 
@@ -43,7 +47,7 @@ def load_preset(path: str | Path) -> dict[str, Any]:
     Raises
     ------
     ConfigError
-        One line naming the file and the key: a key that is not a method's (``algorithm``,
+        One line naming the file and the key: a key that is not a method's (``optimizer``,
         ``encoding``, ``objective``, ``label`` and the settings of each), a Hydra directive
         (``defaults``, ``hydra...``, ``_target_``), a value that is not a plain number, string,
         boolean or null, or a setting the method does not accept.
@@ -69,18 +73,21 @@ def load_preset(path: str | Path) -> dict[str, Any]:
 def check_preset(data: Any, where: str) -> dict[str, Any]:
     """The preset ``data`` (read from ``where``), checked as :func:`load_preset` says."""
     if not isinstance(data, dict):
-        raise ConfigError(f"{where}: a preset is a mapping of algorithm, encoding, objective "
+        raise ConfigError(f"{where}: a preset is a mapping of optimizer, encoding, objective "
                           f"and label; got {_quote(data)}")
     if "defaults" in data:
         raise ConfigError(f"{where}: defaults: not allowed in a preset, which is data (Hydra "
                           "directives and _target_ run code)")
     _refuse_directives(data, where, "")
     try:
+        data, old = new_config(data)
         _unknown("", data, KEYS)
-    except ConfigError as exc:
+    except (ConfigError, ValueError) as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    if "algorithm" not in data:
-        raise ConfigError(f"{where}: algorithm: missing (a preset names its algorithm)")
+    for old_name, new_name in old:
+        note(old_name, new_name, f"{_short(Path(where).name)}: ")
+    if "optimizer" not in data:
+        raise ConfigError(f"{where}: optimizer: missing (a preset names its optimizer)")
     for section in SECTIONS:
         if section in data:
             _check_section(data[section], section, where)
@@ -92,7 +99,7 @@ def check_preset(data: Any, where: str) -> dict[str, Any]:
         run_spec({"study": "preset", "results_dir": ".", "problem": {"curve": "epitrochoid"},
                   "encoding": data.get("encoding", {"kind": "mask"}),
                   "objective": data.get("objective", {"name": "paper"}),
-                  "algorithm": data["algorithm"], "budget": 1, "seed": 0,
+                  "optimizer": data["optimizer"], "budget": 1, "seed": 0,
                   "label": label}, check_build=False)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
@@ -162,7 +169,8 @@ def _override_value(value: Any) -> str:
 def expand_preset(args: list[str]) -> list[str]:
     """``args`` with ``--preset FILE`` (or ``--preset=FILE``) replaced by the preset's
     overrides, placed just before the other overrides (which therefore win) and after Hydra's
-    flags (``-m``, ``--config-dir DIR``, ...).
+    flags (``-m``, ``--config-dir DIR``, ...); overrides in former spellings
+    (``algorithm=ga``) are translated (:func:`metaknot.compat.new_overrides`).
 
     Raises
     ------
@@ -171,7 +179,7 @@ def expand_preset(args: list[str]) -> list[str]:
         given twice.
     """
     rest, files = [], []
-    items = iter(args)
+    items = iter(new_overrides(args))
     for arg in items:
         if arg == "--preset":
             file = next(items, None)

@@ -7,7 +7,7 @@ and the optimizer. Every check names the configuration key it is about, in one l
 
 Seeds are paired: the replicate seed ``s`` gives the data noise ``SeedSequence(s,
 spawn_key=(0,))`` and the optimizer ``SeedSequence(s, spawn_key=(1,))``, so replicate ``s`` of
-every algorithm sees the same data and comparisons can be paired by replicate.
+every optimizer sees the same data and comparisons can be paired by replicate.
 """
 
 from __future__ import annotations
@@ -26,14 +26,16 @@ from typing import Any
 import numpy as np
 from hydra.errors import CompactHydraException
 
+from metaknot.compat import legacy_config, new_config
+
 __all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "plain_config",
            "run_spec"]
 
 #: Encoding name in the configuration -> (problem's registry name, encoding kind).
-ENCODINGS = {"mask": ("knot_selection", "binary"), "indices": ("knot_indices", "integer"),
-             "free": ("free_knots", "continuous")}
+ENCODINGS = {"mask": ("mask", "binary"), "indices": ("indices", "integer"),
+             "free": ("free", "continuous")}
 #: Top-level keys that define a run (the run id hashes them, normalised).
-RUN_KEYS = ("problem", "encoding", "objective", "algorithm", "budget", "seed",
+RUN_KEYS = ("problem", "encoding", "objective", "optimizer", "budget", "seed",
             "checkpoints_per_decade")
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 STUDY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=,+-]*")  # matched in full (fullmatch)
@@ -98,7 +100,7 @@ def _unknown(key: str, given: Mapping[str, Any], known: set[str]) -> None:
 
 
 # --------------------------------------------------------------------------------------------
-# algorithms: hyperparameters and their types from the optimizer's signature
+# optimizers: hyperparameters and their types from the optimizer's signature
 
 
 def _optimizer_class(name: str) -> type:
@@ -107,7 +109,7 @@ def _optimizer_class(name: str) -> type:
     try:
         return _lookup("optimizer", name)
     except ValueError as exc:
-        raise ConfigError(f"algorithm._name_: {exc}") from None
+        raise ConfigError(f"optimizer._name_: {exc}") from None
 
 
 def algorithm_defaults(name: str) -> dict[str, Any]:
@@ -182,12 +184,12 @@ def _check_hyperparameter(key: str, value: Any, hint: Any) -> Any:
     raise ConfigError(f"{key}: expected {' or '.join(names)}, got {value!r}")
 
 
-def _algorithm(cfg: dict[str, Any]) -> tuple[str, dict[str, Any], type]:
+def _optimizer(cfg: dict[str, Any]) -> tuple[str, dict[str, Any], type]:
     name = cfg.pop("_name_", None)
     if not isinstance(name, str):
-        raise ConfigError(f"algorithm._name_: the name of a registered optimizer, got {name!r}")
+        raise ConfigError(f"optimizer._name_: the name of a registered optimizer, got {name!r}")
     cls = _optimizer_class(name)
-    return name, _check_signature("algorithm", cls, cfg), cls
+    return name, _check_signature("optimizer", cls, cfg), cls
 
 
 def _check_signature(group: str, cls: type, cfg: dict[str, Any]) -> dict[str, Any]:
@@ -226,7 +228,7 @@ class RunSpec:
     Attributes
     ----------
     config
-        The normalised run-defining settings (problem, encoding, objective, algorithm, budget,
+        The normalised run-defining settings (problem, encoding, objective, optimizer, budget,
         seed, checkpoints_per_decade), plain values only.
     run_id
         Stable hash of :attr:`config`: the same settings and seed give the same id, in any
@@ -234,7 +236,7 @@ class RunSpec:
     study, results_dir
         Where the run is stored (``results_dir/study``).
     label
-        The method's name in reports (``label`` in the configuration, else the algorithm's
+        The method's name in reports (``label`` in the configuration, else the optimizer's
         name); not part of the run's identity.
     threads, progress
         Execution settings (not part of the run's identity).
@@ -254,8 +256,11 @@ class RunSpec:
         return self.results_dir / self.study
 
     @property
-    def algorithm(self) -> str:
-        return self.config["algorithm"]["_name_"]
+    def optimizer(self) -> str:
+        """The optimizer's registered name."""
+        return self.config["optimizer"]["_name_"]
+
+    algorithm = optimizer  # its name before "optimizer" was the one word for it
 
     @property
     def seed(self) -> int:
@@ -277,16 +282,16 @@ class RunSpec:
         return np.random.SeedSequence(self.seed, spawn_key=(0,))
 
     def compatible(self) -> str | None:
-        """``None`` if the algorithm handles the encoding, else the reason it cannot."""
+        """``None`` if the optimizer handles the encoding, else the reason it cannot."""
         kind = ENCODINGS[self.config["encoding"]["kind"]][1]
         encodings = getattr(self._optimizer_class, "encodings", ())
         if kind not in encodings:
-            return (f"algorithm {self.algorithm!r} handles {', '.join(encodings)} encodings; "
+            return (f"optimizer {self.optimizer!r} handles {', '.join(encodings)} encodings; "
                     f"encoding {self.config['encoding']['kind']!r} is {kind}")
         objective = self.config["objective"]["name"]
         if objective == "pareto" and not self.build_optimizer().multi_objective:
-            return (f"algorithm {self.algorithm!r} minimises one objective; objective "
-                    "'pareto' needs a multi-objective one (pymoo with algorithm=NSGA2)")
+            return (f"optimizer {self.optimizer!r} minimises one objective; objective "
+                    "'pareto' needs a multi-objective one (pymoo with variant=NSGA2)")
         return None
 
     def build_problem(self, *, noise: bool = True):
@@ -312,11 +317,11 @@ class RunSpec:
         """The optimizer of this run, with its hyperparameters."""
         from metaknot.registry import get_optimizer
 
-        params = {k: v for k, v in self.config["algorithm"].items() if k != "_name_"}
+        params = {k: v for k, v in self.config["optimizer"].items() if k != "_name_"}
         try:
-            return get_optimizer(self.algorithm, **params)
+            return get_optimizer(self.optimizer, **params)
         except (ValueError, TypeError) as exc:
-            raise ConfigError(f"algorithm ({self.algorithm}): {exc}") from None
+            raise ConfigError(f"optimizer ({self.optimizer}): {exc}") from None
 
 
 def _suite_instance(problem: Mapping[str, Any]) -> Any:
@@ -370,7 +375,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ----------
     cfg
         The composed configuration (``DictConfig`` or mapping): ``problem``, ``encoding``,
-        ``objective``, ``algorithm`` groups and the top-level ``budget``, ``seed``, ``study``,
+        ``objective``, ``optimizer`` groups (``algorithm``, the optimizer's former
+        name, is read as ``optimizer``) and the top-level ``budget``, ``seed``, ``study``,
         ``results_dir``, ``checkpoints_per_decade``, ``threads``, ``progress``.
     check_build
         Also build the problem (without noise) and the optimizer, so their own checks run.
@@ -380,7 +386,10 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ConfigError
         Naming the first key whose value cannot work.
     """
-    cfg = plain_config(cfg)
+    try:  # silently: a stored record's configuration may use the former names
+        cfg = new_config(plain_config(cfg))[0]
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
     study, results_dir = check_study(cfg)
     threads = cfg.get("threads", "auto")
     if threads != "auto":
@@ -490,12 +499,12 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         problem_out["task"] = task.id
         encoding_out, objective_out = dict(task.encoding), dict(task.objective)
 
-    algorithm_name, params, cls = _algorithm(_section(cfg, "algorithm"))
+    optimizer_name, params, cls = _optimizer(_section(cfg, "optimizer"))
     config = {
         "problem": problem_out,
         "encoding": encoding_out,
         "objective": objective_out,
-        "algorithm": {"_name_": algorithm_name, **params},
+        "optimizer": {"_name_": optimizer_name, **params},
         "budget": _int("budget", cfg.get("budget"), low=1),
         "seed": _int("seed", cfg.get("seed"), low=0),
         "checkpoints_per_decade": _int("checkpoints_per_decade",
@@ -506,7 +515,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         raise ConfigError(f"label: a name for reports, got {label!r}")
     spec = RunSpec(config=config, run_id=run_id(config), study=study,
                    results_dir=Path(results_dir), threads=threads, progress=progress,
-                   label=label or algorithm_name, _optimizer_class=cls)
+                   label=label or optimizer_name, _optimizer_class=cls)
     if check_build:
         spec.build_optimizer()
         spec.build_problem(noise=False)
@@ -514,8 +523,12 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
 
 
 def run_id(config: Mapping[str, Any]) -> str:
-    """Stable 16-hex-digit hash of the run-defining settings (sorted-key JSON)."""
-    text = json.dumps({k: config[k] for k in RUN_KEYS}, sort_keys=True, default=str,
+    """Stable 16-hex-digit hash of the run-defining settings (sorted-key JSON).
+
+    The optimizer's settings are hashed under their former names (``algorithm``,
+    :func:`metaknot.compat.legacy_config`): renaming them must not change the id of any run
+    already stored, or a study would run them all again."""
+    text = json.dumps(legacy_config({k: config[k] for k in RUN_KEYS}), sort_keys=True, default=str,
                       separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

@@ -37,6 +37,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from metaknot.compat import new_record
+
 if TYPE_CHECKING:  # pandas loads only when a study is read (run workers do not need it)
     import pandas as pd
 
@@ -324,7 +326,7 @@ def read_record(path: str | os.PathLike) -> dict[str, Any]:
     problem = _problem(table.schema, table.num_rows)
     if problem is not None:
         raise StoreError(f"{path}: {problem}; move it out of the study")
-    return table.to_pylist()[0]
+    return new_record(table.to_pylist()[0])  # a record written before the renames too
 
 
 def _problem(schema: pa.Schema, num_rows: int) -> str | None:
@@ -478,7 +480,7 @@ def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
     if not rows:
         return pd.DataFrame(columns=["run_id", "status"])
     frame = pd.DataFrame.from_records(rows)
-    order = [c for c in ("data", "problem", "encoding", "algorithm", "budget", "seed")
+    order = [c for c in ("data", "problem", "encoding", "optimizer", "budget", "seed")
              if c in frame.columns]
     if order:
         frame = frame.sort_values(order, kind="stable", ignore_index=True)

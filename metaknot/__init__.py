@@ -3,7 +3,7 @@
 The public API::
 
     import metaknot as mk
-    result = mk.minimize("knot_selection", "random_search", budget=2000, seed=1,
+    result = mk.minimize("mask", "random_search", budget=2000, seed=1,
                          problem_kwargs={"points": "epitrochoid"})
     result.solution.fit.spline       # a scipy.interpolate.BSpline
 """

@@ -157,7 +157,7 @@ class Problem(ABC):
     public_attributes: ClassVar[frozenset[str]] = frozenset(
         {"name", "n_objectives", "hypervolume_box"})
     #: Metrics every run record of this problem has (NaN when the run found nothing feasible),
-    #: as its solution's ``metrics()`` gives them.
+    #: as its solution's ``metrics`` gives them.
     metric_names: ClassVar[tuple[str, ...]] = ()
 
     @abstractmethod

@@ -19,6 +19,7 @@ from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Any, Literal, TypeVar
 
+from .compat import new_problem_name
 from .optimizer import Optimizer
 from .problem import Problem
 
@@ -119,14 +120,15 @@ def get_optimizer(name: str, **kwargs: Any) -> Optimizer:
     """Instantiate a registered optimizer by name with the given hyperparameters.
 
     A name ``"family:variant"`` selects a variant of an optimizer that declares a
-    ``variant_parameter`` (``"nevergrad:NGOpt"`` is ``nevergrad`` with ``optimizer="NGOpt"``).
+    ``variant_parameter`` (``"nevergrad:NGOpt"`` is ``nevergrad`` with ``variant="NGOpt"``).
     """
     return _lookup("optimizer", name)(**kwargs)
 
 
 def get_problem(name: str, **kwargs: Any) -> Problem:
-    """Instantiate a registered problem by name (for example ``"knot_selection"``)."""
-    return _lookup("problem", name)(**kwargs)
+    """Instantiate a registered problem by name (for example ``"mask"``; the former names
+    ``"knot_selection"``, ``"knot_indices"``, ``"free_knots"`` warn)."""
+    return _lookup("problem", new_problem_name(name))(**kwargs)
 
 
 def available_optimizers() -> list[str]:

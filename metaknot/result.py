@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from .compat import Metrics
 from .progress import Trace
 
 __all__ = ["RunResult"]
@@ -98,12 +100,13 @@ class RunResult:
             rows[-1] = True
         return rows
 
-    def metrics(self) -> dict[str, float]:
-        """The solution's metrics: its ``metrics()``, with NaN for each of the problem's
+    @property
+    def metrics(self) -> Metrics:
+        """The solution's metrics (its ``metrics``), with NaN for each of the problem's
         ``metric_names`` it lacks (all of them if there is no solution)."""
-        found = getattr(self.solution, "metrics", None)
-        values = found() if callable(found) else {}
-        return {**dict.fromkeys(self.metric_names, np.nan), **values}
+        found = getattr(self.solution, "metrics", None) or {}
+        values = found if isinstance(found, Mapping) else found()  # a plugin's method
+        return Metrics({**dict.fromkeys(self.metric_names, np.nan), **values})
 
     def summary(self) -> dict[str, Any]:
         """Flat dictionary of the scalar outcome: names, seed, budget, ``best_f`` (the objective
@@ -111,7 +114,7 @@ class RunResult:
         return {
             "problem": self.problem, "optimizer": self.optimizer, "seed": self.seed,
             "budget": self.budget, "n_evaluations": self.n_evaluations,
-            "best_f": self.best_f, "elapsed": self.elapsed, **self.metrics(),
+            "best_f": self.best_f, "elapsed": self.elapsed, **self.metrics,
         }
 
     def record(self) -> dict[str, Any]:
@@ -119,7 +122,7 @@ class RunResult:
 
         Problem settings under their own names (``data``, ``data_fingerprint``, ``noise``,
         ``degree``, ``parameterization``, ``encoding``, ``n_knots``, ...), ``objective`` (its
-        name) with ``objective.<option>``, ``algorithm`` with ``algorithm.<hyperparameter>``,
+        name) with ``objective.<option>``, ``optimizer`` with ``optimizer.<hyperparameter>``,
         the seed (``seed``, ``seed_spawn_key``), budget and evaluations used, ``best_f`` and the
         fit metrics, the timings, ``external_fits``, ``delta_evaluations``, the audit's
         ``audited_fits`` and ``accounted_fits``, ``status`` / ``error``. A two-objective run
@@ -127,7 +130,7 @@ class RunResult:
         as JSON (``metaknot.experiments.Study.fronts`` makes a long table of them). The study
         layer adds the run id, study name, versions and time stamp.
         """
-        params = {f"algorithm.{k}": _plain(v) for k, v in self.optimizer_params.items()}
+        params = {f"optimizer.{k}": _plain(v) for k, v in self.optimizer_params.items()}
         front = {} if self.front is None else {
             "hypervolume": 1.0 - float(self.best_f),
             "front_size": len(self.front["objective_0"]),
@@ -136,14 +139,14 @@ class RunResult:
         return {
             **{k: _plain(v) for k, v in self.problem_info.items()},
             "problem": self.problem,
-            "algorithm": self.optimizer,
+            "optimizer": self.optimizer,
             **params,
             "seed": self.seed,
             "seed_spawn_key": ",".join(str(k) for k in self.seed_spawn_key),
             "budget": self.budget,
             "n_evaluations": self.n_evaluations,
             "best_f": float(self.best_f),
-            **self.metrics(),
+            **self.metrics,
             "elapsed_seconds": float(self.elapsed),
             **{k: float(v) for k, v in self.timings.items()},
             "external_fits": int(self.external_fits),

@@ -214,7 +214,7 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         trace=recorder.trace(),
         elapsed=time.perf_counter() - clock.start,
         problem_info=problem.describe(),
-        optimizer_params=optimizer.params(),
+        optimizer_params=optimizer.hyperparameters(),
         solution=solution,
         seed_spawn_key=spawn_key,
         timings=timings,

@@ -80,9 +80,10 @@ class KnotSolution:
     objective_value: float | np.ndarray
     fit: CurveFit
 
+    @property
     def metrics(self) -> dict[str, float]:
         """The fit's metrics (control points, SSE, RMSE, Euclidean distance, max deviation)."""
-        return self.fit.metrics()
+        return self.fit.metrics
 
 
 def _as_point_set(points: PointSet | str | ArrayLike) -> PointSet:
@@ -258,7 +259,7 @@ class KnotProblem(Problem):
         return self.curve.max_index
 
 
-@register("knot_selection")
+@register("mask")
 class KnotSelection(KnotProblem):
     """The seed paper's encoding: a 0/1 mask over the interior data points (``N - 2`` bits).
 
@@ -308,7 +309,7 @@ def _check_n_knots(n_knots: int, curve: Curve) -> int:
     return int(n_knots)
 
 
-@register("knot_indices")
+@register("indices")
 class KnotIndices(KnotProblem):
     """``n_knots`` interior knots at data points, given as indices in ``1..N-2``.
 
@@ -338,7 +339,7 @@ class KnotIndices(KnotProblem):
         return {**super().describe(), "n_knots": self.n_knots}
 
 
-@register("free_knots")
+@register("free")
 class FreeKnots(KnotProblem):
     """``n_knots`` interior knots anywhere in the open parameter range (for nlopt and friends).
 

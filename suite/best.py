@@ -118,7 +118,7 @@ def save_best_known(entries: dict[tuple[str, str], BestKnown],
 def _entry(task: Task, problem: KnotProblem, x: np.ndarray, value: float, method: str,
            budget: int, seed: int | None, proven: bool = False) -> BestKnown:
     solution = problem.decode(x)
-    metrics = solution.metrics()
+    metrics = solution.metrics
     knots = problem._interior_knots(solution.x)
     kind = task.encoding["kind"]
     if kind == "mask":

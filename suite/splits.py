@@ -62,7 +62,7 @@ def config_text(name: str) -> str:
     ids = split(name)
     return (f"# @package _global_\n# The suite split {name!r} ({len(ids)} instances; "
             "metaknot.suite.splits, written by write_configs).\n"
-            "# metaknot run -m suite=" + name + " problem.task=tolerance algorithm=ga,dolphin "
+            "# metaknot run -m suite=" + name + " problem.task=tolerance optimizer=ga,dolphin "
             "seed='range(0,10)'\n"
             "defaults:\n  - override /problem: suite\n"
             "hydra:\n  sweeper:\n    params:\n"

@@ -25,7 +25,7 @@ def test_a_missing_library_is_named(monkeypatch, name, module):
 
 
 def test_nevergrad_variants_by_name():
-    assert mk.get_optimizer("nevergrad:CMA").optimizer == "CMA"
+    assert mk.get_optimizer("nevergrad:CMA").variant == "CMA"
     assert mk.get_optimizer("nevergrad:DiscreteOnePlusOne", batch_size=4).batch_size == 4
     with pytest.raises(ValueError, match="did you mean"):
         mk.minimize(KnotSelection(SPIRAL), "nevergrad:DiscreteOnePlusOn", budget=10, seed=0)
@@ -101,7 +101,7 @@ def test_ngopt_surrogate_failure_falls_back_and_the_process_exits():
 
 @pytest.mark.parametrize("algorithm", ["GA", "DE", "BRKGA"])
 def test_pymoo_variants_by_name_and_reproducible(algorithm):
-    assert mk.get_optimizer(f"pymoo:{algorithm}").algorithm == algorithm
+    assert mk.get_optimizer(f"pymoo:{algorithm}").variant == algorithm
     problem = KnotIndices(SPIRAL, n_knots=6)
     runs = [mk.minimize(problem, f"pymoo:{algorithm}", budget=300, seed=4) for _ in range(2)]
     np.testing.assert_array_equal(runs[0].best_x, runs[1].best_x)

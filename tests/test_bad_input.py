@@ -369,7 +369,7 @@ def test_fit_spline_large_coordinates_scale_exactly():
     u = np.linspace(0.0, 1.0, 6)
     unit = fit_spline(u, ALTERNATING, [0.4], 1)
     large = fit_spline(u, 9e99 * ALTERNATING, [0.4], 1)
-    for name, value in large.metrics().items():
+    for name, value in large.metrics.items():
         assert np.isfinite(value), (name, value)
     assert large.rmse == pytest.approx(9e99 * unit.rmse, rel=1e-12)
     assert large.max_deviation == pytest.approx(9e99 * unit.max_deviation, rel=1e-12)
@@ -594,7 +594,7 @@ def test_fuzz_fit_spline(data):
     d = np.asarray(points).reshape(n, -1).shape[1]
     assert fit.control_points.shape == (k + degree + 1, d)
     with np.errstate(all="ignore"):
-        metrics = fit.metrics()
+        metrics = fit.metrics
     for key, value in metrics.items():
         assert not np.isnan(value) and value >= 0, f"{key} = {value}"
 

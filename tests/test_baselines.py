@@ -217,7 +217,7 @@ def test_budget_larger_than_scan_uses_the_scan(name):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_deterministic_whatever_the_seed(name):
-    runs = [mk.minimize("knot_selection", name, budget=40, seed=seed,
+    runs = [mk.minimize("mask", name, budget=40, seed=seed,
                         problem_kwargs={"points": "archimedean", "objective": "bic"})
             for seed in (1, 1, 2)]
     for other in runs[1:]:
@@ -241,7 +241,7 @@ def test_callbacks_report_progress_and_can_stop():
 
 
 def test_registered_and_recorded():
-    result = mk.minimize("knot_indices", "fitpack", budget=5, seed=0,
+    result = mk.minimize("indices", "fitpack", budget=5, seed=0,
                          problem_kwargs={"points": "archimedean", "n_knots": 10})
     assert isinstance(mk.get_optimizer("fitpack"), bl.FitpackKnots)
     assert result.optimizer == "fitpack"
@@ -266,7 +266,7 @@ def test_bad_parameters_are_rejected(name, kwargs, message):
 
 def test_unsuitable_problems_are_rejected():
     with pytest.raises(ValueError, match="target='tolerance'"):
-        mk.minimize("knot_indices", "fitpack", budget=5,
+        mk.minimize("indices", "fitpack", budget=5,
                     optimizer_kwargs={"target": "tolerance", "tolerance": 1e-3})
 
     class Sphere(mk.Problem):

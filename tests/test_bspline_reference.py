@@ -515,7 +515,7 @@ def test_fit_spline_matches_scipy_and_numpy(curves, name, degree):
         "euclidean_distance": np.sqrt(sse),
         "max_deviation": dist.max(),
     }
-    metrics = fit.metrics()
+    metrics = fit.metrics
     assert set(metrics) == set(expected)
     assert metrics["n_control_points"] == expected["n_control_points"]
     for key in ("sse", "rmse", "euclidean_distance", "max_deviation"):

@@ -44,7 +44,7 @@ def test_demo_is_reproducible(capsys: pytest.CaptureFixture[str]) -> None:
 def test_list_names_builtins(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["list"]) == 0
     out = capsys.readouterr().out
-    for name in ("knot_selection", "knot_indices", "free_knots", "random_search", "dolphin",
+    for name in ("mask", "indices", "free", "random_search", "dolphin",
                  "ga", "nlopt", "uniform", "averaging", "fitpack"):
         assert name in out
 

@@ -176,11 +176,11 @@ def test_exact_budget_on_knot_problem(spiral_problem):
 
 
 def test_budget_given_by_names():
-    result = mk.minimize("knot_selection", "random_search", budget=130, seed=2,
+    result = mk.minimize("mask", "random_search", budget=130, seed=2,
                          problem_kwargs={"points": "archimedean"},
                          optimizer_kwargs={"batch_size": 50})
     assert result.n_evaluations == 130
-    assert result.problem == "knot_selection"
+    assert result.problem == "mask"
     assert result.optimizer == "random_search"
     assert result.optimizer_params == {"batch_size": 50}
 
@@ -598,13 +598,13 @@ def test_get_by_name():
     opt = mk.get_optimizer("random_search", batch_size=7)
     assert type(opt).__name__ == "RandomSearch"
     assert opt.batch_size == 7 and opt.name == "random_search"
-    problem = mk.get_problem("knot_selection", points="archimedean")
+    problem = mk.get_problem("mask", points="archimedean")
     assert isinstance(problem, KnotSelection)
     assert problem.encoding.n_var == 98
-    assert mk.get_problem("knot_indices", points="archimedean", n_knots=4).encoding.n_var == 4
-    assert mk.get_problem("free_knots", points="archimedean", n_knots=3).encoding.kind \
+    assert mk.get_problem("indices", points="archimedean", n_knots=4).encoding.n_var == 4
+    assert mk.get_problem("free", points="archimedean", n_knots=3).encoding.kind \
         == "continuous"
-    assert {"knot_selection", "knot_indices", "free_knots"} <= set(mk.available_problems())
+    assert {"mask", "indices", "free"} <= set(mk.available_problems())
     assert "random_search" in mk.available_optimizers()
 
 
@@ -620,11 +620,11 @@ def test_unknown_optimizer_lists_names_and_hint():
 
 def test_unknown_problem_lists_names_and_hint():
     with pytest.raises(ValueError) as info:
-        mk.get_problem("knot_selecton")
+        mk.get_problem("indice")
     message = str(info.value)
-    assert "unknown problem 'knot_selecton'" in message
-    assert "Did you mean 'knot_selection'?" in message
-    for name in ("free_knots", "knot_indices", "knot_selection"):
+    assert "unknown problem 'indice'" in message
+    assert "Did you mean 'indices'?" in message
+    for name in ("free", "indices", "mask"):
         assert name in message
     with pytest.raises(ValueError, match="Available") as info:
         mk.get_problem("zzzzzzzz")
@@ -652,9 +652,9 @@ def test_register_rejects_second_class_under_existing_name(clean_registry):
     class ImpostorProblem(Sphere):
         pass
 
-    with pytest.raises(ValueError, match="knot_selection"):
-        mk.register("knot_selection")(ImpostorProblem)
-    assert mk.get_problem("knot_selection", points="archimedean").__class__ is KnotSelection
+    with pytest.raises(ValueError, match="mask"):
+        mk.register("mask")(ImpostorProblem)
+    assert mk.get_problem("mask", points="archimedean").__class__ is KnotSelection
 
 
 def test_register_new_names(clean_registry):

@@ -316,7 +316,7 @@ def test_registered_by_name_with_params():
     opt = mk.get_optimizer("dolphin", population=12, re=3)
     assert isinstance(opt, DolphinEcholocation) and dolphin_module.DolphinEcholocation.name == \
         "dolphin"
-    assert opt.params() == {"population": 12, "loops": None, "pp1": 0.1, "power": 1.0,
+    assert opt.hyperparameters() == {"population": 12, "loops": None, "pp1": 0.1, "power": 1.0,
                             "re": 3, "epsilon": 1e-3, "fitness": "auto"}
 
 

@@ -110,9 +110,9 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
      r"parameter values \(x\) has values of magnitude above 1e\+100"),
     (np.array([[0.0, 0], [1, 1], [2, 0], [3, 3]]), {}, "too few for degree 3"),
     (np.array([[0.0, 0], [1, 1], [1, 1], [3, 3], [4, 5], [5, 1]]), {}, "repeats the point"),
-    (PEAK, {"tol": 0.0}, "tolerance must be a number > 0"),
-    (PEAK, {"tol": -1.0}, "tolerance must be a number > 0"),
-    (PEAK, {"tol": 1e-30}, "below what interpolation reaches"),
+    (PEAK, {"tolerance": 0.0}, "tolerance must be a number > 0"),
+    (PEAK, {"tolerance": -1.0}, "tolerance must be a number > 0"),
+    (PEAK, {"tolerance": 1e-30}, "below what interpolation reaches"),
     (PEAK[::-1], {"function": True}, "x must increase strictly"),
     (PEAK[:, :1], {"function": True}, "at least two columns"),
     (PEAK, {"metric": "mean"}, "metric"),
@@ -120,7 +120,7 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
      "bounding box has zero size"),
 ])
 def test_bad_input_is_named(points, kwargs, message) -> None:
-    kwargs = {"tol": 1e-3, **kwargs}
+    kwargs = {"tolerance": 1e-3, **kwargs}
     with pytest.raises(ValueError, match=message):
         mk.fit(points, **kwargs)
 
@@ -211,8 +211,8 @@ def test_a_file_that_is_no_npy_array_is_named(tmp_path, capsys) -> None:
         assert "scan.npy: not a .npy file" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("kwargs", "tol"), [({"tol": 1e6}, 1e6), ({"tol": 1.0, "relative": True},
-                                                                  None)])
+@pytest.mark.parametrize(("kwargs", "tol"), [({"tolerance": 1e6}, 1e6),
+                                             ({"tolerance": 1.0, "relative": True}, None)])
 def test_a_tolerance_beyond_the_extent_is_an_error_not_a_closed_curve(kwargs, tol) -> None:
     spiral = get_curve("archimedean").points  # open: its ends lie 2 pi apart
     diagonal = float(np.linalg.norm(np.ptp(spiral, axis=0)))

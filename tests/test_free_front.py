@@ -102,8 +102,8 @@ def test_a_closed_outline_gets_a_front_of_periodic_fits() -> None:
 
 
 def test_refuses_bad_settings() -> None:
-    with pytest.raises(ValueError, match="local_algorithm"):
-        mk.get_optimizer("free_front", local_algorithm="GN_CRS2_LM")
+    with pytest.raises(ValueError, match="local_variant"):
+        mk.get_optimizer("free_front", local_variant="GN_CRS2_LM")
     with pytest.raises(ValueError, match="min_gap"):
         mk.minimize(front_problem(), "free_front", budget=50, seed=0,
                     optimizer_kwargs={"min_gap": 0.2})

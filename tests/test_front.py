@@ -138,7 +138,7 @@ def test_run_record_carries_a_front_that_dominates_everything_evaluated(optimize
     assert json.loads(record["front"]) == front
     # the solution is the knee: the member nearest the ideal point
     knee = int(np.argmin(np.hypot(F[:, 0], F[:, 1])))
-    assert result.metrics()["n_control_points"] == front["n_control_points"][knee]
+    assert result.metrics["n_control_points"] == front["n_control_points"][knee]
 
 
 @pytest.mark.parametrize("optimizer", ["ga", "dolphin", "one_plus_one", "local_search", "pymoo:GA",
@@ -200,9 +200,9 @@ def test_spec_skips_single_objective_algorithms_on_a_front() -> None:
     from metaknot.experiments.spec import run_spec
     from tests.test_spec import compose_cfg
 
-    spec = run_spec(compose_cfg("objective=pareto", "algorithm=ga"))
+    spec = run_spec(compose_cfg("objective=pareto", "optimizer=ga"))
     assert "one objective" in spec.compatible()
-    ok = run_spec(compose_cfg("objective=pareto", "algorithm=pymoo", "algorithm.algorithm=NSGA2"))
+    ok = run_spec(compose_cfg("objective=pareto", "optimizer=pymoo", "optimizer.variant=NSGA2"))
     assert ok.compatible() is None
 
 
@@ -239,7 +239,7 @@ def test_a_study_of_fronts_end_to_end(tmp_path) -> None:
 
     from metaknot.experiments.store import load_study
 
-    for choice in ("method=nsga2_mask", "algorithm=ga,averaging"):
+    for choice in ("method=nsga2_mask", "optimizer=ga,averaging"):
         done = subprocess.run(
             [sys.executable, "-m", "metaknot.cli", "run", "-m", "objective=pareto", choice,
              "problem=archimedean", "problem.n_points=80", "budget=300", "seed=0,1",
@@ -271,7 +271,7 @@ def test_report_draws_each_method_s_front(tmp_path) -> None:
                 "study": "fronts", "results_dir": str(tmp_path),
                 "problem": {"curve": "archimedean", "n_points": 80},
                 "encoding": {"kind": "mask"}, "objective": {"name": "pareto"},
-                "algorithm": {"_name_": optimizer}, "budget": 300, "seed": seed,
+                "optimizer": {"_name_": optimizer}, "budget": 300, "seed": seed,
                 "threads": 1, "progress": False}), multirun=True)
     comparison = prepare(tmp_path / "fronts")
     figure = f.front_figure(comparison, comparison.instances[0])

@@ -410,9 +410,10 @@ def test_registered_and_params_recorded():
     ga = mk.get_optimizer("ga", population=30, crossover="two_point")
     assert isinstance(ga, GeneticAlgorithm) and ga.name == "ga"
     assert "ga" in mk.available_optimizers()
-    assert ga.params() == {"population": 30, "tournament_size": 2, "crossover": "two_point",
-                           "crossover_rate": 0.9, "mutation_rate": None, "elite": 1,
-                           "index_mutation": "step", "max_step": 3}
+    assert ga.hyperparameters() == {"population": 30, "tournament_size": 2,
+                                    "crossover": "two_point", "crossover_rate": 0.9,
+                                    "mutation_rate": None, "elite": 1,
+                                    "index_mutation": "step", "max_step": 3}
 
 
 def test_continuous_problems_are_rejected():

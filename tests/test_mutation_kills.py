@@ -95,8 +95,8 @@ REJECTED = [
     (DolphinEcholocation, {"pp1": -0.1}, "pp1"), (DolphinEcholocation, {"pp1": 1.5}, "pp1"),
     (DolphinEcholocation, {"power": 0.0}, "power"), (DolphinEcholocation, {"re": 0}, "re"),
     (DolphinEcholocation, {"re": 1.5}, "re"), (DolphinEcholocation, {"epsilon": 0.0}, "epsilon"),
-    (NloptKnots, {"algorithm": "LN_NOPE"}, "algorithm"),
-    (NloptKnots, {"local_algorithm": "GN_ISRES"}, "local_algorithm"),
+    (NloptKnots, {"variant": "LN_NOPE"}, "variant"),
+    (NloptKnots, {"local_variant": "GN_ISRES"}, "local_variant"),
     (NloptKnots, {"box_map": "round"}, "box_map"),
     (NloptKnots, {"restarts": -1}, "restarts"), (NloptKnots, {"restarts": 1.5}, "restarts"),
     (NloptKnots, {"min_gap": 0.0}, "min_gap"), (NloptKnots, {"min_gap": 0.6}, "min_gap"),
@@ -142,7 +142,7 @@ ACCEPTED = [
 
 @pytest.mark.parametrize(("cls", "kwargs"), ACCEPTED)
 def test_boundary_settings_are_accepted_and_kept(cls, kwargs):
-    params = cls(**kwargs).params()
+    params = cls(**kwargs).hyperparameters()
     for key, value in kwargs.items():
         assert params[key] == value and type(params[key]) is type(value), key
 
@@ -155,7 +155,7 @@ DEFAULTS = {
     "one_plus_one": {"rate": None, "offspring": 1, "max_step": 1},
     "local_search": {"max_step": 2, "batch_size": 64, "iterated": True, "kick": 3},
     "random_search": {"batch_size": 100},
-    "nlopt": {"algorithm": "LN_BOBYQA", "local_algorithm": "LN_BOBYQA", "restarts": 0,
+    "nlopt": {"variant": "LN_BOBYQA", "local_variant": "LN_BOBYQA", "restarts": 0,
               "min_gap": 1e-4, "data_gap": None, "box_map": "auto", "span_range": 4.0,
               "initial_step": 0.1, "perturbation": 0.05, "k_grid": 5},
     "uniform": {"max_knots": None, "batch_size": 64},
@@ -166,7 +166,7 @@ DEFAULTS = {
 
 @pytest.mark.parametrize("name", sorted(DEFAULTS))
 def test_defaults_are_the_documented_ones(name):
-    assert mk.get_optimizer(name).params() == DEFAULTS[name]
+    assert mk.get_optimizer(name).hyperparameters() == DEFAULTS[name]
 
 
 # --------------------------------------------------------------------------------------------

@@ -58,7 +58,7 @@ def kink_problem(n_points: int = 60) -> FreeKnots:
 def test_every_algorithm_spends_the_budget_and_never_worsens_the_averaging_start(algorithm):
     problem = spiral()
     start = averaging_knots(problem.params, 5, problem.degree)
-    result = mk.minimize(problem, NloptKnots(algorithm=algorithm, restarts=1), budget=150, seed=2)
+    result = mk.minimize(problem, NloptKnots(variant=algorithm, restarts=1), budget=150, seed=2)
     assert result.n_evaluations == 150
     # paper objective = control points x sqrt(SSE) (the error floor is far below these errors)
     sse_best = scipy_sse(problem, result.best_x)
@@ -71,7 +71,7 @@ def test_every_algorithm_spends_the_budget_and_never_worsens_the_averaging_start
 
 @pytest.mark.parametrize("algorithm", LOCAL_ALGORITHMS)
 def test_local_methods_recover_a_kink(algorithm):
-    result = mk.minimize(kink_problem(), NloptKnots(algorithm=algorithm), budget=300, seed=0)
+    result = mk.minimize(kink_problem(), NloptKnots(variant=algorithm), budget=300, seed=0)
     assert abs(result.best_x[0] - KINK) < 1e-3  # data sites are 1/59 apart: not a grid effect
     assert result.best_f < 1e-6
 
@@ -80,7 +80,7 @@ def test_local_methods_recover_a_kink(algorithm):
 def test_every_candidate_is_sorted_and_separated(algorithm):
     min_gap = 0.05
     problem = Recording("archimedean", n_knots=5)
-    mk.minimize(problem, NloptKnots(algorithm=algorithm, min_gap=min_gap, restarts=2),
+    mk.minimize(problem, NloptKnots(variant=algorithm, min_gap=min_gap, restarts=2),
                 budget=120, seed=4)
     X = np.array(problem.seen)
     assert X.shape == (120, 5)  # decoding the best is not an evaluation
@@ -99,8 +99,8 @@ def test_unit_box_map_round_trips_separated_knots():
 
 
 # BOBYQA itself is deterministic: different seeds differ only through the restart perturbations
-@pytest.mark.parametrize("params", [{"algorithm": "LN_BOBYQA", "restarts": 2},
-                                    {"algorithm": "GN_CRS2_LM"}, {"algorithm": "G_MLSL_LDS"}])
+@pytest.mark.parametrize("params", [{"variant": "LN_BOBYQA", "restarts": 2},
+                                    {"variant": "GN_CRS2_LM"}, {"variant": "G_MLSL_LDS"}])
 def test_deterministic_by_seed(params):
     def run(seed):
         values = []  # every evaluated value, in order: the whole search path
@@ -154,7 +154,7 @@ def test_three_kink_reference_by_exhaustive_evaluation_of_every_count():
 @pytest.mark.parametrize("algorithm", ["LN_BOBYQA", "LN_SBPLX"])
 @pytest.mark.parametrize("n_knots", [6, 8])
 def test_variable_count_search_finds_the_best_number_of_knots(algorithm, n_knots):
-    result = mk.minimize(three_kink_problem(n_knots), NloptKnots(algorithm=algorithm),
+    result = mk.minimize(three_kink_problem(n_knots), NloptKnots(variant=algorithm),
                          budget=1500, seed=1)
     assert result.n_evaluations == 1500
     present = result.best_x[~np.isnan(result.best_x)]
@@ -177,7 +177,7 @@ def test_variable_count_search_beats_the_averaging_knots_at_both_ends_of_the_ran
 def test_variable_count_with_a_global_method_respects_the_budget():
     problem = Recording(three_kink_problem(6).data, n_knots=6, degree=1, variable_count=True,
                         objective="error_bounded", objective_options={"tolerance": 1e-3})
-    result = mk.minimize(problem, NloptKnots(algorithm="GN_CRS2_LM"), budget=400, seed=0)
+    result = mk.minimize(problem, NloptKnots(variant="GN_CRS2_LM"), budget=400, seed=0)
     assert result.n_evaluations == len(problem.seen) == 400
     counts = {int((~np.isnan(x)).sum()) for x in problem.seen}
     assert counts <= set(range(1, 7)) and len(counts) >= 3  # several K were tried
@@ -212,7 +212,7 @@ def test_an_error_of_the_problem_is_raised_even_if_nlopt_uses_its_type(algorithm
     problem = RaisesOnce("archimedean", n_knots=5)
     problem.error = error
     with pytest.raises(type(error), match=str(error)) as info:
-        mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=80, seed=0)
+        mk.minimize(problem, NloptKnots(variant=algorithm), budget=80, seed=0)
     assert problem.calls == 7
     assert info.value.partial_result.n_evaluations == 6
 
@@ -225,7 +225,7 @@ class Broken(FreeKnots):
 @pytest.mark.parametrize("algorithm", ["LN_BOBYQA", "GN_CRS2_LM"])
 def test_a_real_error_in_the_problem_is_not_swallowed(algorithm):
     with pytest.raises(ZeroDivisionError, match="a real bug"):
-        mk.minimize(Broken("archimedean", n_knots=5), NloptKnots(algorithm=algorithm),
+        mk.minimize(Broken("archimedean", n_knots=5), NloptKnots(variant=algorithm),
                     budget=50, seed=0)
 
 
@@ -233,7 +233,7 @@ def test_a_real_error_in_the_problem_is_not_swallowed(algorithm):
 @pytest.mark.parametrize("budget", [1, 2, 7, 33])
 def test_small_budgets_are_spent_exactly(algorithm, budget):
     # 33 stops GN_CRS2_LM (population 60) and GN_ISRES while they draw their first population
-    result = mk.minimize(spiral(), NloptKnots(algorithm=algorithm, restarts=2), budget=budget,
+    result = mk.minimize(spiral(), NloptKnots(variant=algorithm, restarts=2), budget=budget,
                          seed=0)
     assert result.n_evaluations == budget
 
@@ -243,7 +243,7 @@ def test_small_budgets_are_spent_exactly(algorithm, budget):
 def test_flat_or_infeasible_objective_spends_the_budget(algorithm, value):
     problem = Flat("archimedean", n_knots=3)
     problem.value = value
-    result = mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=60, seed=0)
+    result = mk.minimize(problem, NloptKnots(variant=algorithm), budget=60, seed=0)
     assert result.n_evaluations == 60
     assert result.best_f == value
 
@@ -261,13 +261,14 @@ def test_callbacks_see_every_evaluation_and_can_stop_the_run():
 
 
 def test_registered_by_name():
-    optimizer = mk.get_optimizer("nlopt", algorithm="LN_SBPLX")
-    assert isinstance(optimizer, NloptKnots) and optimizer.params()["algorithm"] == "LN_SBPLX"
+    optimizer = mk.get_optimizer("nlopt", variant="LN_SBPLX")
+    assert isinstance(optimizer, NloptKnots)
+    assert optimizer.hyperparameters()["variant"] == "LN_SBPLX"
     assert set(GLOBAL_ALGORITHMS) >= {"GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS"}
 
 
 @pytest.mark.parametrize(("name", "value"), [
-    ("algorithm", "LN_FOO"), ("algorithm", "bobyqa"), ("local_algorithm", "GN_CRS2_LM"),
+    ("variant", "LN_FOO"), ("variant", "bobyqa"), ("local_variant", "GN_CRS2_LM"),
     ("restarts", -1), ("restarts", 1.5), ("min_gap", 0.0), ("min_gap", -0.1),
     ("min_gap", 0.6), ("min_gap", float("nan")), ("initial_step", 0.0), ("perturbation", 0.0),
     ("k_grid", 1),
@@ -279,7 +280,7 @@ def test_bad_parameters_are_rejected(name, value):
 
 def test_unknown_algorithm_lists_the_valid_names():
     with pytest.raises(ValueError, match=r"LN_BOBYQA.*LN_SBPLX.*GN_CRS2_LM.*GN_ISRES"):
-        NloptKnots(algorithm="LN_FOO")
+        NloptKnots(variant="LN_FOO")
 
 
 def test_min_gap_too_large_for_the_knot_count_and_other_problems_are_rejected():
@@ -298,7 +299,7 @@ def test_min_gap_too_large_for_the_knot_count_and_other_problems_are_rejected():
                                           ("vivaldi", 40)])
 def test_every_box_point_gives_knots_that_respect_the_data_spacing(box_map, curve, k):
     problem = FreeKnots(curve, n_knots=k)
-    optimizer = NloptKnots(algorithm="GN_CRS2_LM", box_map=box_map)
+    optimizer = NloptKnots(variant="GN_CRS2_LM", box_map=box_map)
     optimizer.setup(problem, np.random.default_rng(0))
     u = problem.params
     gap = optimizer.gap(k)
@@ -324,7 +325,7 @@ def test_the_maps_invert(box_map):
 
 def test_the_spans_map_is_centred_on_the_averaging_knots():
     problem = FreeKnots("epitrochoid", n_knots=20)
-    optimizer = NloptKnots(algorithm="GN_ISRES")  # a global algorithm: the spans map
+    optimizer = NloptKnots(variant="GN_ISRES")  # a global algorithm: the spans map
     optimizer.setup(problem, np.random.default_rng(0))
     assert optimizer.map == "spans"
     start = averaging_knots(problem.params, 20, 3)
@@ -353,7 +354,7 @@ def test_global_methods_stay_feasible_and_improve_on_the_averaging_start(curve, 
     start = reference.evaluate(averaging_knots(reference.params, k, 3)[None, :])[0]
     for algorithm in ("GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS"):
         problem = Tally(curve, n_knots=k, **options)
-        result = mk.minimize(problem, NloptKnots(algorithm=algorithm), budget=5000, seed=0)
+        result = mk.minimize(problem, NloptKnots(variant=algorithm), budget=5000, seed=0)
         assert problem.infeasible < 0.1 * problem.n, (algorithm, problem.infeasible, problem.n)
         assert result.best_f <= start * (1 + 1e-9), algorithm
         if algorithm != "GN_ISRES":
@@ -361,10 +362,10 @@ def test_global_methods_stay_feasible_and_improve_on_the_averaging_start(curve, 
 
 
 def test_nlopt_algorithms_by_name():
-    """``nlopt:<algorithm>`` resolves like ``pymoo:GA`` and ``nevergrad:NGOpt``."""
+    """``nlopt:<variant>`` resolves like ``pymoo:GA`` and ``nevergrad:NGOpt``."""
     import metaknot as mk
 
     optimizer = mk.get_optimizer("nlopt:LN_SBPLX")
-    assert optimizer.algorithm == "LN_SBPLX" and optimizer.name == "nlopt"
+    assert optimizer.variant == "LN_SBPLX" and optimizer.name == "nlopt"
     with pytest.raises(ValueError, match="LN_NOPE"):
         mk.get_optimizer("nlopt:LN_NOPE")

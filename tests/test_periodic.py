@@ -208,7 +208,7 @@ def test_closed_problems_score_the_periodic_fit(index: int) -> None:
         assert cp == reference.n_control_points == len(interior) + 1
     best = X[np.argmin(values)]
     solution = problem.decode(best)
-    assert solution.metrics()["max_deviation"] == pytest.approx(
+    assert solution.metrics["max_deviation"] == pytest.approx(
         fit_periodic(problem.params, problem.points, interior_of(problem, best),
                      3).max_deviation, rel=1e-12)
 
@@ -241,7 +241,7 @@ def test_every_optimizer_runs_on_closed_problems(index: int) -> None:
         if result.best_x is not None:
             assert result.best_f == pytest.approx(
                 float(problem.evaluate(result.best_x[None, :])[0]))
-            assert result.metrics()["n_control_points"] == \
+            assert result.metrics["n_control_points"] == \
                 len(interior_of(problem, result.best_x)) + 1
 
 
@@ -261,7 +261,7 @@ def test_a_closed_study_from_the_command_line(tmp_path) -> None:
 
     done = subprocess.run(
         [sys.executable, "-m", "metaknot.cli", "run", "-m", "problem=epitrochoid",
-         "problem.closed=true,false", "algorithm=averaging", "budget=400", "seed=0",
+         "problem.closed=true,false", "optimizer=averaging", "budget=400", "seed=0",
          f"results_dir={tmp_path}", "study=closed"],
         capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
@@ -288,7 +288,7 @@ def test_a_closed_index_set_may_use_the_last_point() -> None:
     x = np.array([8, 16, 24, 32, 40, 49])  # 49 = N - 1: next to point 0 across the seam
     solution = problem.decode(x)
     reference = fit_periodic(problem.params, points, problem.params[x], 3)
-    assert solution.metrics()["sse"] == pytest.approx(reference.sse, rel=1e-12)
+    assert solution.metrics["sse"] == pytest.approx(reference.sse, rel=1e-12)
 
 
 def test_a_single_fit_of_many_points_needs_no_dense_matrix() -> None:

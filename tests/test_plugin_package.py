@@ -73,10 +73,10 @@ def test_installed_plugin_runs_by_name(installed: Path) -> None:
         import json
         import metaknot as mk
         names = mk.available_optimizers()
-        runs = [mk.minimize("knot_selection", "hill_climber", budget=300, seed=4,
+        runs = [mk.minimize("mask", "hill_climber", budget=300, seed=4,
                             problem_kwargs={"points": "archimedean"},
                             optimizer_kwargs={"neighbours": 25}) for _ in range(2)]
-        baseline = mk.minimize("knot_selection", "random_search", budget=300, seed=4,
+        baseline = mk.minimize("mask", "random_search", budget=300, seed=4,
                                problem_kwargs={"points": "archimedean"})
         print(json.dumps({
             "listed": "hill_climber" in names,
@@ -102,19 +102,19 @@ def test_guide_example_is_not_registered_in_metaknot() -> None:
 
 @pytest.mark.slow
 def test_installed_plugin_runs_in_a_study_without_a_yaml(installed: Path, tmp_path: Path) -> None:
-    """`metaknot run algorithm=<plugin>` works from the plugin's signature alone: its
+    """`metaknot run optimizer=<plugin>` works from the plugin's signature alone: its
     hyperparameters are settable and validated, and the record names them."""
     env = {**os.environ, "PYTHONPATH": str(installed)}
-    command = [sys.executable, "-m", "metaknot.cli", "run", "algorithm=hill_climber",
+    command = [sys.executable, "-m", "metaknot.cli", "run", "optimizer=hill_climber",
                "problem=archimedean", "budget=300", f"results_dir={tmp_path}"]
-    done = subprocess.run([*command, "algorithm.neighbours=25"], capture_output=True,
+    done = subprocess.run([*command, "optimizer.neighbours=25"], capture_output=True,
                           text=True, env=env, cwd=tmp_path, timeout=300)
     assert done.returncode == 0, done.stderr
-    bad = subprocess.run([*command, "algorithm.neighbours=many"], capture_output=True,
+    bad = subprocess.run([*command, "optimizer.neighbours=many"], capture_output=True,
                          text=True, env=env, cwd=tmp_path, timeout=300)
-    assert bad.returncode == 2 and "algorithm.neighbours" in bad.stderr
+    assert bad.returncode == 2 and "optimizer.neighbours" in bad.stderr
     from metaknot.experiments.store import load_study
 
     (row,) = load_study(tmp_path / "default").runs.to_dict("records")
-    assert row["algorithm"] == "hill_climber" and row["algorithm.neighbours"] == 25
+    assert row["optimizer"] == "hill_climber" and row["optimizer.neighbours"] == 25
     assert row["n_evaluations"] == 300 and row["status"] == "ok"

@@ -25,7 +25,7 @@ from metaknot.experiments.report import build
 from metaknot.experiments.store import load_study
 
 DATA = Path(__file__).parent / "data" / "previous-study"
-SWEEP = ("-m", "problem=archimedean", "algorithm=ga,random_search", "seed=0,1", "budget=200",
+SWEEP = ("-m", "problem=archimedean", "{optimizer}=ga,random_search", "seed=0,1", "budget=200",
          "study=previous-study")
 RUN_IDS = {"592e106461ab81fe", "a43e63dcb1ce181e", "cf7d777ee8ac916e", "d32528d769ad2043"}
 FAILED_ID = "c4f013fc391a2e5f"
@@ -47,7 +47,7 @@ def test_load_study_reads_the_previous_version(results):
     study = load_study(results / "previous-study")
     ok = study.runs[study.runs.status == "ok"]
     assert set(ok.run_id) == RUN_IDS
-    assert sorted(zip(ok.algorithm, ok.seed, strict=True)) == [
+    assert sorted(zip(ok.optimizer, ok.seed, strict=True)) == [
         ("ga", 0), ("ga", 1), ("random_search", 0), ("random_search", 1)]
     assert (ok.n_evaluations == 200).all() and (ok.rmse > 0).all()
     (failed,) = study.failures.to_dict("records")
@@ -66,12 +66,16 @@ def test_the_report_reads_the_previous_version(results, tmp_path):
     assert snapshot(results / "previous-study") == before
 
 
-def test_a_sweep_of_the_same_configuration_finds_every_run_stored(results):
+@pytest.mark.parametrize("optimizer", ["optimizer", "algorithm"])  # "algorithm": as written
+def test_a_sweep_of_the_same_configuration_finds_every_run_stored(results, optimizer):
     before = snapshot(results / "previous-study")
-    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "run", *SWEEP,
+    sweep = [arg.format(optimizer=optimizer) for arg in SWEEP]
+    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "run", *sweep,
                            f"results_dir={results}"], cwd=results.parent, capture_output=True,
                           text=True, timeout=600, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     assert done.returncode == 0, done.stderr
     assert f"study {results / 'previous-study'}: 4 jobs, 0 to run, 4 already stored" \
         in done.stderr
+    noted = "metaknot: 'algorithm' is deprecated, write 'optimizer'" in done.stderr
+    assert noted == (optimizer == "algorithm")
     assert snapshot(results / "previous-study") == before

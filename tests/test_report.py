@@ -58,7 +58,7 @@ def _base_config(data: str, algorithm: str) -> str:
                     "parameterization": "centripetal"},
         "encoding": {"kind": "mask", "density": 0.5},
         "objective": {"name": "paper", "error_floor": 1e-5},
-        "algorithm": {"_name_": algorithm}})
+        "optimizer": {"_name_": algorithm}})
     return json.dumps(spec.config, sort_keys=True)
 
 
@@ -87,9 +87,9 @@ def _run(method: str | None, seed: int, budget: int, best_f: float, *, data="arc
     finite = best_f if np.isfinite(best_f) else np.nan
     record = {
         "study": "s", "label": method, "timestamp": f"2024-01-01T00:00:{seed % 60:02d}+00:00",
-        "problem": "knot_selection", "encoding": "binary", "data": data, "noise": 0.0,
+        "problem": "mask", "encoding": "binary", "data": data, "noise": 0.0,
         "degree": 3, "parameterization": "centripetal", "objective": "paper",
-        "objective.error_floor": 1e-5, "algorithm": algorithm, "seed": seed, "budget": budget,
+        "objective.error_floor": 1e-5, "optimizer": algorithm, "seed": seed, "budget": budget,
         "n_evaluations": budget, "best_f": best_f, "rmse": finite * 1e-3,
         "euclidean_distance": finite * 1e-2, "max_deviation": finite * 3e-3,
         "n_control_points": 20, "dim": int(_problem(data).points.shape[1]),
@@ -897,7 +897,7 @@ def test_full_report_with_figures(tmp_path):
 
 
 def test_same_method_with_different_settings_needs_labels(tmp_path):
-    runs = [_run(None, seed, 300, 1.0 + seed, algorithm="ga", **{"algorithm.population": pop})
+    runs = [_run(None, seed, 300, 1.0 + seed, algorithm="ga", **{"optimizer.population": pop})
             for seed in range(3) for pop in (50, 100)]
     study = _write(tmp_path / "s", runs)
     with pytest.raises(ReportError, match=r"6 runs share instance, budget, method and seed "
@@ -905,7 +905,7 @@ def test_same_method_with_different_settings_needs_labels(tmp_path):
                                           r"different labels"):
         prepare(study)
     labelled = [_run(f"ga-{pop}", seed, 300, 1.0 + seed, algorithm="ga",
-                     **{"algorithm.population": pop})
+                     **{"optimizer.population": pop})
                 for seed in range(3) for pop in (50, 100)]
     comparison = prepare(_write(tmp_path / "t", labelled))
     assert sorted(comparison.methods) == ["ga-100", "ga-50"]
@@ -975,7 +975,7 @@ def test_a_record_without_its_spline_is_drawn_from_its_candidate(tmp_path, monke
 @pytest.mark.slow
 def test_report_of_a_real_study(tmp_path, monkeypatch):
     done = subprocess.run(
-        [sys.executable, "-m", "metaknot.cli", "run", "-m", "algorithm=ga,random_search",
+        [sys.executable, "-m", "metaknot.cli", "run", "-m", "optimizer=ga,random_search",
          "problem=archimedean", "budget=300", "seed=range(0,6)", f"results_dir={tmp_path}"],
         cwd=tmp_path, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr

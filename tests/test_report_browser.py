@@ -71,7 +71,7 @@ def report(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("report-browser")
     done = subprocess.run(
         [sys.executable, "-m", "metaknot.cli", "run", "-m",
-         "algorithm=ga,random_search,dolphin", "problem=" + ",".join(INSTANCES),
+         "optimizer=ga,random_search,dolphin", "problem=" + ",".join(INSTANCES),
          "budget=300,600", "seed=range(0,6)", f"results_dir={tmp}"],
         cwd=tmp, capture_output=True, text=True, timeout=600, env=ENV)
     assert done.returncode == 0, done.stderr

@@ -98,7 +98,7 @@ def test_callback_lifecycle_and_plain_callables_together():
     lifecycle, plain = Lifecycle(), []
     result = mk.minimize(KnotSelection(SPIRAL), "random_search", budget=250, seed=1,
                          callbacks=[lifecycle, plain.append])
-    assert lifecycle.events == [("start", "knot_selection", "random_search", 250),
+    assert lifecycle.events == [("start", "mask", "random_search", 250),
                                 ("batch", 100), ("batch", 200), ("batch", 250), ("end", "ok")]
     assert [p.n_evaluations for p in plain] == [100, 200, 250]
     assert result.status == "ok"
@@ -220,14 +220,14 @@ def test_record_is_flat_and_complete():
     # one name, one meaning: `objective` is the name, the value is `best_f`
     assert record["objective"] == "paper" and record["objective.error_floor"] == 2e-5
     assert record["best_f"] == result.best_f
-    assert record["problem"] == "knot_selection" and record["encoding"] == "binary"
+    assert record["problem"] == "mask" and record["encoding"] == "binary"
     assert record["data"] == data.name and record["noise"] == 0.01
     assert record["noise_seed"] == "3/0"
     assert record["data_fingerprint"] == data.fingerprint != SPIRAL.fingerprint
     assert record["density"] == 0.3 and record["degree"] == 3
     assert record["parameterization"] == "centripetal"
-    assert record["algorithm"] == "ga" and record["algorithm.population"] == 20
-    assert record["algorithm.crossover"] == "uniform"
+    assert record["optimizer"] == "ga" and record["optimizer.population"] == 20
+    assert record["optimizer.crossover"] == "uniform"
     assert record["budget"] == record["n_evaluations"] == 100
     fit = result.solution.fit
     assert record["rmse"] == pytest.approx(fit.rmse)

@@ -67,7 +67,7 @@ def plain_cfg(**changes):
     (``problem__noise=0.1``), or remove them (``DROP``)."""
     cfg = {"study": "s", "results_dir": RESULTS, "budget": 100, "seed": 0,
            "problem": {"curve": "archimedean"}, "encoding": {"kind": "mask"},
-           "objective": {"name": "paper"}, "algorithm": {"_name_": "dolphin"}}
+           "objective": {"name": "paper"}, "optimizer": {"_name_": "dolphin"}}
     for dotted, value in changes.items():
         *parents, last = dotted.split("__")
         node = cfg
@@ -117,8 +117,8 @@ def sweep_values(params) -> dict[str, list[str]]:
 
 
 BAD_OVERRIDES = [  # composed by Hydra, as on the command line
-    (["algorithm.population=abc"], "algorithm.population"),
-    (["algorithm.population=[1,2]"], "algorithm.population"),
+    (["optimizer.population=abc"], "optimizer.population"),
+    (["optimizer.population=[1,2]"], "optimizer.population"),
     (["budget=0"], "budget"),
     (["budget=-3"], "budget"),
     (["budget=abc"], "budget"),
@@ -138,12 +138,12 @@ BAD_OVERRIDES = [  # composed by Hydra, as on the command line
     (["encoding=indices", "problem.n_points=10"], "encoding.n_knots"),  # 20 knots > N - 4
     (["objective.error_floor=-1"], "objective.error_floor"),
     (["objective=error_bounded", "objective.metric=foo"], "objective.metric"),
-    (["+algorithm.populaton=3"], "algorithm.populaton"),
+    (["+optimizer.populaton=3"], "optimizer.populaton"),
     (["+problem.colour=red"], "problem.colour"),
     (["+encoding.n_knots=3"], "encoding.n_knots"),  # the mask has no knot count
-    (["algorithm.fitness=foo"], "algorithm.fitness"),
-    (["algorithm=ga", "algorithm.crossover=foo"], "algorithm.crossover"),
-    (["algorithm=nlopt", "encoding=free", "algorithm.algorithm=FOO"], "algorithm.algorithm"),
+    (["optimizer.fitness=foo"], "optimizer.fitness"),
+    (["optimizer=ga", "optimizer.crossover=foo"], "optimizer.crossover"),
+    (["optimizer=nlopt", "encoding=free", "optimizer.variant=FOO"], "optimizer.variant"),
     (["threads=0"], "threads"),
     (["checkpoints_per_decade=0"], "checkpoints_per_decade"),
 ]
@@ -165,7 +165,7 @@ def test_a_missing_points_file_is_named():
 
 def test_an_unknown_setting_lists_the_known_ones():
     with pytest.raises(ConfigError) as info:
-        spec_of("+algorithm.populaton=3")
+        spec_of("+optimizer.populaton=3")
     assert "population" in str(info.value).split(":", 1)[1]
 
 
@@ -211,16 +211,16 @@ BAD_PLAIN = [  # a plain mapping of the same shape
     ({"objective__error_floor": "abc"}, "objective.error_floor"),
     ({"objective__tolerance": 0.1}, "objective.tolerance"),  # paper has no tolerance
     ({"objective": {"name": "error_bounded", "tolerance": -1.0}}, "objective.tolerance"),
-    ({"algorithm": DROP}, "algorithm"),
-    ({"algorithm": ["dolphin"]}, "algorithm"),
-    ({"algorithm___name_": DROP}, "algorithm._name_"),
-    ({"algorithm___name_": 3}, "algorithm._name_"),
-    ({"algorithm___name_": "dolfin"}, "algorithm._name_"),
-    ({"algorithm__population": "???"}, "algorithm.population"),
-    ({"algorithm__population": 1.5}, "algorithm.population"),
-    ({"algorithm__population": {"a": 1}}, "algorithm.population"),
-    ({"algorithm__pp1": 2}, "algorithm.pp1"),
-    ({"algorithm__loops": 0}, "algorithm.loops"),
+    ({"optimizer": DROP}, "optimizer"),
+    ({"optimizer": ["dolphin"]}, "optimizer"),
+    ({"optimizer___name_": DROP}, "optimizer._name_"),
+    ({"optimizer___name_": 3}, "optimizer._name_"),
+    ({"optimizer___name_": "dolfin"}, "optimizer._name_"),
+    ({"optimizer__population": "???"}, "optimizer.population"),
+    ({"optimizer__population": 1.5}, "optimizer.population"),
+    ({"optimizer__population": {"a": 1}}, "optimizer.population"),
+    ({"optimizer__pp1": 2}, "optimizer.pp1"),
+    ({"optimizer__loops": 0}, "optimizer.loops"),
 ]
 
 
@@ -240,7 +240,7 @@ def test_config_error_is_a_value_error_hydra_reports_compactly():
 
 
 def test_unknown_optimizer_suggests_the_closest_name():
-    with pytest.raises(ConfigError, match=r"^algorithm\._name_: .*dolphin") as info:
+    with pytest.raises(ConfigError, match=r"^optimizer\._name_: .*dolphin") as info:
         algorithm_defaults("dolfin")
     assert "\n" not in str(info.value)
 
@@ -278,7 +278,7 @@ def test_a_bad_points_file_is_reported_as_a_problem_error(tmp_path):
 # the algorithm configs are the optimizers' signatures
 
 
-ALGORITHM_YAMLS = sorted((CONFIG_DIR / "algorithm").glob("*.yaml"))
+ALGORITHM_YAMLS = sorted((CONFIG_DIR / "optimizer").glob("*.yaml"))
 #: The method presets that name a method (``method=default`` is none: the configured one).
 METHOD_PRESETS = sorted(p for p in (CONFIG_DIR / "method").glob("*.yaml") if p.stem != "default")
 
@@ -290,7 +290,7 @@ def first_encoding(name: str) -> str:
 
 
 def algorithm_choice(name: str) -> tuple[str, ...]:
-    return f"algorithm={name}", f"encoding={first_encoding(name)}", "problem=archimedean"
+    return f"optimizer={name}", f"encoding={first_encoding(name)}", "problem=archimedean"
 
 
 @pytest.mark.parametrize("path", ALGORITHM_YAMLS, ids=lambda p: p.stem)
@@ -317,7 +317,7 @@ def test_every_registered_optimizer_has_a_yaml():
 def test_every_algorithm_config_composes_and_builds(name):
     cls = type(mk.get_optimizer(name))
     spec = spec_of(*algorithm_choice(name))
-    assert spec.algorithm == name and spec.label == name and spec.compatible() is None
+    assert spec.optimizer == name and spec.label == name and spec.compatible() is None
     assert type(spec.build_optimizer()) is cls
 
 
@@ -371,16 +371,16 @@ def test_plugin_optimizer_settings_from_its_signature(monkeypatch):
     registry._REGISTRY["optimizer"]["spec_probe"] = _Probe
     assert algorithm_defaults("spec_probe") == {"_name_": "spec_probe", "steps": "???",
                                                 "shape": "(1, 2)", "scale": 1.0}
-    with pytest.raises(ConfigError, match=r"^algorithm\.steps: required"):
-        run_spec(plain_cfg(algorithm={"_name_": "spec_probe"}))
-    with pytest.raises(ConfigError, match=r"^algorithm\.steps: required"):
-        run_spec(plain_cfg(algorithm=algorithm_defaults("spec_probe")))
-    with pytest.raises(ConfigError, match=r"^algorithm\.steps: expected int"):
-        run_spec(plain_cfg(algorithm={"_name_": "spec_probe", "steps": "x"}))
-    spec = run_spec(plain_cfg(algorithm={"_name_": "spec_probe", "steps": 3, "scale": 2}))
-    assert spec.config["algorithm"] == {"_name_": "spec_probe", "steps": 3, "shape": (1, 2),
+    with pytest.raises(ConfigError, match=r"^optimizer\.steps: required"):
+        run_spec(plain_cfg(optimizer={"_name_": "spec_probe"}))
+    with pytest.raises(ConfigError, match=r"^optimizer\.steps: required"):
+        run_spec(plain_cfg(optimizer=algorithm_defaults("spec_probe")))
+    with pytest.raises(ConfigError, match=r"^optimizer\.steps: expected int"):
+        run_spec(plain_cfg(optimizer={"_name_": "spec_probe", "steps": "x"}))
+    spec = run_spec(plain_cfg(optimizer={"_name_": "spec_probe", "steps": 3, "scale": 2}))
+    assert spec.config["optimizer"] == {"_name_": "spec_probe", "steps": 3, "shape": (1, 2),
                                         "scale": 2.0}
-    assert isinstance(spec.config["algorithm"]["scale"], float)
+    assert isinstance(spec.config["optimizer"]["scale"], float)
     assert spec.build_optimizer().steps == 3
 
 
@@ -388,18 +388,18 @@ def test_plugin_optimizer_settings_from_its_signature(monkeypatch):
 # run ids
 
 
-RUN_DEFINING = {"seed": 1, "budget": 101, "algorithm__population": 51,
-                "algorithm__fitness": "rank", "problem__noise": 0.01, "problem__noise_seed": 3,
+RUN_DEFINING = {"seed": 1, "budget": 101, "optimizer__population": 51,
+                "optimizer__fitness": "rank", "problem__noise": 0.01, "problem__noise_seed": 3,
                 "problem__degree": 4, "problem__parameterization": "chord",
                 "problem__n_points": 60, "problem__name": "spiral", "encoding__density": 0.4,
                 "objective__error_floor": 1e-6, "checkpoints_per_decade": 5}
-GROUP_CHOICES = ["algorithm=ga", "problem=vivaldi", "encoding=indices", "objective=bic"]
+GROUP_CHOICES = ["optimizer=ga", "problem=vivaldi", "encoding=indices", "objective=bic"]
 NOT_RUN_DEFINING = {"study": "other", "results_dir": "/elsewhere", "threads": 2,
                     "progress": False, "label": "mine"}
 
 
 def test_run_id_is_stable_and_short_hex():
-    overrides = ("algorithm=ga", "encoding=indices", "problem.noise=0.01", "seed=3")
+    overrides = ("optimizer=ga", "encoding=indices", "problem.noise=0.01", "seed=3")
     first, second = (run_spec(compose_cfg.__wrapped__(*overrides), check_build=False)
                      for _ in range(2))  # composed twice, not from the cache
     assert HEX16.match(first.run_id)
@@ -407,14 +407,14 @@ def test_run_id_is_stable_and_short_hex():
 
 
 def test_run_id_is_the_same_for_the_plain_mapping():
-    cfg = compose_cfg("algorithm=ga", "encoding=indices", "problem.noise=0.01")
+    cfg = compose_cfg("optimizer=ga", "encoding=indices", "problem.noise=0.01")
     plain = OmegaConf.to_container(cfg, resolve=True)
     assert run_spec(plain, check_build=False).run_id == run_spec(cfg, check_build=False).run_id
 
 
 @pytest.mark.slow
 def test_run_id_is_the_same_in_a_fresh_process():
-    overrides = ["algorithm=ga", "encoding=indices", "encoding.n_knots=fitpack:1e-4",
+    overrides = ["optimizer=ga", "encoding=indices", "encoding.n_knots=fitpack:1e-4",
                  "problem=vivaldi", "problem.noise=0.01", "seed=7", "budget=1234"]
     code = "\n".join([
         "from hydra import compose, initialize_config_dir",
@@ -464,8 +464,8 @@ def test_run_id_ignores_where_and_how_a_run_executes_on_the_command_line():
 
 
 @pytest.mark.parametrize(("key", "value"), [
-    ("algorithm__population", 50), ("algorithm__power", 1), ("algorithm__pp1", 0.1),
-    ("algorithm__loops", None), ("encoding__density", 0.5), ("problem__degree", 3),
+    ("optimizer__population", 50), ("optimizer__power", 1), ("optimizer__pp1", 0.1),
+    ("optimizer__loops", None), ("encoding__density", 0.5), ("problem__degree", 3),
     ("problem__name", "archimedean"), ("problem__noise", 0), ("objective__error_floor", 1e-5),
     ("checkpoints_per_decade", 10)])
 def test_a_value_equal_to_its_default_is_the_same_run(key, value):
@@ -474,21 +474,21 @@ def test_a_value_equal_to_its_default_is_the_same_run(key, value):
 
 
 def test_a_value_given_at_its_default_on_the_command_line_is_the_same_run():
-    assert spec_of("algorithm.population=50", "algorithm.power=1", "objective.error_floor=1e-5",
+    assert spec_of("optimizer.population=50", "optimizer.power=1", "objective.error_floor=1e-5",
                    check_build=False).run_id == spec_of(check_build=False).run_id
 
 
 @pytest.mark.parametrize("name", sorted(mk.available_optimizers()))
 def test_hyperparameters_left_out_or_given_at_their_defaults_are_the_same_run(name):
-    bare = run_spec(plain_cfg(algorithm={"_name_": name}), check_build=False)
-    full = run_spec(plain_cfg(algorithm=algorithm_defaults(name)), check_build=False)
+    bare = run_spec(plain_cfg(optimizer={"_name_": name}), check_build=False)
+    full = run_spec(plain_cfg(optimizer=algorithm_defaults(name)), check_build=False)
     assert bare.run_id == full.run_id and bare.config == full.config
     for pname, default in signature_defaults(type(mk.get_optimizer(name))).items():
-        one = run_spec(plain_cfg(algorithm={"_name_": name, pname: default}), check_build=False)
+        one = run_spec(plain_cfg(optimizer={"_name_": name, pname: default}), check_build=False)
         assert one.run_id == bare.run_id, pname
     # the YAML gives every hyperparameter
     composed = spec_of(*algorithm_choice(name), check_build=False)
-    assert composed.run_id == run_spec(plain_cfg(algorithm={"_name_": name}, budget=3000,
+    assert composed.run_id == run_spec(plain_cfg(optimizer={"_name_": name}, budget=3000,
                                                  encoding={"kind": first_encoding(name)}),
                                        check_build=False).run_id
 
@@ -506,7 +506,7 @@ def test_fitpack_factor_spellings_are_the_same_run():
 
 
 def noisy_spec(algorithm: str, seed: int, *extra: str):
-    return spec_of(f"algorithm={algorithm}", f"seed={seed}", "problem=archimedean",
+    return spec_of(f"optimizer={algorithm}", f"seed={seed}", "problem=archimedean",
                    "problem.noise=0.01", *extra)
 
 
@@ -595,7 +595,7 @@ def test_fitpack_knot_count_uses_explicit_parameters(tmp_path):
 @pytest.mark.parametrize(("name", "encoding"),
                          list(itertools.product(sorted(mk.available_optimizers()), ENCODINGS)))
 def test_compatible_follows_the_optimizer_encodings(name, encoding):
-    spec = run_spec(plain_cfg(algorithm={"_name_": name}, encoding={"kind": encoding}),
+    spec = run_spec(plain_cfg(optimizer={"_name_": name}, encoding={"kind": encoding}),
                     check_build=False)
     kind = ENCODINGS[encoding][1]
     handles = kind in type(mk.get_optimizer(name)).encodings
@@ -608,9 +608,9 @@ def test_compatible_follows_the_optimizer_encodings(name, encoding):
 
 
 def test_incompatible_examples():
-    assert spec_of("algorithm=nlopt", check_build=False).compatible() is not None  # mask
+    assert spec_of("optimizer=nlopt", check_build=False).compatible() is not None  # mask
     assert spec_of("encoding=free", check_build=False).compatible() is not None  # dolphin
-    assert spec_of("algorithm=nlopt", "encoding=free", check_build=False).compatible() is None
+    assert spec_of("optimizer=nlopt", "encoding=free", check_build=False).compatible() is None
     assert spec_of(check_build=False).compatible() is None
 
 
@@ -622,16 +622,16 @@ def test_seed_paper_preset():
     cfg = compose_cfg("experiment=seed_paper", hydra=True)
     assert sweep_values(cfg.hydra.sweeper.params) == {
         "problem": list(CURVES),
-        "algorithm": ["dolphin", "ga"],
+        "optimizer": ["dolphin", "ga"],
         "budget": [str(50 * i) for i in PAPER_ITERATIONS],
         "seed": [str(s) for s in range(30)],
     }
     for algorithm in ("dolphin", "ga"):
-        spec = run_spec(compose_cfg("experiment=seed_paper", f"algorithm={algorithm}"))
+        spec = run_spec(compose_cfg("experiment=seed_paper", f"optimizer={algorithm}"))
         assert spec.study == "seed_paper" and spec.compatible() is None
         assert spec.config["encoding"]["kind"] == "mask"
         assert spec.config["objective"] == {"name": "paper", "error_floor": 1e-5}
-        assert spec.config["algorithm"]["population"] == 50
+        assert spec.config["optimizer"]["population"] == 50
         assert spec.config["problem"]["degree"] == 3
         assert spec.config["problem"]["parameterization"] == "centripetal"
 
@@ -657,7 +657,7 @@ def test_smoke_preset():
     cfg = compose_cfg("experiment=smoke", hydra=True)
     assert sweep_values(cfg.hydra.sweeper.params) == {
         "problem": list(CURVES),
-        "algorithm": ["dolphin", "ga", "random_search", "one_plus_one", "averaging",
+        "optimizer": ["dolphin", "ga", "random_search", "one_plus_one", "averaging",
                       "local_search"],
         "budget": ["500", "1500"], "seed": [str(s) for s in range(8)]}
     spec = run_spec(cfg)
@@ -679,22 +679,22 @@ def test_method_preset_composes_to_what_it_names(path):
     chosen = {k.split("/")[-1]: v for entry in node["defaults"] for k, v in entry.items()}
     count = [] if chosen["encoding"] == "mask" else ["encoding.n_knots=5"]
     spec = spec_of(f"method={path.stem}", "problem=archimedean", *count)
-    assert spec.algorithm == chosen["algorithm"]
+    assert spec.optimizer == chosen["optimizer"]
     assert spec.config["encoding"]["kind"] == chosen["encoding"]
     assert spec.label == node["label"]
-    for key, value in node.get("algorithm", {}).items():
-        assert spec.config["algorithm"][key] == value
+    for key, value in node.get("optimizer", {}).items():
+        assert spec.config["optimizer"][key] == value
     assert spec.compatible() is None
     prefix, _, encoding = path.stem.rpartition("_")
     assert encoding == chosen["encoding"]
-    named = {spec.algorithm, spec.label, *spec.label.split("-"),
-             str(spec.config["algorithm"].get("algorithm", "")).lower()}
+    named = {spec.optimizer, spec.label, *spec.label.split("-"),
+             str(spec.config["optimizer"].get("variant", "")).lower()}
     assert any(prefix in n for n in named), (prefix, named)
 
 
 def test_the_free_knot_front_preset_takes_every_count_the_data_allow():
     spec = spec_of("method=front_free", "problem=archimedean", "problem.n_points=50")
-    assert spec.algorithm == "free_front" and spec.label == "free-front"
+    assert spec.optimizer == "free_front" and spec.label == "free-front"
     assert spec.config["encoding"] == {"kind": "free", "n_knots": "max", "variable_count": True}
     problem = spec.build_problem()
     assert problem.variable_count and problem.n_objectives == 2
@@ -788,7 +788,7 @@ def test_fast_composition_equals_full_composition_on_the_smoke_study():
     for job, spec in zip(jobs, specs, strict=True):
         settings = dict(o.split("=", 1) for o in job)
         assert spec.config["problem"]["curve"] == settings["problem"]
-        assert spec.algorithm == settings["algorithm"] and spec.study == "smoke"
+        assert spec.optimizer == settings["optimizer"] and spec.study == "smoke"
         assert (spec.budget, spec.seed) == (int(settings["budget"]), int(settings["seed"]))
     assert len({spec.run_id for spec in specs}) == len(jobs)
 
@@ -832,7 +832,7 @@ def test_fast_composition_does_not_carry_values_between_jobs():
 
 
 def test_plan_finds_the_stored_runs(tmp_path):
-    arguments = [f"results_dir={tmp_path}", "problem=archimedean", "algorithm=dolphin,ga",
+    arguments = [f"results_dir={tmp_path}", "problem=archimedean", "optimizer=dolphin,ga",
                  "budget=100", "seed=0,1,2", "study=resume"]
     sweeper = study_sweeper(arguments)
     the_plan, study_dir = plan(sweeper, arguments)
@@ -850,12 +850,12 @@ def test_plan_finds_the_stored_runs(tmp_path):
 
 
 def test_plan_skips_incompatible_pairs_and_duplicates(tmp_path):
-    arguments = [f"results_dir={tmp_path}", "algorithm=nlopt,dolphin", "encoding=mask,free",
+    arguments = [f"results_dir={tmp_path}", "optimizer=nlopt,dolphin", "encoding=mask,free",
                  "seed=0,0", "budget=100"]
     the_plan, study_dir = plan(study_sweeper(arguments), arguments)
     assert the_plan.n_jobs == 8
     assert sorted((job[1], job[2]) for job, _ in the_plan.to_run) == \
-        [("algorithm=dolphin", "encoding=mask"), ("algorithm=nlopt", "encoding=free")]
+        [("optimizer=dolphin", "encoding=mask"), ("optimizer=nlopt", "encoding=free")]
     assert the_plan.duplicates == 2
     assert sorted(the_plan.incompatible.values()) == [2, 2]
     assert any("'nlopt'" in r and "'mask'" in r for r in the_plan.incompatible)
@@ -875,7 +875,7 @@ def test_seed_paper_study_plans_without_errors_skips_or_duplicates(tmp_path):
     arguments = ["experiment=seed_paper", f"results_dir={tmp_path}", "seed=0,1"]
     sweeper = study_sweeper(arguments)
     sizes = {k: len(v) for k, v in sweep_values(sweeper.params).items() if k != "seed"}
-    assert sizes == {"problem": 3, "algorithm": 2, "budget": 8}
+    assert sizes == {"problem": 3, "optimizer": 2, "budget": 8}
     the_plan, study_dir = plan(sweeper, arguments)
     assert study_dir == tmp_path / "seed_paper"
     assert the_plan.n_jobs == len(the_plan.to_run) == 2 * 3 * 2 * 8

@@ -43,7 +43,7 @@ def _config(results_dir, *, algorithm="ga", seed=0, budget=200, study="s", label
                         "noise_seed": None, "degree": 3, "parameterization": "centripetal"},
             "encoding": {"kind": "mask", "density": 0.5},
             "objective": {"name": "paper", "error_floor": 1e-5},
-            "algorithm": {"_name_": algorithm, **params}}
+            "optimizer": {"_name_": algorithm, **params}}
 
 
 def _spec(results_dir, **kwargs):
@@ -161,10 +161,10 @@ def test_executed_run_reads_back_as_the_direct_run(tmp_path):
     assert row["n_evaluations"] == direct.n_evaluations == spec.budget
     assert isinstance(row["best_x"], list) and row["best_x"] == direct.best_x.tolist()
     assert row["seed"] == spec.seed and row["seed_spawn_key"] == "1"
-    for name, value in spec.config["algorithm"].items():
+    for name, value in spec.config["optimizer"].items():
         if name != "_name_":
-            assert _same(row[f"algorithm.{name}"], value), name
-    assert row["algorithm"] == "ga"
+            assert _same(row[f"optimizer.{name}"], value), name
+    assert row["optimizer"] == "ga"
     assert row["objective"] == "paper" and row["objective.error_floor"] == 1e-5
     assert row["data_fingerprint"] == record["data_fingerprint"]
     # study layer: identity, versions, time, config
@@ -379,7 +379,7 @@ def test_a_run_that_crashes_after_evaluating_is_stored_with_its_partial_best(
     assert row["n_evaluations"] == 20
     assert row["best_f"] == partial.best_f and row["best_x"] == partial.best_x.tolist()
     assert row["rmse"] == partial.record()["rmse"]
-    assert row["algorithm"] == "test_crash" and row["algorithm.crash_at"] == 3
+    assert row["optimizer"] == "test_crash" and row["optimizer.crash_at"] == 3
     assert json.loads(row["config"]) == spec.config
     failure = study.failures.iloc[0]
     assert failure["run_id"] == spec.run_id and failure["error"] == row["error"]
@@ -398,8 +398,8 @@ def test_a_run_that_crashes_before_evaluating_is_stored_with_its_settings(
     assert row["status"] == "failed" and row["error"] == "RuntimeError: optimizer exploded"
     assert row["n_evaluations"] == 0 and row["best_x"] is None
     assert (row["problem"], row["encoding"], row["data"]) == (
-        "knot_selection", "binary", "archimedean")
-    assert (row["algorithm"], row["algorithm.crash_at"], row["algorithm.batch"]) == (
+        "mask", "binary", "archimedean")
+    assert (row["optimizer"], row["optimizer.crash_at"], row["optimizer.batch"]) == (
         "test_crash", 1, 10)
     assert row["objective"] == "paper" and row["objective.error_floor"] == 1e-5
     assert (row["seed"], row["budget"], row["label"]) == (0, spec.budget, "test_crash")
@@ -639,16 +639,16 @@ def test_several_runs_load_one_row_each_sorted_with_their_traces(tmp_path):
     runs = study.runs
     assert len(runs) == 4 and runs.run_id.is_unique
     assert set(runs.run_id) == {s.run_id for s in specs}
-    assert list(zip(runs.algorithm, runs.budget, runs.seed, strict=True)) == sorted(
-        (s.algorithm, s.budget, s.seed) for s in specs)
+    assert list(zip(runs.optimizer, runs.budget, runs.seed, strict=True)) == sorted(
+        (s.optimizer, s.budget, s.seed) for s in specs)
     assert list(runs.index) == list(range(4))
-    joined = study.trace.merge(runs[["run_id", "algorithm", "seed"]], on="run_id",
+    joined = study.trace.merge(runs[["run_id", "optimizer", "seed"]], on="run_id",
                                how="left", validate="many_to_one")
-    assert len(joined) == len(study.trace) and joined.algorithm.notna().all()
+    assert len(joined) == len(study.trace) and joined.optimizer.notna().all()
     for spec in specs:
         direct = _direct(spec)
         row = runs[runs.run_id == spec.run_id].iloc[0]
-        assert (row.algorithm, row.seed, row.budget) == (spec.algorithm, spec.seed, spec.budget)
+        assert (row.optimizer, row.seed, row.budget) == (spec.optimizer, spec.seed, spec.budget)
         assert row.best_f == direct.best_f and row.best_x == direct.best_x.tolist()
         trace = study.trace[study.trace.run_id == spec.run_id].reset_index(drop=True)
         assert len(trace) == len(direct.trace)

@@ -22,7 +22,7 @@ ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
 RECORD_FIELDS = {
     "run_id", "study", "label", "problem", "data", "data_fingerprint", "n_points", "dim",
     "noise", "noise_seed", "density", "degree", "parameterization", "encoding", "objective",
-    "objective.error_floor", "algorithm", "seed", "seed_spawn_key", "budget",
+    "objective.error_floor", "optimizer", "seed", "seed_spawn_key", "budget",
     "n_evaluations", "best_f", "rmse", "euclidean_distance", "max_deviation",
     "n_control_points", "setup_seconds", "optimize_seconds", "decode_seconds",
     "elapsed_seconds", "external_fits", "status", "error", "metaknot_version",
@@ -53,12 +53,12 @@ def snapshot(runs_dir: Path) -> dict[str, tuple[int, int, bytes]]:
 
 
 def test_single_run_from_the_command_line(tmp_path):
-    done = metaknot("algorithm=ga", "problem=vivaldi", "seed=3", "budget=400",
+    done = metaknot("optimizer=ga", "problem=vivaldi", "seed=3", "budget=400",
                     f"results_dir={tmp_path}", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     study = load_study(tmp_path / "default")
     (row,) = study.runs.to_dict("records")
-    assert row["algorithm"] == "ga" and row["data"] == "vivaldi" and row["seed"] == 3
+    assert row["optimizer"] == "ga" and row["data"] == "vivaldi" and row["seed"] == 3
     assert row["n_evaluations"] == 400 and row["status"] == "ok"
     # the outcome: objective, RMSE, the control points (the first and last twelve of many)
     lines = done.stdout.splitlines()
@@ -72,14 +72,14 @@ def test_single_run_from_the_command_line(tmp_path):
     np.testing.assert_allclose(shown, np.vstack((control[:12], control[-12:])), rtol=1e-5)
     assert lines[15] == f"    ... {len(control) - 24} more ..."
     assert lines[28:] == [f"  record: {tmp_path / 'default' / 'runs' / row['run_id']}.parquet"]
-    again = metaknot("algorithm=ga", "problem=vivaldi", "seed=3", "budget=400",
+    again = metaknot("optimizer=ga", "problem=vivaldi", "seed=3", "budget=400",
                      f"results_dir={tmp_path}", cwd=tmp_path)
     assert again.returncode == 0 and "already stored" in again.stdout
     # a single run uses every kernel thread (threads=auto); threads=1 pins one
     import numba
 
     assert row["kernel_threads"] == numba.config.NUMBA_NUM_THREADS
-    one = metaknot("algorithm=ga", "problem=vivaldi", "seed=4", "budget=100", "threads=1",
+    one = metaknot("optimizer=ga", "problem=vivaldi", "seed=4", "budget=100", "threads=1",
                    f"results_dir={tmp_path}", cwd=tmp_path)
     assert one.returncode == 0, one.stderr
     runs = load_study(tmp_path / "default").runs
@@ -87,7 +87,7 @@ def test_single_run_from_the_command_line(tmp_path):
 
 
 @pytest.mark.parametrize(("override", "key"), [
-    ("algorithm.population=abc", "algorithm.population"),
+    ("optimizer.population=abc", "optimizer.population"),
     ("budget=0", "budget"),
     ("problem.degree=9", "problem.degree"),
     ("encoding.density=1.5", "encoding.density"),
@@ -101,26 +101,26 @@ def test_a_bad_value_fails_before_anything_runs(tmp_path, override, key):
 
 
 def test_a_bad_value_in_a_sweep_fails_before_any_run(tmp_path):
-    done = metaknot("-m", "algorithm=ga", "algorithm.population=30,abc", "seed=0,1",
+    done = metaknot("-m", "optimizer=ga", "optimizer.population=30,abc", "seed=0,1",
                     "budget=100", f"results_dir={tmp_path}", cwd=tmp_path)
     assert done.returncode != 0
-    assert "algorithm.population: expected int, got 'abc'" in done.stderr
+    assert "optimizer.population: expected int, got 'abc'" in done.stderr
     assert not (tmp_path / "default" / "runs").exists()
 
 
 def test_an_algorithm_that_cannot_work_on_an_encoding(tmp_path):
-    single = metaknot("algorithm=nlopt", "encoding=mask", f"results_dir={tmp_path}",
+    single = metaknot("optimizer=nlopt", "encoding=mask", f"results_dir={tmp_path}",
                       cwd=tmp_path)
     assert single.returncode == 2 and "nlopt" in single.stderr and "mask" in single.stderr
-    sweep = metaknot("-m", "algorithm=nlopt,random_search", "encoding=mask,free",
+    sweep = metaknot("-m", "optimizer=nlopt,random_search", "encoding=mask,free",
                      "problem=archimedean", "budget=60", f"results_dir={tmp_path}",
                      cwd=tmp_path)
     assert sweep.returncode == 0, sweep.stderr
     counts = plan_line(sweep.stderr)
     assert counts == {"jobs": 4, "to_run": 3, "stored": 0, "skipped": 1}
-    assert "skipped 1 job(s): algorithm 'nlopt'" in sweep.stderr
+    assert "skipped 1 job(s): optimizer 'nlopt'" in sweep.stderr
     study = load_study(tmp_path / "default")
-    assert sorted(zip(study.runs.algorithm, study.runs.encoding, strict=True)) == [
+    assert sorted(zip(study.runs.optimizer, study.runs.encoding, strict=True)) == [
         ("nlopt", "continuous"), ("random_search", "binary"), ("random_search", "continuous")]
 
 
@@ -132,10 +132,10 @@ def test_smoke_study_has_every_field_and_paired_replicates(tmp_path):
     assert len(runs) == 3 * 6 * 2 * 8 and (runs.status == "ok").all()
     assert RECORD_FIELDS <= set(runs.columns), RECORD_FIELDS - set(runs.columns)
     assert runs.run_id.is_unique
-    assert set(runs.algorithm) == {"dolphin", "ga", "random_search", "one_plus_one",
+    assert set(runs.optimizer) == {"dolphin", "ga", "random_search", "one_plus_one",
                                    "averaging", "local_search"}
     assert set(runs.budget) == {500, 1500} and set(runs.seed) == set(range(8))
-    searches = runs.algorithm.isin(["dolphin", "ga", "random_search", "one_plus_one"])
+    searches = runs.optimizer.isin(["dolphin", "ga", "random_search", "one_plus_one"])
     assert (runs.n_evaluations[searches] == runs.budget[searches]).all()
     assert (runs.n_evaluations <= runs.budget).all()  # the averaging scan and local search stop
     # replicate r of every algorithm saw the same data: same fingerprint per (curve, seed)
@@ -158,7 +158,7 @@ def test_smoke_study_has_every_field_and_paired_replicates(tmp_path):
 
 def test_sweep_resumes_after_a_kill(tmp_path):
     """SIGKILL a sweep part-way; the same command again runs exactly the rest."""
-    args = ("-m", "experiment=smoke", "algorithm=dolphin,ga,random_search", "seed=0,1",
+    args = ("-m", "experiment=smoke", "optimizer=dolphin,ga,random_search", "seed=0,1",
             "budget=3000", f"results_dir={tmp_path}")
     runs_dir = tmp_path / "smoke" / "runs"
     proc = subprocess.Popen([sys.executable, "-m", "metaknot.cli", "run", *args], cwd=tmp_path,
@@ -193,7 +193,7 @@ def test_sweep_resumes_after_a_kill(tmp_path):
 
 def test_joblib_workers_run_the_kernel_on_one_thread(tmp_path):
     done = metaknot("-m", "launcher=joblib", "hydra.launcher.n_jobs=2",
-                    "algorithm=ga,random_search", "problem=archimedean,vivaldi", "seed=0,1",
+                    "optimizer=ga,random_search", "problem=archimedean,vivaldi", "seed=0,1",
                     "budget=300", f"results_dir={tmp_path}", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     runs = load_study(tmp_path / "default").runs
@@ -204,12 +204,12 @@ def test_joblib_workers_run_the_kernel_on_one_thread(tmp_path):
 @pytest.mark.slow
 def test_submitit_local_launcher(tmp_path):
     """The same code path as SLURM, on this machine."""
-    done = metaknot("-m", "launcher=submitit_local", "algorithm=ga,random_search",
+    done = metaknot("-m", "launcher=submitit_local", "optimizer=ga,random_search",
                     "problem=archimedean", "budget=200", f"results_dir={tmp_path}",
                     cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     runs = load_study(tmp_path / "default").runs
-    assert sorted(runs.algorithm) == ["ga", "random_search"]
+    assert sorted(runs.optimizer) == ["ga", "random_search"]
     assert (runs.status == "ok").all() and (runs.kernel_threads == 1).all()
 
 
@@ -218,7 +218,7 @@ def test_user_points_file(tmp_path):
     points = tmp_path / "outline.csv"
     np.savetxt(points, np.column_stack((np.cos(t), np.sin(2 * t))), delimiter=",",
                header="x,y", comments="")
-    done = metaknot("problem=points", f"problem.points={points}", "algorithm=ga",
+    done = metaknot("problem=points", f"problem.points={points}", "optimizer=ga",
                     "budget=200", f"results_dir={tmp_path}", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     (row,) = load_study(tmp_path / "default").runs.to_dict("records")
@@ -227,7 +227,7 @@ def test_user_points_file(tmp_path):
 
 def test_batching_seeds_into_jobs_changes_no_result(tmp_path):
     """Seeds batched three to a job are stored as separate runs, identical to one per job."""
-    common = ("-m", "algorithm=ga,random_search", "problem=archimedean", "seed=range(0,5)",
+    common = ("-m", "optimizer=ga,random_search", "problem=archimedean", "seed=range(0,5)",
               "budget=150")
     one = metaknot(*common, "hydra.sweeper.runs_per_job=1", f"results_dir={tmp_path / 'a'}",
                    cwd=tmp_path)
@@ -238,7 +238,7 @@ def test_batching_seeds_into_jobs_changes_no_result(tmp_path):
     a = load_study(tmp_path / "a" / "default").runs.set_index("run_id")
     b = load_study(tmp_path / "b" / "default").runs.set_index("run_id")
     assert sorted(a.index) == sorted(b.index) and len(a) == 10
-    for column in ("seed", "algorithm", "best_f", "rmse", "n_control_points"):
+    for column in ("seed", "optimizer", "best_f", "rmse", "n_control_points"):
         assert (a[column] == b.loc[a.index, column]).all(), column
     bad = metaknot(*common, "hydra.sweeper.runs_per_job=0", f"results_dir={tmp_path / 'c'}",
                    cwd=tmp_path)
@@ -251,7 +251,7 @@ def test_batching_seeds_into_jobs_changes_no_result(tmp_path):
 #: the job starts: a Hydra callback whose ``_target_`` opens (creates) a file.
 CALLBACK_PRESET = """\
 # @package _global_
-algorithm: {_name_: ga, population: 20}
+optimizer: {_name_: ga, population: 20}
 hydra:
   callbacks:
     evil: {_target_: builtins.open, _args_: ["{marker}", "w"]}
@@ -260,38 +260,38 @@ hydra:
 
 def test_a_preset_runs_as_its_overrides_and_the_command_line_wins(tmp_path):
     preset = tmp_path / "ga_tuned.yaml"
-    preset.write_text("# tuned\nalgorithm: {_name_: ga, population: 20, mutation_rate: 0.05}\n"
+    preset.write_text("# tuned\noptimizer: {_name_: ga, population: 20, mutation_rate: 0.05}\n"
                       "encoding: {kind: indices, n_knots: 12}\nlabel: ga-tuned\n")
     common = ("problem=vivaldi", "budget=150", f"results_dir={tmp_path}")
-    by_preset = metaknot("--preset", str(preset), *common, "seed=1", "algorithm.population=30",
+    by_preset = metaknot("--preset", str(preset), *common, "seed=1", "optimizer.population=30",
                          cwd=tmp_path)
     assert by_preset.returncode == 0, by_preset.stderr
-    by_hand = metaknot("algorithm=ga", "algorithm.population=30", "algorithm.mutation_rate=0.05",
+    by_hand = metaknot("optimizer=ga", "optimizer.population=30", "optimizer.mutation_rate=0.05",
                        "encoding=indices", "encoding.n_knots=12", "label=ga-tuned", *common,
                        "seed=1", cwd=tmp_path)
     assert "already stored" in by_hand.stdout  # the very same run
     sweep = metaknot("-m", f"--preset={preset}", *common, "seed=2,3", cwd=tmp_path)
     assert sweep.returncode == 0, sweep.stderr
     runs = load_study(tmp_path / "default").runs.set_index("seed")
-    assert list(runs.loc[[2, 3], "algorithm.population"]) == [20, 20]
-    assert runs.loc[1, "algorithm.population"] == 30
+    assert list(runs.loc[[2, 3], "optimizer.population"]) == [20, 20]
+    assert runs.loc[1, "optimizer.population"] == 30
     assert set(runs.label) == {"ga-tuned"} and set(runs.encoding) == {"integer"}
 
 
 @pytest.mark.parametrize(("body", "key"), [
     (CALLBACK_PRESET, "hydra"),
-    ('algorithm: {_name_: ga}\n"hydra.callbacks.evil._target_": builtins.open\n',
+    ('optimizer: {_name_: ga}\n"hydra.callbacks.evil._target_": builtins.open\n',
      "hydra.callbacks.evil._target_"),
-    ("algorithm: {_name_: ga, _target_: builtins.open}\n", "algorithm._target_"),
-    ("defaults: [{override /algorithm: ga}]\nalgorithm: {population: 20}\n", "defaults"),
-    ("algorithm: {_name_: ga}\nproblem: {curve: vivaldi}\n", "problem: unknown setting"),
-    ("algorithm: {_name_: ga, speed: 3}\n", "algorithm.speed: unknown setting"),
-    ("algorithm: {_name_: ga, population: [10, 20]}\n", "algorithm.population"),
-    ("algorithm: {_name_: ga}\nlabel: '${oc.env:HOME}'\n", "label"),
-    ("algorithm: {_name_: warp}\n", "algorithm._name_"),
-    ("algorithm: {_name_: ga}\nencoding: {kind: warp}\n", "encoding.kind"),
-    ("encoding: {kind: mask}\n", "algorithm: missing"),
-    ("algorithm: {_name_: ga\n", "not valid YAML"),
+    ("optimizer: {_name_: ga, _target_: builtins.open}\n", "optimizer._target_"),
+    ("defaults: [{override /optimizer: ga}]\noptimizer: {population: 20}\n", "defaults"),
+    ("optimizer: {_name_: ga}\nproblem: {curve: vivaldi}\n", "problem: unknown setting"),
+    ("optimizer: {_name_: ga, speed: 3}\n", "optimizer.speed: unknown setting"),
+    ("optimizer: {_name_: ga, population: [10, 20]}\n", "optimizer.population"),
+    ("optimizer: {_name_: ga}\nlabel: '${oc.env:HOME}'\n", "label"),
+    ("optimizer: {_name_: warp}\n", "optimizer._name_"),
+    ("optimizer: {_name_: ga}\nencoding: {kind: warp}\n", "encoding.kind"),
+    ("encoding: {kind: mask}\n", "optimizer: missing"),
+    ("optimizer: {_name_: ga\n", "not valid YAML"),
 ])
 def test_a_preset_is_read_as_data_and_anything_else_is_refused(tmp_path, capsys, body, key):
     from metaknot.experiments.app import main
@@ -341,11 +341,11 @@ def test_a_method_set_to_null_is_one_line_naming_the_default_method(tmp_path, ca
 
 
 @pytest.mark.parametrize(("args", "key"), [
-    (["algorithm=dolphn"], "algorithm"), (["-m", "algorithm=ga,dolphn"], "algorithm"),
-    (["algorithm._name_=dolphn"], "algorithm._name_"),
-    (["-m", "algorithm._name_=ga,dolphn", "seed=0,1"], "algorithm._name_"),
+    (["optimizer=dolphn"], "optimizer"), (["-m", "optimizer=ga,dolphn"], "optimizer"),
+    (["optimizer._name_=dolphn"], "optimizer._name_"),
+    (["-m", "optimizer._name_=ga,dolphn", "seed=0,1"], "optimizer._name_"),
 ])
-def test_a_mistyped_algorithm_is_one_line_from_the_optimizer_registry(tmp_path, capsys, args,
+def test_a_mistyped_optimizer_is_one_line_from_the_optimizer_registry(tmp_path, capsys, args,
                                                                        key):
     from metaknot.experiments.app import main
 
@@ -361,7 +361,7 @@ def test_a_sweep_compares_a_method_with_the_defaults(tmp_path):
                     f"results_dir={tmp_path}", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     runs = load_study(tmp_path / "default").runs
-    assert sorted(zip(runs.label, runs.algorithm, runs.encoding, strict=True)) == [
+    assert sorted(zip(runs.label, runs.optimizer, runs.encoding, strict=True)) == [
         ("dolphin", "dolphin", "binary"), ("ga", "ga", "integer")]
 
 
@@ -371,8 +371,8 @@ NOTE = "metaknot run: note: these runs go to the default study "
 def test_runs_into_the_default_study_say_so(tmp_path):
     """A single run or a sweep without study= prints one note naming the default study; one
     with a study of its own, or with nothing left to run, does not."""
-    for args, study in ((["algorithm=ga"], "default"), (["-m", "seed=1,2"], "default"),
-                        (["algorithm=ga", "study=mine"], "mine"),
+    for args, study in ((["optimizer=ga"], "default"), (["-m", "seed=1,2"], "default"),
+                        (["optimizer=ga", "study=mine"], "mine"),
                         (["-m", "seed=1,2", "study=mine"], "mine"), (["-m", "seed=1,2"], None)):
         done = metaknot(*args, "problem=archimedean", "budget=40", f"results_dir={tmp_path}",
                         cwd=tmp_path)
@@ -412,7 +412,7 @@ def test_an_interrupted_joblib_sweep_stops_its_workers_and_resumes(tmp_path, sig
     """SIGINT to the whole process group (Ctrl-C) or SIGTERM to the leader (kill) once three
     records exist: no worker goes on, one line says what is stored, the same command
     finishes the study with the results a direct run gives."""
-    args = ("-m", "launcher=joblib", "hydra.launcher.n_jobs=2", "algorithm=ga,random_search",
+    args = ("-m", "launcher=joblib", "hydra.launcher.n_jobs=2", "optimizer=ga,random_search",
             "problem=archimedean", "seed=range(0,6)", "budget=2000", f"results_dir={tmp_path}")
     runs_dir = tmp_path / "default" / "runs"
     # files, not pipes: a worker left alive would hold a pipe open
@@ -483,7 +483,7 @@ sys.exit(main(sys.argv[1:]))
 
 
 def test_an_interrupted_single_run_says_nothing_is_stored(tmp_path):
-    done = subprocess.run([sys.executable, "-c", SIGNAL_IN_RUN, "algorithm=ga", "budget=3000",
+    done = subprocess.run([sys.executable, "-c", SIGNAL_IN_RUN, "optimizer=ga", "budget=3000",
                            f"results_dir={tmp_path}"], cwd=tmp_path, capture_output=True,
                           text=True, timeout=300, env=ENV)
     assert done.returncode == 143
@@ -528,7 +528,7 @@ def test_a_sweep_on_a_disk_that_fills_up_accounts_for_every_run(tmp_path):
     exit 1; once there is space, the same command computes exactly the missing runs."""
     results, spare = tmp_path / "results", tmp_path / "spare"
     spare.mkdir()
-    args = ["-m", "algorithm=ga,random_search", "problem=archimedean", "seed=range(0,5)",
+    args = ["-m", "optimizer=ga,random_search", "problem=archimedean", "seed=range(0,5)",
             "budget=200", "hydra.sweep.dir=" + str(tmp_path / "sweep"),
             "hydra.sweeper.runs_per_job=3", f"results_dir={results}"]
     done = subprocess.run([sys.executable, "-c", DISK_FILLS_UP, "4", str(results), *args],
@@ -563,7 +563,7 @@ def test_a_single_run_the_disk_cannot_take_is_kept_and_named(tmp_path):
     results, spare = tmp_path / "results", tmp_path / "spare"
     spare.mkdir()
     done = subprocess.run([sys.executable, "-c", DISK_FILLS_UP, "0", str(results),
-                           "algorithm=ga", "budget=200", f"results_dir={results}"],
+                           "optimizer=ga", "budget=200", f"results_dir={results}"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=600,
                           env={**ENV, "TMPDIR": str(spare)})
     assert done.returncode == 1 and done.stdout == ""
@@ -585,7 +585,7 @@ def test_a_sweep_on_a_real_full_disk(tmp_path):
     if mounted.returncode != 0:
         pytest.skip(f"cannot mount a tmpfs here: {mounted.stderr.strip()[:80]}")
     try:
-        args = ("-m", "algorithm=ga,random_search", "problem=archimedean", "seed=range(0,15)",
+        args = ("-m", "optimizer=ga,random_search", "problem=archimedean", "seed=range(0,15)",
                 "budget=500", f"results_dir={disk}")
         done = metaknot(*args, cwd=tmp_path)
         assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
@@ -608,7 +608,7 @@ def test_a_sweep_on_a_real_full_disk(tmp_path):
 def test_sweeps_started_in_the_same_second_keep_their_own_folder(tmp_path):
     """Two sweeps of a study whose configured Hydra folder is the same (as when they start in
     the same second) each keep their multirun.yaml."""
-    common = ("-m", "algorithm=random_search", "problem=archimedean", "budget=50",
+    common = ("-m", "optimizer=random_search", "problem=archimedean", "budget=50",
               f"hydra.sweep.dir={tmp_path / 'sweep'}", f"results_dir={tmp_path}")
     for seed in (0, 1):
         done = metaknot(*common, f"seed={seed},{seed + 10}", cwd=tmp_path)
@@ -638,7 +638,7 @@ def test_a_signal_while_the_sweep_is_planned_stops_it_before_any_run(tmp_path):
     with open(tmp_path / "stderr", "w") as err:
         proc = subprocess.Popen(
             [sys.executable, "-c", SIGNAL_IN_PLAN, "-m", "launcher=joblib",
-             "hydra.launcher.n_jobs=2", "algorithm=ga", "seed=0,1", "budget=100",
+             "hydra.launcher.n_jobs=2", "optimizer=ga", "seed=0,1", "budget=100",
              f"results_dir={tmp_path}"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=err,
             env=ENV, start_new_session=True)
     try:

@@ -48,7 +48,7 @@ def test_tolerance_tasks_follow_the_noise() -> None:
     seed = get_task(noisy, "seed").problem()
     everything = np.ones((1, seed.encoding.n_var), dtype=np.int64)
     everything[0, [0, -1]] = 0  # N - 4 knots: N control points, interpolation
-    fit = seed.decode(everything[0]).metrics()
+    fit = seed.decode(everything[0]).metrics
     assert fit["rmse"] < sigma  # interpolation follows the noise ...
     floor_value = fit["n_control_points"] * sigma * np.sqrt(seed.data.n_points)
     assert seed.evaluate(everything)[0] == pytest.approx(floor_value, rel=1e-9)  # ... for nothing
@@ -85,7 +85,7 @@ def config(**problem):
             "problem": {"curve": None, "points": None, "degree": 3,
                         "parameterization": "centripetal", **problem},
             "encoding": {"kind": "mask"}, "objective": {"name": "paper"},
-            "algorithm": {"_name_": "random_search"}}
+            "optimizer": {"_name_": "random_search"}}
 
 
 def test_a_task_sets_the_encoding_and_objective_of_a_run() -> None:
@@ -119,7 +119,7 @@ def test_bad_suite_settings_are_named(problem, message) -> None:
 def test_a_suite_study_from_the_command_line(tmp_path) -> None:
     done = subprocess.run(
         [sys.executable, "-m", "metaknot.cli", "run", "-m", "suite=mini", "problem.task=seed",
-         "algorithm=random_search", "budget=30", "study=mini", f"results_dir={tmp_path}"],
+         "optimizer=random_search", "budget=30", "study=mini", f"results_dir={tmp_path}"],
         capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     from metaknot.experiments import load_study

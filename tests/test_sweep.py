@@ -15,17 +15,17 @@ from metaknot.experiments.sweep import batch_jobs, launcher_workers, runs_per_jo
 
 def plan_of(jobs: list[tuple[str, int, int]]) -> list[tuple[list[str], SimpleNamespace]]:
     """(algorithm, seed, budget) -> the (overrides, spec) pairs of a plan."""
-    return [([f"algorithm={a}", f"budget={b}", f"seed={s}"], SimpleNamespace(seed=s, budget=b))
+    return [([f"optimizer={a}", f"budget={b}", f"seed={s}"], SimpleNamespace(seed=s, budget=b))
             for a, s, b in jobs]
 
 
 def test_one_run_per_job_keeps_every_job_and_puts_the_largest_first():
     plan = plan_of([("ga", 0, 100), ("ga", 1, 100), ("dolphin", 0, 900), ("ga", 2, 500)])
     assert batch_jobs(plan, 1) == [
-        ["algorithm=dolphin", "budget=900", "seed=0"],
-        ["algorithm=ga", "budget=500", "seed=2"],
-        ["algorithm=ga", "budget=100", "seed=0"],
-        ["algorithm=ga", "budget=100", "seed=1"],
+        ["optimizer=dolphin", "budget=900", "seed=0"],
+        ["optimizer=ga", "budget=500", "seed=2"],
+        ["optimizer=ga", "budget=100", "seed=0"],
+        ["optimizer=ga", "budget=100", "seed=1"],
     ]
 
 
@@ -33,13 +33,13 @@ def test_seeds_of_one_setting_go_together():
     plan = plan_of([("ga", s, 100) for s in range(5)] + [("dolphin", s, 100) for s in range(2)])
     jobs = batch_jobs(plan, 3)
     assert sorted(map(tuple, jobs)) == sorted([
-        ("algorithm=ga", "budget=100", "seed=[0,1,2]"),
-        ("algorithm=ga", "budget=100", "seed=[3,4]"),
-        ("algorithm=dolphin", "budget=100", "seed=[0,1]"),
+        ("optimizer=ga", "budget=100", "seed=[0,1,2]"),
+        ("optimizer=ga", "budget=100", "seed=[3,4]"),
+        ("optimizer=dolphin", "budget=100", "seed=[0,1]"),
     ])
     # every run is in exactly one job
     runs = [(j[0], s) for j in jobs for s in j[-1][len("seed=["):-1].split(",")]
-    assert sorted(runs) == sorted([(f"algorithm={a}", str(s)) for a, s, _ in
+    assert sorted(runs) == sorted([(f"optimizer={a}", str(s)) for a, s, _ in
                                    [("ga", s, 0) for s in range(5)]
                                    + [("dolphin", s, 0) for s in range(2)]])
     # the heaviest job (three runs of 100) goes first
@@ -47,9 +47,9 @@ def test_seeds_of_one_setting_go_together():
 
 
 def test_a_job_without_a_seed_override_stays_alone():
-    plan = [(["algorithm=ga"], SimpleNamespace(seed=0, budget=10)),
-            (["algorithm=dolphin"], SimpleNamespace(seed=0, budget=10))]
-    assert sorted(batch_jobs(plan, 4)) == [["algorithm=dolphin"], ["algorithm=ga"]]
+    plan = [(["optimizer=ga"], SimpleNamespace(seed=0, budget=10)),
+            (["optimizer=dolphin"], SimpleNamespace(seed=0, budget=10))]
+    assert sorted(batch_jobs(plan, 4)) == [["optimizer=dolphin"], ["optimizer=ga"]]
 
 
 @pytest.mark.parametrize(("setting", "n_runs", "workers", "expected"), [

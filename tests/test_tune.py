@@ -195,7 +195,7 @@ def test_a_trial_is_the_mean_ratio_to_the_reference_on_the_training_instances(tm
                                        ).best_f)
             assert trial.user_attrs[f"best_f:{instance.key}"] == values
             reference = np.median(evaluate_setting(spec, instance, spec.train_seeds,
-                                                   algorithm="averaging", params={}))
+                                                   optimizer="averaging", params={}))
             assert study.user_attrs[f"reference:{instance.key}"] == reference
             ratios.append(np.median(values) / reference)
         assert trial.value == pytest.approx(np.mean(ratios), rel=1e-12)
@@ -276,12 +276,12 @@ def test_outputs_and_held_out_study(tmp_path, capsys) -> None:
     assert set(runs.seed) == set(spec.test_seeds) and set(runs.data) == {"epitrochoid"}
     tuned = runs[runs.label == "dolphin-tuned"].iloc[0]
     best = written["best_params"]
-    assert tuned["algorithm.population"] == best["population"]
+    assert tuned["optimizer.population"] == best["population"]
     # the preset is data, named with the command that runs it; it gives the same record as the
     # held-out run
     preset = study_dir / "dolphin_tuned.yaml"
     assert written["best_config"] == preset and not (study_dir / "conf").exists()
-    assert set(yaml.safe_load(preset.read_text())) == {"algorithm", "encoding", "label"}
+    assert set(yaml.safe_load(preset.read_text())) == {"optimizer", "encoding", "label"}
     for text in (preset.read_text(), report, printed):
         assert f"metaknot run --preset {preset} " in text and "--config-dir" not in text
     done = subprocess.run(
@@ -408,6 +408,6 @@ def test_a_run_that_fails_its_budget_audit_fails_the_trial(tmp_path, monkeypatch
 
     spec = spec_of(tmp_path)
     instance = spec.train[0]
-    assert len(evaluate_setting(spec, instance, (0,), algorithm="random_search", params={})) == 1
+    assert len(evaluate_setting(spec, instance, (0,), optimizer="random_search", params={})) == 1
     with pytest.raises(ValueError, match=r"peeking_search on .*budget violation"):
-        evaluate_setting(spec, instance, (0,), algorithm="peeking_search", params={})
+        evaluate_setting(spec, instance, (0,), optimizer="peeking_search", params={})

@@ -2,8 +2,8 @@
 
 A *problem instance* is what the methods are compared on: the data (with its noise level), the
 degree, the parameterization, the objective with its options, and the knot count K where the
-encoding fixes one. A *method* is the run's ``label`` (the algorithm's name unless a
-configuration names it), so the same algorithm on indices and on free knots, or tuned and
+encoding fixes one. A *method* is the run's ``label`` (the optimizer's name unless a
+configuration names it), so the same optimizer on indices and on free knots, or tuned and
 default, can be told apart. Runs are paired across methods by their replicate ``seed``.
 """
 
@@ -145,7 +145,7 @@ def _mixture_note(runs: pd.DataFrame, study_name: str) -> str | None:
 
 def _methods(runs: pd.DataFrame) -> pd.Series:
     label = runs["label"] if "label" in runs else pd.Series(np.nan, index=runs.index)
-    return label.where(label.notna() & (label.astype(str) != ""), runs["algorithm"]).astype(str)
+    return label.where(label.notna() & (label.astype(str) != ""), runs["optimizer"]).astype(str)
 
 
 def _instances(runs: pd.DataFrame) -> pd.Series:

@@ -13,6 +13,8 @@ from __future__ import annotations
 import sys
 from typing import Any
 
+from metaknot.compat import new_overrides
+
 from ..app import CONFIG_DIR, launch
 from ..spec import ConfigError
 from .spec import TuneSpec, tune_spec
@@ -39,7 +41,7 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
 
     storage = open_storage(spec)  # errors here stop everything before a trial starts
     study = open_study(spec, storage, spec.worker_index)
-    print(f"tune {spec.study}: {spec.algorithm} on {len(spec.train)} training instances x "
+    print(f"tune {spec.study}: {spec.optimizer} on {len(spec.train)} training instances x "
           f"{len(spec.train_seeds)} seeds, {spec.budget:,} evaluations per run; storage "
           f"{storage_description(spec)}", flush=True)
     references(spec, study)
@@ -94,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
     from hydra import compose, initialize_config_dir
     from hydra.errors import HydraException
 
-    args = list(sys.argv[1:] if argv is None else argv)
+    args = new_overrides(list(sys.argv[1:] if argv is None else argv))
     if not any(a.startswith("-") for a in args):
         try:
             with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):

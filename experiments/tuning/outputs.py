@@ -22,17 +22,17 @@ def best_setting(spec: TuneSpec, study: Any) -> tuple[dict[str, Any], dict[str, 
 
 
 def write_best_config(spec: TuneSpec, study: Any) -> Path:
-    """The best configuration as a method preset, ``<algorithm>_tuned.yaml`` in the study
+    """The best configuration as a method preset, ``<optimizer>_tuned.yaml`` in the study
     directory: plain data, for ``metaknot run --preset FILE`` (:mod:`..preset`)."""
     import yaml
 
     params, encoding = best_setting(spec, study)
     trial = study.best_trial
-    path = spec.study_dir / f"{spec.algorithm}_tuned.yaml"
-    body = {"algorithm": {"_name_": spec.algorithm, **{k: _plain(v) for k, v in params.items()}},
+    path = spec.study_dir / f"{spec.optimizer}_tuned.yaml"
+    body = {"optimizer": {"_name_": spec.optimizer, **{k: _plain(v) for k, v in params.items()}},
             "encoding": {k: _plain(v) for k, v in encoding.items()},
-            "label": f"{spec.algorithm}-tuned"}
-    header = (f"# {spec.algorithm} tuned by study {spec.study!r}: trial {trial.number}, mean "
+            "label": f"{spec.optimizer}-tuned"}
+    header = (f"# {spec.optimizer} tuned by study {spec.study!r}: trial {trial.number}, mean "
               f"ratio to {spec.reference} {trial.value:.4g} on the training instances.\n"
               f"# {run_command(path)}\n")
     path.write_text(header + yaml.safe_dump(body, sort_keys=False))
@@ -110,14 +110,14 @@ def evaluate_held_out(spec: TuneSpec, study: Any, workers: int = 1) -> Path:
     from ..app import execute
 
     params, encoding = best_setting(spec, study)
-    settings = [(f"{spec.algorithm}-tuned", spec.algorithm, params, encoding),
-                (spec.algorithm, spec.algorithm, {}, spec.encoding),
+    settings = [(f"{spec.optimizer}-tuned", spec.optimizer, params, encoding),
+                (spec.optimizer, spec.optimizer, {}, spec.encoding),
                 *((name, name, {}, spec.encoding) for name in spec.compare_with)]
     runs = []
-    for label, algorithm, hyper, enc in settings:
+    for label, optimizer, hyper, enc in settings:
         for instance in spec.test:
             for seed in spec.test_seeds:
-                config = spec.run_config(instance, seed, algorithm=algorithm, params=hyper,
+                config = spec.run_config(instance, seed, optimizer=optimizer, params=hyper,
                                          encoding=enc, study=spec.test_study,
                                          threads=1 if workers > 1 else "auto")
                 runs.append(run_spec({**config, "label": label}))
@@ -143,7 +143,7 @@ def held_out_summary(spec: TuneSpec) -> tuple[list[str], dict[str, float]]:
 
     runs = load_study(spec.results_dir / spec.test_study).runs
     runs = runs[runs.status == "ok"]
-    tuned_label = f"{spec.algorithm}-tuned"
+    tuned_label = f"{spec.optimizer}-tuned"
     lines = ["| outcome | tuned against | pairs | median ratio tuned / other | tuned better | "
              "Wilcoxon p | A12 |", "|---|---|---|---|---|---|---|"]
     headline: dict[str, float] = {}
@@ -179,10 +179,10 @@ def write_report(spec: TuneSpec, study: Any, figures: list[Path], best_config: P
     counts = {s.name: len(study.get_trials(deepcopy=False, states=(s,)))
               for s in (TrialState.COMPLETE, TrialState.PRUNED, TrialState.FAIL)}
     best = study.best_trial
-    lines = [f"# Tuning {spec.algorithm}: study {spec.study}", "",
+    lines = [f"# Tuning {spec.optimizer}: study {spec.study}", "",
              f"{counts['COMPLETE']} complete, {counts['PRUNED']} pruned and {counts['FAIL']} "
              f"failed trials ({spec.sampler} sampler, {spec.pruner} pruner). A trial runs "
-             f"{spec.algorithm} with {spec.budget:,} evaluations on "
+             f"{spec.optimizer} with {spec.budget:,} evaluations on "
              f"{len(spec.train)} training instances x {len(spec.train_seeds)} seeds; its value "
              f"is the mean over instances of the median `best_f` divided by the median of "
              f"`{spec.reference}` on that instance (lower is better; 1 = as good as "

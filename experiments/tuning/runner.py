@@ -161,7 +161,7 @@ def open_study(spec: TuneSpec, storage: Any, worker_index: int = 0) -> Any:
 
 
 def evaluate_setting(spec: TuneSpec, instance: Instance, seeds: tuple[int, ...], *,
-                     algorithm: str | None = None, params: dict[str, Any] | None = None,
+                     optimizer: str | None = None, params: dict[str, Any] | None = None,
                      encoding: dict[str, Any] | None = None) -> list[float]:
     """``best_f`` of one setting on ``instance`` for each replicate seed (in-process runs).
 
@@ -175,7 +175,7 @@ def evaluate_setting(spec: TuneSpec, instance: Instance, seeds: tuple[int, ...],
 
     values = []
     for seed in seeds:
-        run = run_spec(spec.run_config(instance, seed, algorithm=algorithm, params=params,
+        run = run_spec(spec.run_config(instance, seed, optimizer=optimizer, params=params,
                                        encoding=encoding), check_build=False)
         reason = run.compatible()
         if reason:
@@ -183,7 +183,7 @@ def evaluate_setting(spec: TuneSpec, instance: Instance, seeds: tuple[int, ...],
         result = minimize(run.build_problem(), run.build_optimizer(), budget=spec.budget,
                           seed=run.optimizer_seed(), checkpoints_per_decade=1)
         if result.status == "budget_violation":  # its value cannot be compared: the trial fails
-            raise ValueError(f"{run.algorithm} on {instance.key}, seed {seed}: {result.error}")
+            raise ValueError(f"{run.optimizer} on {instance.key}, seed {seed}: {result.error}")
         values.append(float(result.best_f))
     return values
 
@@ -196,7 +196,7 @@ def references(spec: TuneSpec, study: Any) -> dict[str, float]:
         key = f"reference:{instance.key}"
         if key not in study.user_attrs:
             values = evaluate_setting(spec, instance, spec.train_seeds,
-                                      algorithm=spec.reference, params={})
+                                      optimizer=spec.reference, params={})
             median = float(np.median(values))
             if not np.isfinite(median) or median <= 0:
                 raise ConfigError(

@@ -1,4 +1,4 @@
-"""Search spaces of hyperparameters, as written in ``conf/tune/<algorithm>.yaml``.
+"""Search spaces of hyperparameters, as written in ``conf/tune/<optimizer>.yaml``.
 
 A space maps each name to a distribution::
 

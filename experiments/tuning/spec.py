@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from metaknot.compat import OPTIMIZER_KEY, new_config, new_hyperparameters, note
+
 from ..spec import (
     ConfigError,
     _choice,
@@ -52,7 +54,7 @@ class TuneSpec:
 
     study: str
     results_dir: Path
-    algorithm: str
+    optimizer: str
     space: SearchSpace
     fixed: dict[str, Any]
     encoding: dict[str, Any]
@@ -93,9 +95,12 @@ class TuneSpec:
         """The settings that define the study's trials (a resumed study must match them)."""
         keys = ("tune", "budget", "objective", "reference", "train", "degree",
                 "parameterization")
-        return {k: self.raw.get(k) for k in keys}
+        identity = {k: self.raw.get(k) for k in keys}
+        new, old = OPTIMIZER_KEY  # under its former name, so that studies begun with it resume
+        identity["tune"] = {old if k == new else k: v for k, v in identity["tune"].items()}
+        return identity
 
-    def run_config(self, instance: Instance, seed: int, *, algorithm: str | None = None,
+    def run_config(self, instance: Instance, seed: int, *, optimizer: str | None = None,
                    params: Mapping[str, Any] | None = None,
                    encoding: Mapping[str, Any] | None = None, study: str | None = None,
                    threads: int | str = "auto") -> dict[str, Any]:
@@ -106,14 +111,14 @@ class TuneSpec:
                         "degree": self.degree, "parameterization": self.parameterization},
             "encoding": dict(encoding or self.encoding),
             "objective": dict(self.objective),
-            "algorithm": {"_name_": algorithm or self.algorithm,
+            "optimizer": {"_name_": optimizer or self.optimizer,
                           **(self.fixed if params is None else params)},
             "budget": self.budget, "seed": seed, "threads": threads, "progress": False,
         }
 
     def trial_setting(self, values: Mapping[str, Any]) -> tuple[dict[str, Any],
                                                                 dict[str, Any]]:
-        """Algorithm hyperparameters and encoding of a trial's sampled ``values``."""
+        """Optimizer hyperparameters and encoding of a trial's sampled ``values``."""
         values = dict(values)
         encoding = dict(self.encoding)
         kind = values.pop("encoding", None)
@@ -164,14 +169,24 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     raw = plain_config(cfg)
     _unknown("", raw, KEYS)
     study, results_dir = check_study(raw)
-    tune = _section(raw, "tune")
-    _unknown("tune", tune, {"algorithm", "encoding", "fixed", "space"})
-    algorithm = tune.get("algorithm")
-    if not isinstance(algorithm, str):
-        raise ConfigError(f"tune.algorithm: an optimizer's name, got {algorithm!r}")
-    cls = _optimizer_class(algorithm)
+    try:  # the former names (tune.algorithm, renamed hyperparameters), with a note
+        tune, renamed = new_config(_section(raw, "tune"))
+        for part in ("fixed", "space"):
+            if isinstance(tune.get(part), Mapping):
+                tune[part], inner = new_hyperparameters(tune.get("optimizer"), tune[part])
+                renamed += [(f"{part}.{old}", f"{part}.{new}") for old, new in inner]
+    except ValueError as exc:
+        raise ConfigError(f"tune: {exc}") from None
+    for old, new in renamed:
+        note(f"tune.{old}", f"tune.{new}")
+    raw["tune"] = tune
+    _unknown("tune", tune, {"optimizer", "encoding", "fixed", "space"})
+    optimizer = tune.get("optimizer")
+    if not isinstance(optimizer, str):
+        raise ConfigError(f"tune.optimizer: an optimizer's name, got {optimizer!r}")
+    cls = _optimizer_class(optimizer)
     names = {p for p in inspect.signature(cls.__init__).parameters if p != "self"}
-    space = SearchSpace(tune.get("space"), names, algorithm)
+    space = SearchSpace(tune.get("space"), names, optimizer)
     fixed = tune.get("fixed") or {}
     if not isinstance(fixed, Mapping):
         raise ConfigError("tune.fixed: a mapping of hyperparameters to values")
@@ -181,7 +196,7 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
                           "(fixed and searched at once)")
     unknown = set(fixed) - names
     if unknown:
-        raise ConfigError(f"tune.fixed.{sorted(unknown)[0]}: {algorithm!r} has no such "
+        raise ConfigError(f"tune.fixed.{sorted(unknown)[0]}: {optimizer!r} has no such "
                           "hyperparameter")
     encoding = dict(tune.get("encoding") or {"kind": "mask"})
     if encoding.get("kind") not in ("mask", "indices"):
@@ -212,7 +227,7 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     if not isinstance(evaluate, bool):
         raise ConfigError(f"evaluate: true or false, got {evaluate!r}")
     spec = TuneSpec(
-        study=study, results_dir=Path(results_dir), algorithm=algorithm, space=space,
+        study=study, results_dir=Path(results_dir), optimizer=optimizer, space=space,
         fixed=dict(fixed), encoding=encoding, objective=objective,
         budget=_int("budget", raw.get("budget"), low=1),
         n_trials=_int("n_trials", raw.get("n_trials"), low=1),
@@ -236,9 +251,9 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     # every setting must build: defaults and the fixed values, on every instance
     for instance in (*train, *test):
         run_spec(spec.run_config(instance, 0))
-        run_spec(spec.run_config(instance, 0, algorithm=spec.reference, params={}))
+        run_spec(spec.run_config(instance, 0, optimizer=spec.reference, params={}))
     for name in compare:
-        run_spec(spec.run_config(test[0], 0, algorithm=name, params={}))
+        run_spec(spec.run_config(test[0], 0, optimizer=name, params={}))
     if "encoding" in space.parameters and "n_knots" not in space.parameters \
             and "indices" in space.parameters["encoding"].choices \
             and "n_knots" not in encoding:

@@ -34,9 +34,10 @@ def add_fit(sub: Any) -> None:
     parser.add_argument("points", help="a .csv/.txt table (one point per row, values separated "
                                     "by commas or spaces; a header row and # comments are "
                                     "skipped) or a .npy array; see docs/input-files.md")
-    parser.add_argument("--tol", type=float, required=True, help="the tolerance")
+    parser.add_argument("--tolerance", "--tol", type=float, required=True,
+                        help="the tolerance (--tol: the same)")
     parser.add_argument("--relative", action="store_true",
-                     help="--tol is a fraction of the bounding-box diagonal")
+                     help="--tolerance is a fraction of the bounding-box diagonal")
     parser.add_argument("--metric", choices=["max_deviation", "rmse"], default="max_deviation")
     parser.add_argument("--function", action="store_true",
                      help="the first column is x, the others f(x); x is the parameter")
@@ -77,14 +78,14 @@ def demo(args: argparse.Namespace) -> int:
         data = get_curve(name)
         for optimizer in args.optimizers:
             result = minimize(
-                "knot_selection", optimizer, budget=args.budget, seed=args.seed,
+                "mask", optimizer, budget=args.budget, seed=args.seed,
                 problem_kwargs={"points": data, "degree": args.degree, "objective": "paper"},
                 progress=not args.quiet,
             )
             if result.solution is None:
                 rows.append(f"{name:<12} {optimizer:<14}   no feasible candidate")
                 continue
-            m = result.solution.fit.metrics()
+            m = result.solution.fit.metrics
             rows.append(
                 f"{name:<12} {optimizer:<14} {m['n_control_points']:>4} "
                 f"{result.best_f:>11.4g} {m['rmse']:>10.3e} {m['euclidean_distance']:>10.3e} "
@@ -120,7 +121,7 @@ def fit(args: argparse.Namespace) -> int:
         what = ("one column: read as a 1-D curve of values; for y = f(x) give x as the first "
                 "column and --function")
     print(f"read {n} points ({what}) from {args.points}", flush=True)
-    result = fit_points(points, args.tol, relative=args.relative, metric=args.metric,
+    result = fit_points(points, args.tolerance, relative=args.relative, metric=args.metric,
                  function=args.function, degree=args.degree,
                  parameterization=args.parameterization, closed=args.closed,
                  method=args.method, budget=args.budget, seed=args.seed, progress=True)

@@ -34,6 +34,7 @@ from ..bspline import check_degree, fitpack
 from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates
+from ..compat import KEYWORDS, renamed_parameters
 from ..validate import is_integer
 
 __all__ = ["ToleranceFit", "fit"]
@@ -266,20 +267,22 @@ def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
     return q, params
 
 
-def fit(points: ArrayLike, tol: float, *, relative: bool = False,
+@renamed_parameters("fit", KEYWORDS)
+def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         metric: Metric = "max_deviation", function: bool = False,
         params: ArrayLike | None = None, degree: int = 3,
         parameterization: str = "centripetal", closed: bool | None = None,
         method: str = "auto", budget: int = 20000, seed: int = 0,
         progress: bool = False) -> ToleranceFit:
-    """The fewest control points whose clamped B-spline stays within ``tol`` of the points.
+    """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points
+    (``tol=``, its former name, warns).
 
     Parameters
     ----------
     points
         ``(N, d)`` data points; with ``function=True`` the first column is ``x`` and the others
         are ``f(x)`` (as ``scipy.interpolate.splrep``), and ``x`` is the parameter.
-    tol
+    tolerance
         The tolerance on ``metric``; with ``relative=True`` a fraction of the bounding-box
         diagonal of the points.
     metric
@@ -328,13 +331,13 @@ def fit(points: ArrayLike, tol: float, *, relative: bool = False,
     if metric not in ("max_deviation", "rmse"):
         raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
     q, params = _check_points(points, params, p, function)
-    if not (isinstance(tol, int | float) and np.isfinite(tol) and tol > 0):
-        raise ValueError(f"the tolerance must be a number > 0; got {tol!r}")
+    if not (isinstance(tolerance, int | float) and np.isfinite(tolerance) and tolerance > 0):
+        raise ValueError(f"the tolerance must be a number > 0; got {tolerance!r}")
     diagonal = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
     if relative and diagonal == 0:
         raise ValueError("a relative tolerance needs points that are not all equal (their "
                          "bounding box has zero size); give an absolute tolerance")
-    tol_abs = float(tol) * (diagonal if relative else 1.0)
+    tol_abs = float(tolerance) * (diagonal if relative else 1.0)
     if 0 < diagonal <= tol_abs:  # every curve in the bounding box would do, and the ends "meet"
         raise ValueError(f"the tolerance {tol_abs:.3g} is not below the extent of the points "
                          f"(their bounding-box diagonal, {diagonal:.3g}); give a smaller one")

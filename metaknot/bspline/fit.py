@@ -12,6 +12,7 @@ from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
 from .. import audit
+from ..compat import Metrics
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from .knots import stack_indices, stack_masks, stack_positions
@@ -252,15 +253,16 @@ class CurveFit:
         """Largest distance of a data point to its fitted point."""
         return float(self.residuals.max())
 
-    def metrics(self) -> dict[str, float]:
+    @property
+    def metrics(self) -> Metrics:
         """All metrics as a flat dictionary."""
-        return {
+        return Metrics({
             "n_control_points": self.n_control_points,
             "sse": self.sse,
             "rmse": self.rmse,
             "euclidean_distance": self.euclidean_distance,
             "max_deviation": self.max_deviation,
-        }
+        })
 
 
 @dataclass(frozen=True, eq=False)

@@ -26,6 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline, splev, splprep
 
+from ..compat import KEYWORDS, renamed_parameters
+
 __all__ = ["FitpackError", "SmoothingSpline", "fewest_within", "front", "interior_knots",
            "smoothing_spline"]
 
@@ -159,10 +161,11 @@ def front(u: ArrayLike, points: ArrayLike, degree: int, n_smoothing: int = 200, 
             "max_deviation": np.array([best[c][1] for c in counts])}
 
 
-def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tol: float,
+@renamed_parameters("fewest_within", KEYWORDS)
+def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tolerance: float,
                   metric: Literal["max_deviation", "rmse"], *, closed: bool = False
                   ) -> dict[str, Any]:
-    """The fewest control points FITPACK's smoothing spline needs to stay within ``tol``: a
+    """The fewest control points FITPACK's smoothing spline needs to stay within ``tolerance``: a
     scan of 60 smoothing factors over log s, then bisection on log s between the last fit
     within and the first beyond.
 
@@ -175,7 +178,7 @@ def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tol: float,
     Raises
     ------
     ValueError
-        If no smoothing spline, interpolation included, is within ``tol``.
+        If no smoothing spline, interpolation included, is within ``tolerance``.
     """
     start = time.perf_counter()
     q = np.asarray(points, dtype=np.float64)
@@ -196,21 +199,21 @@ def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tol: float,
         found = errors(float(np.exp(x)))
         if found is None:
             continue
-        if found[index] <= tol:
+        if found[index] <= tolerance:
             if best is None or found[0].knots.size <= best[0].knots.size:
                 best, within = found, x
         elif within is not None and beyond is None:
             beyond = x
     if best is None:  # interpolation (s = 0)
         best, within = errors(0.0), None
-        if best is None or best[index] > tol:
+        if best is None or best[index] > tolerance:
             raise ValueError("FITPACK finds no spline within the tolerance")
     elif beyond is not None:
         lo, hi = within, beyond
         for _ in range(25):
             mid = 0.5 * (lo + hi)
             found = errors(float(np.exp(mid)))
-            if found is not None and found[index] <= tol:
+            if found is not None and found[index] <= tolerance:
                 lo = mid
                 if found[0].knots.size <= best[0].knots.size:
                     best, within = found, mid
