@@ -666,11 +666,11 @@ def test_smoke_preset():
 
 
 def test_the_default_method_changes_nothing():
-    for args in ((), ("algorithm=ga", "encoding=indices", "encoding.n_knots=5")):
+    for args in ((), ("optimizer=ga", "encoding=indices", "encoding.n_knots=5")):
         plain = spec_of(*args, "problem=archimedean")
         default = spec_of("method=default", *args, "problem=archimedean")
         assert default.config == plain.config and default.run_id == plain.run_id
-        assert default.label == plain.label == plain.algorithm
+        assert default.label == plain.label == plain.optimizer
 
 
 @pytest.mark.parametrize("path", METHOD_PRESETS, ids=lambda p: p.stem)
