@@ -117,6 +117,7 @@ def execute(spec: RunSpec, *, multirun: bool = False,
         **environment(),
         "kernel_threads": numba.get_num_threads(),
         "config": json.dumps(spec.config, sort_keys=True, default=str),
+        **spec.suite_fields(),
     }
     problem = optimizer = error = None
     try:

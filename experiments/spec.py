@@ -294,6 +294,20 @@ class RunSpec:
                     "'pareto' needs a multi-objective one (pymoo with variant=NSGA2)")
         return None
 
+    def suite_fields(self) -> dict[str, str]:
+        """``suite.instance``, ``suite.family`` and ``suite.task`` (when set) of a run on a
+        suite instance, for its record; empty for other runs."""
+        problem = self.config["problem"]
+        if problem.get("instance") is None:
+            return {}
+        from metaknot.suite import get_instance
+
+        fields = {"suite.instance": problem["instance"],
+                  "suite.family": get_instance(problem["instance"]).family}
+        if problem.get("task") is not None:
+            fields["suite.task"] = problem["task"]
+        return fields
+
     def build_problem(self, *, noise: bool = True):
         """The problem of this run (with the replicate's noise unless ``noise=False``)."""
         return _build_problem(self.config, self.noise_seed() if noise else None)

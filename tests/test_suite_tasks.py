@@ -128,3 +128,7 @@ def test_a_suite_study_from_the_command_line(tmp_path) -> None:
     assert sorted(runs["data"]) == sorted(split("mini"))
     tasks_seen = {json.loads(c)["problem"]["task"] for c in runs["config"]}
     assert tasks_seen == {"seed"} and set(runs["status"]) == {"ok"}
+    # the records name the instance, its family and the task
+    assert list(runs["suite.instance"]) == list(runs["data"])
+    assert set(runs["suite.task"]) == {"seed"}
+    assert sorted(runs["suite.family"]) == sorted(get_instance(i).family for i in split("mini"))
