@@ -96,9 +96,11 @@ def tasks(instance: Instance | str) -> list[Task]:
     found = []
     for size, k in zip(("small", "large"), fixed_k_sizes(curve.n_points,
                                                          curve.max_interior_knots), strict=True):
-        for kind in ("indices", "free"):
-            found.append(Task(f"fixed_k_{size}.{kind}", "fixed_k", instance.id,
-                              {"kind": kind, "n_knots": k}, {"name": "rmse"}))
+        found.append(Task(f"fixed_k_{size}.indices", "fixed_k", instance.id,
+                          {"kind": "indices", "n_knots": k}, {"name": "rmse"}))
+        found.append(Task(f"fixed_k_{size}.free", "fixed_k", instance.id,
+                          {"kind": "free", "n_knots": k, "variable_count": False},
+                          {"name": "rmse"}))
     mask = {"kind": "mask", "density": 0.5}
     if instance.noise:
         sigma = instance.sigma

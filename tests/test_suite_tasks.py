@@ -132,3 +132,27 @@ def test_a_suite_study_from_the_command_line(tmp_path) -> None:
     assert list(runs["suite.instance"]) == list(runs["data"])
     assert set(runs["suite.task"]) == {"seed"}
     assert sorted(runs["suite.family"]) == sorted(get_instance(i).family for i in split("mini"))
+
+
+def test_the_knotbench_study_covers_the_suite(tmp_path) -> None:
+    """experiment=knotbench sweeps every suite instance, its tolerance, seed and
+    fixed_k_small.indices tasks and the six methods; a small slice of it runs."""
+    from hydra import compose, initialize_config_dir
+
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONF)):
+        cfg = compose("config", overrides=["experiment=knotbench"], return_hydra_config=True)
+    params = cfg.hydra.sweeper.params
+    assert params["problem.instance"].split(",") == split("all")
+    assert params["problem.task"] == "tolerance,seed,fixed_k_small.indices"
+    assert len(params["optimizer"].split(",")) == 6 and params["seed"] == "range(0,10)"
+    assert cfg.study == "knotbench" and cfg.budget == 3000
+    done = subprocess.run(
+        [sys.executable, "-m", "metaknot.cli", "run", "-m", "experiment=knotbench_free",
+         "suite=mini", "problem.task=fixed_k_small.free", "seed=0", "budget=40",
+         f"results_dir={tmp_path}"], capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    from metaknot.experiments import load_study
+
+    runs = load_study(tmp_path / "knotbench").runs
+    assert len(runs) == len(split("mini")) and set(runs["label"]) == {"nlopt-bobyqa"}
+    assert set(runs["suite.task"]) == {"fixed_k_small.free"} and set(runs["status"]) == {"ok"}
