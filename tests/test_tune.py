@@ -411,3 +411,46 @@ def test_a_run_that_fails_its_budget_audit_fails_the_trial(tmp_path, monkeypatch
     assert len(evaluate_setting(spec, instance, (0,), optimizer="random_search", params={})) == 1
     with pytest.raises(ValueError, match=r"peeking_search on .*budget violation"):
         evaluate_setting(spec, instance, (0,), optimizer="peeking_search", params={})
+
+
+# --- the benchmark suite's instances --------------------------------------------------------
+
+def test_tuning_on_suite_instances_with_their_task(tmp_path) -> None:
+    """Training and test instances from the suite (a split by name, or ids), each scored by
+    its own task's objective: the seed task's error floor is the noise on a noisy instance."""
+    from metaknot.runner import minimize
+    from metaknot.suite.splits import split
+    from metaknot.suite.tasks import get_task
+
+    spec = spec_of(tmp_path, "train.instances=[{suite: titanium}, {suite: humps+noise0.03s0}]",
+                   "test.instances=suite:mini", "~objective.name", "~objective.error_floor",
+                   "+objective.task=seed",
+                   "n_trials=2", "evaluate=false", "budget=200")
+    assert [i.key for i in spec.train] == ["titanium", "humps+noise0.03s0"]
+    assert [i.key for i in spec.test] == split("mini")
+    config = spec.run_config(spec.train[1], spec.train_seeds[0])
+    assert config["objective"] == get_task("humps+noise0.03s0", "seed").objective
+    assert config["problem"]["instance"] == "humps+noise0.03s0"
+    tune(spec, progress=False)
+    (first, _) = stored_trials(spec)
+    params, encoding = spec.trial_setting(first.params)
+    run = run_spec(spec.run_config(spec.train[1], spec.train_seeds[0], params=params,
+                                   encoding=encoding))
+    expected = minimize(run.build_problem(), run.build_optimizer(), budget=200,
+                        seed=np.random.SeedSequence(spec.train_seeds[0], spawn_key=(1,)))
+    assert first.user_attrs["best_f:humps+noise0.03s0"][0] == expected.best_f
+
+
+@pytest.mark.parametrize(("override", "message"), [
+    ("test.instances=[{suite: titanium+noise0.01s0}]", "training instance with other noise"),
+    ("test.instances=suite:validation", "unknown suite split"),
+    ("test.instances=[{suite: titanum}]", "Did you mean 'titanium'"),
+    ("+objective.task=seed", "not one"),
+])
+def test_bad_suite_instances_in_a_tuning_study(tmp_path, override, message) -> None:
+    overrides = ["train.instances=[{suite: titanium}]", override]
+    if "objective.task" in override:
+        overrides = ["train.instances=[{suite: titanium}]", "~objective.name",
+                     "~objective.error_floor", override]
+    with pytest.raises(ConfigError, match=message):
+        spec_of(tmp_path, *overrides)

@@ -38,14 +38,21 @@ KEYS = {"study", "results_dir", "tune", "n_trials", "timeout", "workers", "worke
 
 @dataclass(frozen=True)
 class Instance:
-    """A problem instance: a seed curve with a noise level."""
+    """A problem instance: a seed curve with a noise level, or an instance of the benchmark
+    suite by id (``suite``, its noise part of the id)."""
 
-    curve: str
+    curve: str | None
     noise: float = 0.0
+    suite: str | None = None
 
     @property
     def key(self) -> str:
-        return f"{self.curve}/noise={self.noise:g}"
+        return self.suite if self.suite is not None else f"{self.curve}/noise={self.noise:g}"
+
+    @property
+    def base(self) -> str:
+        """The instance without its noise: held-out instances must differ in this."""
+        return self.suite.split("+", 1)[0] if self.suite is not None else str(self.curve)
 
 
 @dataclass(frozen=True)
@@ -105,12 +112,20 @@ class TuneSpec:
                    encoding: Mapping[str, Any] | None = None, study: str | None = None,
                    threads: int | str = "auto") -> dict[str, Any]:
         """A ``metaknot run`` configuration of one run (for :func:`~..spec.run_spec`)."""
+        problem = {"curve": instance.curve, "noise": instance.noise, "degree": self.degree,
+                   "parameterization": self.parameterization}
+        objective = dict(self.objective)
+        if instance.suite is not None:
+            problem.update(curve=None, points=None, instance=instance.suite)
+            if "task" in objective:  # the objective of the instance's task
+                from metaknot.suite.tasks import get_task
+
+                objective = dict(get_task(instance.suite, objective["task"]).objective)
         return {
             "study": study or self.study, "results_dir": str(self.results_dir),
-            "problem": {"curve": instance.curve, "noise": instance.noise,
-                        "degree": self.degree, "parameterization": self.parameterization},
+            "problem": problem,
             "encoding": dict(encoding or self.encoding),
-            "objective": dict(self.objective),
+            "objective": objective,
             "optimizer": {"_name_": optimizer or self.optimizer,
                           **(self.fixed if params is None else params)},
             "budget": self.budget, "seed": seed, "threads": threads, "progress": False,
@@ -138,13 +153,31 @@ def _instances(section: str, cfg: Any) -> tuple[tuple[Instance, ...], int]:
         raise ConfigError(f"{section}: a mapping with instances and seeds")
     _unknown(section, cfg, {"instances", "seeds"})
     items = cfg.get("instances")
+    if isinstance(items, str) and items.startswith("suite:"):  # a split of the suite
+        from metaknot.suite.splits import split
+
+        try:
+            items = [{"suite": i} for i in split(items[len("suite:"):])]
+        except ValueError as exc:
+            raise ConfigError(f"{section}.instances: {exc}") from None
     if not isinstance(items, list) or not items:
-        raise ConfigError(f"{section}.instances: a non-empty list of {{curve, noise}}")
+        raise ConfigError(f"{section}.instances: suite:<split> or a non-empty list of "
+                          "{curve, noise} or {suite: ID}")
     out = []
     for i, item in enumerate(items):
         key = f"{section}.instances[{i}]"
         if not isinstance(item, Mapping):
-            raise ConfigError(f"{key}: a mapping {{curve: ..., noise: ...}}, got {item!r}")
+            raise ConfigError(f"{key}: a mapping {{curve: ..., noise: ...}} or {{suite: ID}}, "
+                              f"got {item!r}")
+        if "suite" in item:
+            _unknown(key, item, {"suite"})
+            from metaknot.suite import get_instance
+
+            try:
+                out.append(Instance(None, 0.0, get_instance(str(item["suite"])).id))
+            except ValueError as exc:
+                raise ConfigError(f"{key}.suite: {exc}") from None
+            continue
         _unknown(key, item, {"curve", "noise"})
         curve = _choice(f"{key}.curve", item.get("curve"), tuple(sorted(CURVES)))
         out.append(Instance(curve, _float(f"{key}.noise", item.get("noise", 0.0), low=0.0)))
@@ -209,6 +242,23 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
         raise ConfigError(f"test.instances: {sorted(i.key for i in overlap)[0]} is also a "
                           "training instance; a tuned configuration must be judged on "
                           "instances the tuner never saw")
+    seen = {i.base for i in train if i.suite is not None}
+    leaked = sorted(i.key for i in test if i.suite is not None and i.base in seen)
+    if leaked:
+        raise ConfigError(f"test.instances: {leaked[0]} is a training instance with other "
+                          "noise; judge on instances the tuner never saw (suite:test)")
+    if "task" in objective:
+        _unknown("objective", objective, {"task"})
+        from metaknot.suite.tasks import get_task
+
+        for instance in (*train, *test):
+            if instance.suite is None:
+                raise ConfigError(f"objective.task: the task of a suite instance; "
+                                  f"{instance.key} is not one (give name: and its options)")
+            try:
+                get_task(instance.suite, str(objective["task"]))
+            except ValueError as exc:
+                raise ConfigError(f"objective.task: {exc}") from None
     compare = raw.get("compare_with") or []
     if isinstance(compare, str):
         compare = [compare]
