@@ -16,8 +16,10 @@ import numpy as np
 import pandas as pd
 
 from .data import METRICS, Comparison, ReportError, prepare
+from .suite import SuiteComparison
 from .tables import (
     FriedmanResult,
+    design_power_note,
     friedman_test,
     pairwise_tests,
     plain_summary,
@@ -25,6 +27,10 @@ from .tables import (
 )
 
 __all__ = ["Report", "build"]
+
+#: Per-problem figures are drawn for studies of at most this many instances (a suite study's
+#: problems are shown together in its suite section).
+MAX_INSTANCE_FIGURES = 12
 
 
 @dataclass
@@ -107,6 +113,12 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
         tables[f"ranks_{metric}"] = _ranks_table(friedman[metric])
     summary = plain_summary(comparison, tables[f"pairwise_{metrics[0]}"], alpha,
                             friedman[metrics[0]], metric=metrics[0])
+    power = design_power_note(comparison, alpha)
+    if power:
+        summary.append(power)
+    suite = _suite_tables(comparison, tables, alpha)
+    if suite is not None:
+        summary = suite.summary + summary
     for name, table in tables.items():
         table.to_csv(out / "tables" / f"{name}.csv", index=False)
     _write_latex(comparison, tables, metrics, out / "tables")
@@ -114,11 +126,12 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
 
     drawn: list[_Figure] = []
     if figures:
-        drawn = _draw(comparison, friedman, metrics, alpha, out / "figures", say)
+        drawn = _draw(comparison, friedman, metrics, alpha, out / "figures", say, suite)
     report = Report(out=out, html=out / "report.html", markdown=out / "report.md",
                     summary=summary, tables=tables,
                     figures=[f.png for f in drawn] + [f.svg for f in drawn])
-    sections = _sections(comparison, tables, friedman, metrics, alpha, drawn, summary)
+    sections = _sections(comparison, tables, friedman, metrics, alpha, drawn, summary,
+                         suite)
     report.html.write_text(_html(comparison, sections, out), encoding="utf-8")
     report.markdown.write_text(_markdown(comparison, sections, out), encoding="utf-8")
     say(f"report: {report.html}")
@@ -126,17 +139,84 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
 
 
 # --------------------------------------------------------------------------------------------
+# the suite
+
+
+@dataclass
+class _Suite:
+    """The suite section's computed parts (see :mod:`.suite`)."""
+
+    view: SuiteComparison
+    hits: pd.DataFrame
+    friedman: dict[str, FriedmanResult]
+    summary: list[str]
+
+
+def _suite_tables(comparison: Comparison, tables: dict[str, pd.DataFrame],
+                  alpha: float) -> _Suite | None:
+    """The suite section's tables (added to ``tables``), or ``None`` for a study not on the
+    suite."""
+    from . import suite as s
+
+    view = s.suite_comparison(comparison)
+    if view is None:
+        return None
+    hits = s.target_hits(view)
+    results = s.friedman_by_family(view, alpha)
+    ranks, tests = s.ranks_by_family(results)
+    solved = s.solved_table(view, hits)
+    order = list(results[s.ALL].ranks.index) or view.methods
+    profile, left_out = s.performance_profile(view.medians, np.array([1.0]))
+    best = profile.T.rename(columns={1.0: "best on (share of problems)"})
+    best.index.name, best.columns.name = "method", None
+    tables["suite_solved"] = solved.reset_index()
+    tables["suite_gap"] = s.gap_table(view)
+    tables["suite_ranks"] = ranks
+    tables["suite_friedman"] = tests
+    tables["suite_wins"] = s.wins_matrix(view.medians, order)
+    tables["suite_best"] = best.reindex(order).reset_index()
+    tables["suite_medians"] = view.medians.reset_index()
+    if left_out:
+        view.notes.append(f"{left_out} problem(s) are left out of the performance profiles "
+                          "(a method without runs, or a best median not above 0).")
+    return _Suite(view, hits, results, s.suite_summary(view, results, solved, alpha))
+
+
+# --------------------------------------------------------------------------------------------
 # figures
 
 
 def _draw(comparison: Comparison, friedman: dict[str, FriedmanResult], metrics: Sequence[str],
-          alpha: float, folder: Path, say: Callable[[str], None]) -> list[_Figure]:
+          alpha: float, folder: Path, say: Callable[[str], None],
+          suite: _Suite | None = None) -> list[_Figure]:
     import matplotlib.pyplot as plt
 
     from . import figures as f
 
     plans: list[tuple[str, str, str, Callable[[], Any]]] = []
-    for instance in comparison.instances:
+    if suite is not None:
+        from .suite import ALL, LEVELS
+
+        plans.append(("suite-ecdf", "Suite: targets reached",
+                      f"COCO-style ECDF: share of (run, target) pairs reached within a number "
+                      f"of evaluations; {len(LEVELS)} targets per problem at precisions "
+                      f"(f − f*)/|f*| from {LEVELS[0]:g} to {LEVELS[-1]:g} (f*: the "
+                      "best-known value), pooled over the problems, in all and per family.",
+                      lambda: f.suite_ecdf_figure(comparison, suite.view, suite.hits)))
+        plans.append(("suite-profile", "Suite: performance profiles",
+                      "Dolan–Moré performance profiles: share of problems on which a method's "
+                      "median final objective (over its seeds) is within a factor τ of the best "
+                      "method's; at τ = 1 the share of problems it is best on (ties count for "
+                      "each).",
+                      lambda: f.profile_figure(comparison, suite.view)))
+        for scope, result in suite.friedman.items():
+            name = "suite-cd" if scope == ALL else f"suite-cd-{_slug(scope)}"
+            plans.append((name, f"Critical difference: {scope}",
+                          "Average ranks of the median objective over the problems; methods "
+                          "joined by a bar are not significantly different (Nemenyi).",
+                          lambda r=result: f.cd_diagram(comparison, r, alpha, "problems")))
+    per_instance = len(comparison.instances) <= MAX_INSTANCE_FIGURES
+    for instance in comparison.instances if per_instance else []:
         slug = _slug(instance)
         plans.append((f"convergence-{slug}", f"{instance}: convergence",
                       "Best-so-far objective and the incumbent's RMSE at the log-spaced "
@@ -165,7 +245,7 @@ def _draw(comparison: Comparison, friedman: dict[str, FriedmanResult], metrics: 
                       "The median run (by objective) of each method at its largest budget, "
                       "rebuilt from its stored best candidate: data, fitted curve, knots.",
                       lambda i=instance: f.fitted_curves_figure(comparison, i)))
-    if len(comparison.instances) > 1:
+    if 1 < len(comparison.instances) <= MAX_INSTANCE_FIGURES:
         plans.append(("ecdf-all", "All instances: fixed-target view",
                       "The fixed-target view pooled over every instance (each with its own "
                       "targets).",
@@ -326,7 +406,8 @@ class _Section:
 
 def _sections(comparison: Comparison, tables: dict[str, pd.DataFrame],
               friedman: dict[str, FriedmanResult], metrics: Sequence[str], alpha: float,
-              drawn: list[_Figure], summary: list[str]) -> list[_Section]:
+              drawn: list[_Figure], summary: list[str],
+              suite: _Suite | None = None) -> list[_Section]:
     by_name = {f.name: f for f in drawn}
     runs = comparison.runs
     cells = tables["cells"]
@@ -344,7 +425,13 @@ def _sections(comparison: Comparison, tables: dict[str, pd.DataFrame],
     if len(thin):
         facts.append(f"The study is partial: {len(thin)} of {len(cells)} cells have fewer than "
                      f"{expected} runs (the tables give each cell's count).")
+    if len(comparison.instances) > MAX_INSTANCE_FIGURES:
+        facts.append(f"With {len(comparison.instances)} instances the per-instance figures "
+                     f"are left out (drawn for at most {MAX_INSTANCE_FIGURES}); the tables "
+                     "give every instance.")
     sections.append(_Section("The study", paragraphs=facts))
+    if suite is not None:
+        sections += _suite_sections(suite, tables, by_name)
     for instance in comparison.instances:
         section = _Section(f"{instance}", paragraphs=[
             "Median (interquartile range) over replicate seeds at each budget; the best median "
@@ -391,6 +478,83 @@ def _sections(comparison: Comparison, tables: dict[str, pd.DataFrame],
     return sections
 
 
+def _plain(table: pd.DataFrame, formats: dict[str, Callable[[Any], str]] | None = None,
+           ) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """A table as text (numbers through :func:`_num` unless ``formats`` says), nothing bold."""
+    formats = formats or {}
+    text = pd.DataFrame({c: table[c].map(formats.get(c, _num)) if c in formats or
+                         pd.api.types.is_numeric_dtype(table[c]) else table[c].astype(str)
+                         for c in table.columns})
+    return text, pd.DataFrame(False, index=text.index, columns=text.columns)
+
+
+def _share(value: Any) -> str:
+    return "–" if value is None or not np.isfinite(value) else f"{value:.0%}"
+
+
+def _suite_sections(suite: _Suite, tables: dict[str, pd.DataFrame],
+                    by_name: dict[str, _Figure]) -> list[_Section]:
+    from .suite import ALL, LEVELS
+
+    view = suite.view
+    problems = len(view.medians)
+    figures = [by_name[n] for n in ("suite-ecdf", "suite-profile") if n in by_name]
+    intro = _Section("The suite", paragraphs=[
+        f"{problems} problems (an instance and a task each) in {len(view.family_names)} "
+        f"families ({', '.join(view.family_names)}), {len(view.methods)} methods, compared at "
+        f"{view.budget:,} evaluations. Targets are relative to the suite's best-known values "
+        f"(`metaknot.suite.best`): a run reaches the target of precision ε when its "
+        f"best-so-far objective f has (f − f*)/|f*| ≤ ε, ε in "
+        f"{', '.join(f'{v:g}' for v in LEVELS)}; a (run, target) pair is reached at the first "
+        "trace point that gets there. Ranks, profiles and wins compare each method's median "
+        "final objective over its seeds, one block per problem.",
+        "Computed with numpy and pandas (targets, ECDFs as in COCO's cocopp and IOHanalyzer, "
+        "Dolan–Moré profiles, gaps, wins), scipy (`friedmanchisquare`, `binomtest`) and "
+        "scikit-posthocs (`posthoc_nemenyi_friedman`, `critical_difference_diagram`).",
+        *view.notes], figures=figures)
+    solved = tables["suite_solved"].copy()
+    sections = [intro, _Section(
+        "Targets reached at the end", level=3,
+        paragraphs=["Share of (run, target) pairs reached at the end of the runs, over the "
+                    "suite and per family (problems with a best-known value)."],
+        table=_plain(solved, {c: _share for c in solved.columns if c != "method"}))]
+    gap = tables["suite_gap"]
+    if len(gap):
+        shares = {c: _share for c in ("within 1%", "at best-known")}
+        sections.append(_Section(
+            "Gap to the best-known value", level=3,
+            paragraphs=["Per problem the median over seeds of (f − f*)/|f*|; per method the "
+                        "median over problems, the worst, and the shares of problems within "
+                        "1 % and at (or below) the best-known value; sorted by the median "
+                        "gap."],
+            table=_plain(gap, shares)))
+    ranks = tables["suite_ranks"]
+    tests = tables["suite_friedman"]
+    verdicts = [f"{row.scope}: " + (f"χ² = {row.chi2:.3g}, p = {_p(row.p)} ({row.note})"
+                                    if np.isfinite(row.p) else row.note)
+                + f"; {row.problems} problems" for row in tests.itertuples()]
+    cds = [by_name[n] for n in by_name if n == "suite-cd" or n.startswith("suite-cd-")]
+    sections.append(_Section(
+        "Ranks over the problems", level=3,
+        paragraphs=["Average rank (1 = best) of each method's median objective, one Friedman "
+                    "block per problem, over the suite and per family; sorted by the "
+                    f"suite-wide rank. {ALL.capitalize()} and per family:", *verdicts],
+        table=_plain(ranks, {c: (lambda v: _num(v, 3)) for c in ranks.columns
+                             if c != "method"}),
+        figures=cds))
+    best = tables["suite_best"]
+    sections.append(_Section(
+        "Wins, ties and losses", level=3,
+        paragraphs=["Row method against column method over the problems: problems where its "
+                    "median is lower / equal / higher (W/T/L). The share of problems each "
+                    "method is best on (the performance profile at τ = 1, ties counting for "
+                    "each): " + ", ".join(f"{m} {_share(v)}" for m, v in
+                                          zip(best.method, best.iloc[:, 1], strict=True))
+                    + "."],
+        table=_plain(tables["suite_wins"])))
+    return sections
+
+
 def _header(comparison: Comparison) -> str:
     from metaknot import __version__
 
@@ -413,14 +577,11 @@ figcaption{font-size:.85em;color:#555}.meta{color:#666;font-size:.9em}
 
 def _html_table(text: pd.DataFrame, best: pd.DataFrame) -> str:
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in text.columns)
-    rows = []
-    for i in range(len(text)):
-        cells = []
-        for column in text.columns:
-            value = html.escape(str(text.iloc[i][column]))
-            cells.append(f"<td><strong>{value}</strong></td>" if best.iloc[i][column]
-                         else f"<td>{value}</td>")
-        rows.append("<tr>" + "".join(cells) + "</tr>")
+    values, bold = text.astype(str).to_numpy(), best.to_numpy(dtype=bool)
+    rows = ["<tr>" + "".join(f"<td><strong>{html.escape(v)}</strong></td>" if b
+                             else f"<td>{html.escape(v)}</td>"
+                             for v, b in zip(row, marks, strict=True)) + "</tr>"
+            for row, marks in zip(values, bold, strict=True)]
     return (f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>'
             + "".join(rows) + "</tbody></table></div>")
 
@@ -455,14 +616,15 @@ def _html(comparison: Comparison, sections: list[_Section], out: Path) -> str:
 
 
 def _md_table(text: pd.DataFrame, best: pd.DataFrame) -> str:
-    def cell(i: int, column: str) -> str:
-        value = str(text.iloc[i][column]).replace("|", "\\|")
-        return f"**{value}**" if best.iloc[i][column] and value else value
+    def cell(value: str, bold: bool) -> str:
+        value = value.replace("|", "\\|")
+        return f"**{value}**" if bold and value else value
 
+    values, bold = text.astype(str).to_numpy(), best.to_numpy(dtype=bool)
     lines = ["| " + " | ".join(str(c) for c in text.columns) + " |",
              "| " + " | ".join("---" for _ in text.columns) + " |"]
-    lines += ["| " + " | ".join(cell(i, c) for c in text.columns) + " |"
-              for i in range(len(text))]
+    lines += ["| " + " | ".join(cell(v, b) for v, b in zip(row, marks, strict=True)) + " |"
+              for row, marks in zip(values, bold, strict=True)]
     return "\n".join(lines)
 
 

@@ -150,7 +150,11 @@ def _methods(runs: pd.DataFrame) -> pd.Series:
 
 def _instances(runs: pd.DataFrame) -> pd.Series:
     """A readable instance name: the data, then each setting that varies within the runs of
-    the same data (the number of points differs between curves, but names none)."""
+    the same data (the number of points differs between curves, but names none). A run on a
+    suite task is named by its instance and task (``galvez_f1 tolerance_1e-3``): the task
+    fixes every other setting."""
+    if "suite.task" in runs and runs["suite.task"].notna().all():
+        return runs["data"].astype(str) + " " + suite_task_ids(runs)
     def varies(column: str) -> bool:
         text = runs[column].astype(str)
         return bool((text.groupby(runs["data"]).nunique(dropna=False) > 1).any())
@@ -165,6 +169,18 @@ def _instances(runs: pd.DataFrame) -> pd.Series:
                           f"{p}={_fmt(v)}" if p else _fmt(v))
         names = names + text.map(lambda t: f" {t}" if t else "")
     return names
+
+
+def suite_task_ids(runs: pd.DataFrame) -> pd.Series:
+    """Each suite run's task id with the alias ``tolerance`` resolved (``tolerance_1e-3``, or
+    ``tolerance_noise`` on a noisy instance), as the best-known values name it."""
+    from metaknot.suite.tasks import get_task
+
+    pairs = runs[["data", "suite.task"]].astype(str)
+    resolved = {(d, t): get_task(d, t).id if t == "tolerance" else t
+                for d, t in pairs.drop_duplicates().itertuples(index=False)}
+    return pd.Series([resolved[p] for p in pairs.itertuples(index=False, name=None)],
+                     index=runs.index)
 
 
 def _missing(value: object) -> bool:

@@ -23,16 +23,34 @@ from .data import Comparison
 from .tables import FriedmanResult
 
 __all__ = ["budget_figure", "cd_diagram", "convergence_figure", "ecdf_figure",
-           "fitted_curves_figure", "front_figure", "palette", "rebuild_problem",
-           "run_curve", "run_fit", "target_hits"]
+           "fitted_curves_figure", "front_figure", "palette", "profile_figure",
+           "rebuild_problem", "run_curve", "run_fit", "styles", "suite_ecdf_figure",
+           "target_hits"]
 
 TARGETS = 10
+LINESTYLES = ("-", "--", "-.", ":")
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 
 
 def palette(comparison: Comparison) -> dict[str, Any]:
-    """One colour per method, the same in every figure."""
+    """One colour per method, the same in every figure (seaborn's colour-blind-safe palette,
+    the critical-difference diagram included)."""
     colours = sns.color_palette("colorblind", max(len(comparison.methods), 3))
     return dict(zip(comparison.methods, colours, strict=False))
+
+
+def styles(comparison: Comparison) -> dict[str, dict[str, Any]]:
+    """Colour, line style and marker per method: two methods whose lines coincide stay
+    apart (the line styles and markers differ even where the colours repeat)."""
+    colours = palette(comparison)
+    return {method: {"color": colours[method], "linestyle": LINESTYLES[k % len(LINESTYLES)],
+                     "marker": MARKERS[k % len(MARKERS)]}
+            for k, method in enumerate(comparison.methods)}
+
+
+def _markevery(k: int, n: int = 6) -> tuple[float, float]:
+    """Markers at ``n`` positions along a line, shifted per method so they do not overlap."""
+    return (0.02 + 0.13 * (k % 7) / n, 1.0 / n)
 
 
 def _largest_budget(comparison: Comparison, instance: str) -> pd.DataFrame:
@@ -42,11 +60,12 @@ def _largest_budget(comparison: Comparison, instance: str) -> pd.DataFrame:
     return runs[runs.budget == top]
 
 
-def _band(ax: Any, x: np.ndarray, values: pd.DataFrame, colour: Any, label: str) -> None:
+def _band(ax: Any, x: np.ndarray, values: pd.DataFrame, style: dict[str, Any], label: str,
+          k: int = 0) -> None:
     median = values.median(axis=1)
     low, high = values.quantile(0.25, axis=1), values.quantile(0.75, axis=1)
-    ax.plot(x, median, color=colour, label=label, lw=1.6)
-    ax.fill_between(x, low, high, color=colour, alpha=0.2, lw=0)
+    ax.plot(x, median, label=label, lw=1.6, ms=4, markevery=_markevery(k), **style)
+    ax.fill_between(x, low, high, color=style["color"], alpha=0.2, lw=0)
 
 
 def convergence_figure(comparison: Comparison, instance: str) -> plt.Figure:
@@ -55,19 +74,19 @@ def convergence_figure(comparison: Comparison, instance: str) -> plt.Figure:
     runs = _largest_budget(comparison, instance)
     trace = comparison.trace[comparison.trace.run_id.isin(runs.run_id)
                              & comparison.trace.checkpoint]
-    colours = palette(comparison)
+    look = styles(comparison)
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True)
     for ax, column, title in ((axes[0], "best_f", "objective (best so far)"),
                               (axes[1], "rmse", "RMSE of the incumbent")):
-        for method in comparison.methods:
+        for k, method in enumerate(comparison.methods):
             part = trace[trace.method == method]
             if part.empty or column not in part:
                 continue
             wide = part.pivot_table(index="evaluations", columns="run_id", values=column,
                                     aggfunc="first").replace([np.inf, -np.inf], np.nan)
             budget = int(runs[runs.method == method].budget.max())
-            _band(ax, wide.index.to_numpy(), wide, colours[method],
-                  f"{method} ({budget:,} evals)")
+            _band(ax, wide.index.to_numpy(), wide, look[method],
+                  f"{method} ({budget:,} evals)", k)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("evaluations")
@@ -104,7 +123,7 @@ def ecdf_figure(comparison: Comparison, instances: list[str], title: str) -> plt
     """Fixed-target view: the fraction of (run, target) pairs reached within a number of
     evaluations, per method (COCO / IOHanalyzer style), pooled over ``instances``, for targets
     on the objective (best so far) and on the incumbent's RMSE."""
-    colours = palette(comparison)
+    look = styles(comparison)
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), constrained_layout=True, sharey=True)
     top = max(comparison.budgets)
     x = np.unique(np.geomspace(1, top, 200).round())
@@ -112,12 +131,13 @@ def ecdf_figure(comparison: Comparison, instances: list[str], title: str) -> plt
                               (axes[1], "rmse", "RMSE targets")):
         hits = pd.concat([target_hits(comparison, i, column)[0] for i in instances],
                          ignore_index=True)
-        for method in comparison.methods:
+        for k, method in enumerate(comparison.methods):
             values = hits.loc[hits.method == method, "evaluations"].to_numpy(dtype=float)
             if values.size == 0:
                 continue
             fraction = (values[None, :] <= x[:, None]).mean(axis=1)
-            ax.step(x, fraction, where="post", color=colours[method], label=method)
+            ax.step(x, fraction, where="post", label=method, ms=4,
+                    markevery=_markevery(k), **look[method])
         ax.set_xscale("log")
         ax.set_ylim(0, 1.02)
         ax.set_xlabel("evaluations")
@@ -223,6 +243,7 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
     below the line beats FITPACK at that number of control points."""
     runs = comparison.runs[comparison.runs.instance == instance]
     colours = palette(comparison)
+    look = styles(comparison)
     fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
     front = fitpack_front(run_curve(runs.sort_values("seed").iloc[0]))
     ax.plot(front.n_control_points, front.rmse, "-", color="0.3", lw=1.2, marker=".",
@@ -237,10 +258,11 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
         if len(fronts):  # a front per run (objective pareto): the median run's front
             median_front = json.loads(_median_run(fronts)["front"])
             ax.step(median_front["n_control_points"], median_front["rmse"], where="post", lw=1.2,
-                    color=colours[method], label=f"{method} (median-hypervolume run's front)")
+                    label=f"{method} (median-hypervolume run's front)", **look[method])
         else:
-            ax.scatter(part.n_control_points, part.rmse, s=12, alpha=0.6,
-                       color=colours[method], label=method, edgecolors="none")
+            ax.scatter(part.n_control_points, part.rmse, s=14, alpha=0.6,
+                       color=colours[method], marker=look[method]["marker"], label=method,
+                       edgecolors="none")
     if has_fronts:
         members = pd.concat([pd.DataFrame(json.loads(v)) for v in runs["front"]
                              if isinstance(v, str)])
@@ -266,19 +288,18 @@ def budget_figure(comparison: Comparison, instance: str) -> plt.Figure:
     """Control points and RMSE against the budget, per method (median and IQR over seeds):
     where the objective drives the search as it is given more evaluations."""
     runs = comparison.runs[comparison.runs.instance == instance]
-    colours = palette(comparison)
+    look = styles(comparison)
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), constrained_layout=True)
     for ax, column, title in ((axes[0], "best_f", "objective"),
                               (axes[1], "n_control_points", "control points"),
                               (axes[2], "rmse", "RMSE")):
-        for method in comparison.methods:
+        for k, method in enumerate(comparison.methods):
             part = runs[runs.method == method]
             if part.empty:
                 continue
             wide = part.pivot_table(index="budget", columns="seed", values=column,
                                     aggfunc="first")
-            _band(ax, wide.index.to_numpy(), wide, colours[method], method)
-            ax.plot(wide.index, wide.median(axis=1), "o", color=colours[method], ms=3)
+            _band(ax, wide.index.to_numpy(), wide, look[method], method, k)
         ax.set_xscale("log")
         if column != "n_control_points":
             ax.set_yscale("log")
@@ -290,18 +311,81 @@ def budget_figure(comparison: Comparison, instance: str) -> plt.Figure:
 
 
 def cd_diagram(comparison: Comparison, friedman: FriedmanResult,
-               alpha: float = 0.05) -> plt.Figure | None:
+               alpha: float = 0.05, blocks: str = "cells") -> plt.Figure | None:
     """Critical-difference diagram of the average ranks (scikit-posthocs), when the Friedman
-    test applies."""
+    test applies; each method in its colour of the other figures."""
     import scikit_posthocs as sp
 
     if friedman.posthoc is None or len(friedman.ranks) < 3:
         return None
     fig, ax = plt.subplots(figsize=(7, 0.6 + 0.35 * len(friedman.ranks)),
                            constrained_layout=True)
-    sp.critical_difference_diagram(friedman.ranks, friedman.posthoc, ax=ax, alpha=alpha)
+    colours = {m: matplotlib.colors.to_hex(c) for m, c in palette(comparison).items()}
+    sp.critical_difference_diagram(friedman.ranks, friedman.posthoc, ax=ax, alpha=alpha,
+                                   color_palette=colours)
     from .data import METRICS
 
     ax.set_title(f"average ranks of the {METRICS.get(friedman.metric, friedman.metric)} over "
-                 f"{friedman.blocks} cells (Nemenyi, alpha {alpha:g})", fontsize=10)
+                 f"{friedman.blocks} {blocks} (Nemenyi, alpha {alpha:g})", fontsize=10)
+    return fig
+
+
+def _scopes(families: list[str]) -> tuple[plt.Figure, list[Any]]:
+    """A grid of panels: the whole suite first, then one per family."""
+    panels = 1 + len(families)
+    columns = min(panels, 3)
+    rows = -(-panels // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(4.0 * columns, 3.0 * rows),
+                             constrained_layout=True, squeeze=False)
+    for ax in axes.ravel()[panels:]:
+        ax.set_visible(False)
+    return fig, list(axes.ravel()[:panels])
+
+
+def suite_ecdf_figure(comparison: Comparison, suite: Any, hits: pd.DataFrame) -> plt.Figure:
+    """COCO-style ECDF of the (run, target) pairs over log evaluations, pooled over the
+    suite's problems and per family."""
+    from .suite import ALL, ecdf
+
+    look = styles(comparison)
+    x = np.unique(np.geomspace(1, suite.budget, 200).round())
+    families = [f for f in suite.family_names if (hits.family == f).any()]
+    fig, axes = _scopes(families)
+    for ax, scope in zip(axes, [ALL, *families], strict=True):
+        part = hits if scope == ALL else hits[hits.family == scope]
+        shares = ecdf(part, x)
+        for k, method in enumerate(suite.methods):
+            if method in shares:
+                ax.step(x, shares[method], where="post", label=method, ms=4,
+                        markevery=_markevery(k), **look[method])
+        ax.set_xscale("log")
+        ax.set_ylim(-0.02, 1.02)
+        problems = part.problem.nunique()
+        ax.set_title(f"{scope} ({problems} problems)", fontsize=9)
+        ax.set_xlabel("evaluations")
+    axes[0].set_ylabel("fraction of (run, target) pairs")
+    axes[0].legend(fontsize=7)
+    return fig
+
+
+def profile_figure(comparison: Comparison, suite: Any) -> plt.Figure:
+    """Dolan–Moré performance profiles of the median final objective, over the suite and per
+    family."""
+    from .suite import ALL, performance_profile, profile_taus
+
+    look = styles(comparison)
+    fig, axes = _scopes(suite.family_names)
+    for ax, scope in zip(axes, [ALL, *suite.family_names], strict=True):
+        medians = suite.medians if scope == ALL else suite.medians[suite.families == scope]
+        taus = profile_taus(medians)
+        profile, _ = performance_profile(medians, taus)
+        for k, method in enumerate(suite.methods):
+            ax.step(taus, profile[method], where="post", label=method, ms=4,
+                    markevery=_markevery(k), **look[method])
+        ax.set_xscale("log")
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_title(f"{scope} ({len(medians)} problems)", fontsize=9)
+        ax.set_xlabel("τ (ratio to the best median)")
+    axes[0].set_ylabel("share of problems within τ")
+    axes[0].legend(fontsize=7)
     return fig

@@ -25,8 +25,9 @@ from scipy import stats
 
 from .data import METRICS, Comparison
 
-__all__ = ["FriedmanResult", "a12", "friedman_test", "magnitude", "pairwise_tests",
-           "plain_summary", "summary_table"]
+__all__ = ["FriedmanResult", "a12", "design_power_note", "friedman_blocks", "friedman_test",
+           "magnitude", "pairwise_tests", "plain_summary", "seeds_needed", "smallest_p",
+           "summary_table"]
 
 #: Fewest paired runs with a difference for which a two-sided Wilcoxon test at 0.05 can reject
 #: (with 5 the smallest exact p-value is 0.0625).
@@ -91,9 +92,10 @@ def pairwise_tests(comparison: Comparison, metric: str = "best_f",
 
     rows = []
     runs = comparison.runs
-    for (instance, budget), cell in runs.groupby(["instance", "budget"], sort=False):
-        values = cell.pivot_table(index="seed", columns="method", values=metric,
-                                  aggfunc="first")
+    wide = (runs.groupby(["instance", "budget", "seed", "method"], sort=False)[metric].first()
+            .unstack("method"))
+    for (instance, budget), values in wide.groupby(level=["instance", "budget"], sort=False):
+        values = values.droplevel(["instance", "budget"]).dropna(axis=1, how="all")
         methods = [m for m in comparison.methods if m in values]
         cell_rows = []
         for a, b in itertools.combinations(methods, 2):
@@ -151,41 +153,106 @@ def friedman_test(comparison: Comparison, metric: str = "best_f",
                   alpha: float = 0.05) -> FriedmanResult:
     """Friedman test over the cells (instance × budget) where every method ran, on each
     method's median; average ranks (1 = best); Nemenyi post-hoc when the test rejects."""
-    import scikit_posthocs as sp
-
     medians = (comparison.runs.groupby(["instance", "budget", "method"])[metric].median()
                .unstack("method"))
     methods = [m for m in comparison.methods if m in medians]
-    complete = medians[methods].dropna()
-    ranks = complete.rank(axis=1).mean().reindex(methods) if len(complete) else pd.Series(
-        dtype=float)
+    return friedman_blocks(medians[methods], metric, alpha)
+
+
+def friedman_blocks(medians: pd.DataFrame, metric: str = "best_f", alpha: float = 0.05,
+                    blocks: str = "cells") -> FriedmanResult:
+    """Friedman test over the blocks (rows of ``medians``, one column per method) where every
+    method has a value; average ranks (1 = best), sorted; Nemenyi post-hoc (scikit-posthocs).
+    For two methods, a sign test over the blocks (scipy). ``blocks`` names the rows in the
+    notes ("cells", "problems")."""
+    import scikit_posthocs as sp
+
+    methods = list(medians.columns)
+    complete = medians.dropna()
+    ranks = (complete.rank(axis=1).mean().sort_values(kind="stable") if len(complete)
+             else pd.Series(dtype=float))
     base = {"metric": metric, "blocks": len(complete), "ranks": ranks,
             "statistic": np.nan, "p": np.nan, "posthoc": None}
     if len(methods) < 2:
-        return FriedmanResult(**base, note="one method only: nothing to compare")
+        return FriedmanResult(**{**base, "ranks": pd.Series(1.0, index=methods)},
+                              note="one method only: nothing to compare")
     if len(methods) == 2:
         if len(complete) == 0:
-            return FriedmanResult(**base, note="no cell where both methods ran")
+            return FriedmanResult(**base, note=f"no {blocks[:-1]} where both methods ran")
         first, second = complete[methods[0]].to_numpy(), complete[methods[1]].to_numpy()
         wins, losses = int((first < second).sum()), int((first > second).sum())
         if wins + losses == 0:
-            return FriedmanResult(**base, note="the two methods tie in every cell: no test")
+            return FriedmanResult(**base, note=f"the two methods tie in every {blocks[:-1]}: "
+                                               "no test")
+        counts = f"{methods[0]} lower in {wins}, {methods[1]} in {losses}"
+        needed = sign_test_blocks_needed(alpha)
+        if wins + losses < needed:
+            return FriedmanResult(**base, note=(
+                f"two methods differ in only {wins + losses} {blocks} ({counts}): a sign "
+                f"test needs at least {needed} to reach p < {alpha:g}; no test"))
         p = float(stats.binomtest(wins, wins + losses).pvalue)
         return FriedmanResult(**{**base, "p": p}, note=(
-            f"two methods: sign test over the cells ({methods[0]} lower in {wins}, "
-            f"{methods[1]} in {losses}), scale-free as the Friedman test"))
+            f"two methods: sign test over the {blocks} ({counts}), scale-free as the "
+            "Friedman test"))
     if len(complete) < 2:
-        return FriedmanResult(**base, note=f"{len(complete)} cell(s) where every method ran: "
-                                           "the Friedman test needs at least 2")
+        return FriedmanResult(**base, note=f"{len(complete)} {blocks[:-1]}(s) where every "
+                                           "method ran: the Friedman test needs at least 2")
     values = complete.to_numpy()
     if np.all(values == values[:, :1]):
-        return FriedmanResult(**base, note="every method ties in every cell: no test")
+        return FriedmanResult(**base, note=f"every method ties in every {blocks[:-1]}: no test")
     result = stats.friedmanchisquare(*values.T)
     posthoc = sp.posthoc_nemenyi_friedman(complete.reset_index(drop=True))
     note = ("the methods differ (Nemenyi post-hoc below)" if result.pvalue < alpha else
             "no significant difference between the methods")
     return FriedmanResult(**{**base, "statistic": float(result.statistic),
                              "p": float(result.pvalue), "posthoc": posthoc}, note=note)
+
+
+def smallest_p(pairs: int, comparisons: int = 1) -> float:
+    """The smallest two-sided p-value an exact Wilcoxon signed-rank (or sign) test on ``pairs``
+    differing pairs can give, ``2 / 2**pairs``, Holm-corrected over ``comparisons`` tests
+    (the smallest p is multiplied by their number)."""
+    return min(1.0, comparisons * 2.0 ** (1 - pairs)) if pairs > 0 else 1.0
+
+
+def seeds_needed(comparisons: int, alpha: float = 0.05) -> int:
+    """Fewest differing pairs with which one of ``comparisons`` Holm-corrected exact tests can
+    reach p < ``alpha``."""
+    pairs = 1
+    while smallest_p(pairs, comparisons) >= alpha:
+        pairs += 1
+    return pairs
+
+
+def sign_test_blocks_needed(alpha: float = 0.05) -> int:
+    """Fewest differing blocks with which a two-sided sign test can reach p < ``alpha``."""
+    return seeds_needed(1, alpha)
+
+
+def design_power_note(comparison: Comparison, alpha: float = 0.05) -> str | None:
+    """Why no pair of methods can be significant in some cells, and how many seeds would let
+    one be (``None`` if every cell can reach ``alpha``): with ``n`` paired seeds and ``m`` pairs
+    of methods per cell, the smallest Holm-corrected Wilcoxon p is ``m · 2 / 2**n``."""
+    methods = comparison.runs.groupby(["instance", "budget"], sort=False).method.nunique()
+    seeds = comparison.runs.groupby(["instance", "budget", "method"], sort=False).seed.nunique()
+    seeds = seeds.groupby(level=[0, 1], sort=False).min()
+    cells = pd.DataFrame({"methods": methods, "seeds": seeds})
+    cells = cells[cells.methods >= 2]
+    cells["pairs"] = cells.methods * (cells.methods - 1) // 2
+    cells["reachable"] = [smallest_p(n, m) for n, m in zip(cells.seeds, cells.pairs,
+                                                           strict=True)]
+    blocked = cells[cells.reachable >= alpha]
+    if blocked.empty:
+        return None
+    worst = blocked.sort_values(["reachable", "pairs"], ascending=False).iloc[0]
+    n, m = int(worst.seeds), int(worst.pairs)
+    scope = ("every cell" if len(blocked) == len(cells)
+             else f"{len(blocked)} of {len(cells)} cells")
+    return (f"The design cannot reach significance in {scope}: with {n} paired seeds and "
+            f"{m} pair(s) of methods, the smallest Holm-corrected Wilcoxon p-value is "
+            f"{smallest_p(n, m):.2g} (≥ {alpha:g}), so no pair can be significant whatever "
+            f"the results; {seeds_needed(m, alpha)} seeds per method (all differing) would "
+            "make it possible.")
 
 
 def plain_summary(comparison: Comparison, pairwise: pd.DataFrame, alpha: float = 0.05,
@@ -210,6 +277,11 @@ def plain_summary(comparison: Comparison, pairwise: pd.DataFrame, alpha: float =
             medians = cell.groupby("method")[metric].median().sort_values()
             if len(medians) < 2:
                 continue
+            tied = medians.index[medians == medians.iloc[0]].tolist()
+            if len(tied) > 1:  # an exact tie: no method is "lowest"
+                cells.append((budget, " and ".join(sorted(tied)), None, medians.iloc[0],
+                              medians.iloc[0], np.nan, False, "tie"))
+                continue
             best, second = medians.index[0], medians.index[1]
             pair = pairwise[(pairwise.instance == instance) & (pairwise.budget == budget)
                             & (((pairwise.A == best) & (pairwise.B == second))
@@ -232,7 +304,10 @@ def plain_summary(comparison: Comparison, pairwise: pd.DataFrame, alpha: float =
             where = "at every budget" if count == len(cells) and len(cells) > 1 else (
                 f"at {count} of {len(cells)} budgets ({budgets})" if len(cells) > 1
                 else f"at budget {budgets}")
-            if sig:
+            if won[0][7] == "tie":
+                text = (f"{method} tie for the lowest median {metric_name} {where} (equal "
+                        f"medians, {', '.join(dict.fromkeys(f'{c[3]:.3g}' for c in won))})")
+            elif sig:
                 text = (f"**{method}** has the lowest median {metric_name} {where}, "
                         f"significantly better than the runner-up at {len(sig)} of them "
                         f"(A12 {_range(effects)}, {magnitude(float(np.median(effects)))} "

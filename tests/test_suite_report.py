@@ -1,0 +1,238 @@
+"""The report of a suite study: its suite section (targets relative to the best-known values,
+ECDFs, performance profiles, Friedman over the problems, gaps, wins) equals a recomputation
+from the stored runs; and the report's statistical honesty (ties said as ties, designs that
+cannot reach significance flagged, no sign test over too few cells, methods kept apart in the
+figures, rank tables sorted)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import matplotlib
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+from test_report import _one_cell, _run, _write
+
+from metaknot.experiments import load_study
+from metaknot.experiments.report import build, prepare
+from metaknot.experiments.report import figures as figures_module
+from metaknot.experiments.report import suite as suite_module
+from metaknot.experiments.report.tables import (
+    design_power_note,
+    friedman_test,
+    pairwise_tests,
+    plain_summary,
+    seeds_needed,
+    smallest_p,
+)
+from metaknot.suite.best import load_best_known
+from metaknot.suite.splits import split
+from metaknot.suite.tasks import get_task
+
+ALPHA = 0.05
+METHODS = ("random_search", "one_plus_one", "ga")
+
+
+@pytest.fixture(scope="module")
+def suite_study(tmp_path_factory):
+    """A real suite study: the mini split, two tasks, three cheap optimizers, two seeds."""
+    folder = tmp_path_factory.mktemp("suite")
+    done = subprocess.run(
+        [sys.executable, "-m", "metaknot.cli", "run", "-m", "suite=mini",
+         "problem.task=tolerance,fixed_k_small.indices", f"optimizer={','.join(METHODS)}",
+         "budget=60", "seed=range(0,2)", "study=mini", f"results_dir={folder}"],
+        capture_output=True, text=True, timeout=900, cwd=folder)
+    assert done.returncode == 0, done.stderr
+    return folder / "mini"
+
+
+@pytest.fixture(scope="module")
+def suite_report(suite_study, tmp_path_factory):
+    return build(suite_study, tmp_path_factory.mktemp("out") / "report", log=None)
+
+
+@pytest.fixture(scope="module")
+def view(suite_study):
+    return suite_module.suite_comparison(prepare(suite_study))
+
+
+def _best_known_of(runs: pd.DataFrame) -> pd.Series:
+    """Each stored run's best-known value, looked up afresh (alias ``tolerance`` resolved)."""
+    known = load_best_known()
+    values = []
+    for instance, task in zip(runs["suite.instance"], runs["suite.task"], strict=True):
+        key = (instance, get_task(instance, task).id)
+        values.append(known[key].value if key in known else np.nan)
+    return pd.Series(values, index=runs.index)
+
+
+def test_the_suite_section_is_written(suite_report, suite_study):
+    text = suite_report.markdown.read_text()
+    for title in ("## The suite", "### Targets reached at the end",
+                  "### Gap to the best-known value", "### Ranks over the problems",
+                  "### Wins, ties and losses"):
+        assert title in text
+    assert "scikit-posthocs" in text and "scipy" in text
+    assert (suite_report.out / "figures" / "suite-ecdf.png").exists()
+    assert (suite_report.out / "figures" / "suite-profile.png").exists()
+    runs = load_study(suite_study).runs
+    assert suite_report.tables["suite_medians"].shape[0] == 2 * len(split("mini"))
+    assert set(runs["suite.family"]) <= set(suite_report.tables["suite_ranks"].columns)
+
+
+def test_ecdf_at_the_end_counts_the_targets_reached(view, suite_study):
+    runs = load_study(suite_study).runs
+    f_star = _best_known_of(runs)
+    hits = suite_module.target_hits(view)
+    end = suite_module.ecdf(hits, np.array([60.0]))
+    for method, part in runs.groupby("label"):
+        keep = f_star[part.index].notna()
+        precision = ((part.best_f - f_star[part.index]) / f_star[part.index].abs())[keep]
+        reached = (precision.to_numpy()[:, None] <= suite_module.LEVELS[None, :]).sum()
+        pairs = keep.sum() * len(suite_module.LEVELS)
+        assert end.loc[60.0, method] == pytest.approx(reached / pairs, abs=1e-12)
+    # nothing is reached before the first evaluation, and the ECDF never decreases
+    curve = suite_module.ecdf(hits, np.geomspace(1, 60, 30))
+    assert (curve.diff().dropna() >= 0).all().all()
+    assert (curve.iloc[0] <= curve.iloc[-1]).all()
+
+
+def test_the_profile_at_one_is_the_share_of_problems_a_method_is_best_on(view, suite_study):
+    runs = load_study(suite_study).runs
+    medians = runs.groupby([runs["suite.instance"], runs["suite.task"], "label"]).best_f \
+        .median().unstack("label")
+    best = medians.min(axis=1)
+    profile, left_out = suite_module.performance_profile(view.medians, np.array([1.0, 1e9]))
+    assert left_out == 0
+    for method in METHODS:
+        assert profile.loc[1.0, method] == pytest.approx((medians[method] == best).mean())
+        assert profile.loc[1e9, method] == 1.0
+
+
+def test_friedman_over_the_problems_equals_scipy(view, suite_study):
+    runs = load_study(suite_study).runs
+    medians = runs.groupby([runs["suite.instance"], runs["suite.task"], "label"]).best_f \
+        .median().unstack("label")
+    expected = stats.friedmanchisquare(*(medians[m].to_numpy() for m in METHODS))
+    result = suite_module.friedman_by_family(view, ALPHA)[suite_module.ALL]
+    assert result.blocks == len(medians)
+    assert result.statistic == pytest.approx(expected.statistic, rel=1e-12)
+    assert result.p == pytest.approx(expected.pvalue, rel=1e-12)
+    # per family: the same test on the family's blocks
+    family = runs.groupby([runs["suite.instance"], runs["suite.task"]])["suite.family"].first()
+    for name, r in suite_module.friedman_by_family(view, ALPHA).items():
+        if name == suite_module.ALL or not np.isfinite(r.statistic):
+            continue
+        part = medians[family[medians.index] == name]
+        assert r.statistic == pytest.approx(
+            stats.friedmanchisquare(*(part[m].to_numpy() for m in METHODS)).statistic)
+
+
+def test_suite_rank_tables_are_sorted_by_rank(suite_report):
+    ranks = suite_report.tables["suite_ranks"]
+    assert ranks["all problems"].is_monotonic_increasing
+    wins = suite_report.tables["suite_wins"]
+    assert list(wins.method) == list(ranks.method)
+
+
+def test_gap_and_wins_recomputed(view, suite_study, suite_report):
+    runs = load_study(suite_study).runs
+    f_star = _best_known_of(runs)
+    runs = runs.assign(gap=(runs.best_f - f_star) / f_star.abs())
+    gaps = runs.groupby([runs["suite.instance"], runs["suite.task"], "label"]).gap.median() \
+        .unstack("label")
+    table = suite_report.tables["suite_gap"].set_index("method")
+    for method in METHODS:
+        assert table.loc[method, "median gap"] == pytest.approx(gaps[method].median())
+    assert table["median gap"].is_monotonic_increasing
+    medians = view.medians
+    wins = suite_report.tables["suite_wins"].set_index("method")
+    a, b = METHODS[0], METHODS[1]
+    x, y = medians[a].to_numpy(), medians[b].to_numpy()
+    assert wins.loc[a, b] == f"{(x < y).sum()}/{(x == y).sum()}/{(x > y).sum()}"
+
+
+# --------------------------------------------------------------------------------------------
+# statistical honesty
+
+
+def test_an_exact_tie_is_said_as_a_tie(tmp_path):
+    values = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]
+    comparison = prepare(_one_cell(tmp_path, values, values[::-1]))  # equal medians
+    lines = plain_summary(comparison, pairwise_tests(comparison), ALPHA)
+    assert lines == ["On **archimedean**: A and B tie for the lowest median objective at "
+                     "budget 300 (equal medians, 4)."]
+    assert "lowest median objective at budget 300, but" not in lines[0]
+
+
+def test_a_design_that_cannot_reach_significance_says_so(tmp_path):
+    # 6 methods (15 pairs) on 8 seeds: the smallest Holm-corrected p is 15 * 2 / 2**8
+    assert smallest_p(8, 15) == pytest.approx(15 / 128)
+    assert seeds_needed(15) == 10 and smallest_p(10, 15) < ALPHA <= smallest_p(9, 15)
+    assert seeds_needed(1) == 6  # one pair: the Wilcoxon test needs 6 differing pairs
+    methods = ("A", "B", "C", "D", "E", "F")
+    runs = [_run(m, seed, 300, (k + 1) * (1 + 0.01 * seed))
+            for k, m in enumerate(methods) for seed in range(8)]
+    study = _write(tmp_path / "s", runs)
+    note = design_power_note(prepare(study), ALPHA)
+    assert note == ("The design cannot reach significance in every cell: with 8 paired seeds "
+                    "and 15 pair(s) of methods, the smallest Holm-corrected Wilcoxon p-value "
+                    "is 0.12 (≥ 0.05), so no pair can be significant whatever the results; 10 "
+                    "seeds per method (all differing) would make it possible.")
+    report = build(study, tmp_path / "report", figures=False, log=None)
+    assert note in report.summary and note in report.markdown.read_text()
+    # with two methods and 12 seeds a pair can be significant: nothing is said
+    two = [_run(m, seed, 300, (k + 1) * (1 + 0.01 * seed))
+           for k, m in enumerate(("A", "B")) for seed in range(12)]
+    assert design_power_note(prepare(_write(tmp_path / "t", two)), ALPHA) is None
+
+
+def test_a_sign_test_over_one_cell_is_not_reported(tmp_path):
+    comparison = prepare(_one_cell(tmp_path, [1.0] * 6, [2.0] * 6))
+    result = friedman_test(comparison, "best_f", ALPHA)
+    assert np.isnan(result.p)
+    assert result.note == ("two methods differ in only 1 cells (A lower in 1, B in 0): a sign "
+                           "test needs at least 6 to reach p < 0.05; no test")
+    lines = plain_summary(comparison, pairwise_tests(comparison), ALPHA, result)
+    assert "p = 1" not in " ".join(lines)
+
+
+def test_figures_keep_methods_apart(tmp_path):
+    # three methods with identical runs: their lines coincide
+    runs = [_run(m, seed, 300, 1.0 + 0.1 * seed) for m in ("A", "B", "C") for seed in range(4)]
+    comparison = prepare(_write(tmp_path / "s", runs))
+    look = figures_module.styles(comparison)
+    keys = {(v["linestyle"], v["marker"]) for v in look.values()}
+    assert len(keys) == 3
+    figure = figures_module.ecdf_figure(comparison, comparison.instances, "t")
+    lines = [line for line in figure.axes[0].get_lines() if line.get_label() in look]
+    assert {(line.get_linestyle(), line.get_marker()) for line in lines} == {
+        (matplotlib.lines.Line2D([], [], linestyle=v["linestyle"]).get_linestyle(),
+         v["marker"]) for v in look.values()}
+    matplotlib.pyplot.close(figure)
+
+
+def test_the_cd_diagram_uses_the_methods_colours(tmp_path, monkeypatch):
+    import scikit_posthocs as sp
+
+    rng = np.random.default_rng(3)
+    runs = [_run(m, seed, budget, f * rng.lognormal(0, 0.1), data=data)
+            for data in ("archimedean", "vivaldi") for budget in (300, 1000)
+            for m, f in (("A", 1.0), ("B", 2.0), ("C", 3.0)) for seed in range(4)]
+    comparison = prepare(_write(tmp_path / "s", runs))
+    seen = {}
+    original = sp.critical_difference_diagram
+
+    def recording(*args, **kwargs):
+        seen.update(kwargs)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(sp, "critical_difference_diagram", recording)
+    figure = figures_module.cd_diagram(comparison, friedman_test(comparison), ALPHA)
+    assert figure is not None
+    colours = figures_module.palette(comparison)
+    assert seen["color_palette"] == {m: matplotlib.colors.to_hex(c) for m, c in colours.items()}
+    matplotlib.pyplot.close(figure)
