@@ -1,8 +1,8 @@
 """Command line: ``metaknot run`` (Hydra runs and sweeps into the results store), ``metaknot
 tune`` (hyperparameter studies with Optuna), ``metaknot fit`` (a user's points within a
-tolerance), ``metaknot report`` (statistical comparison of a
-stored study), ``metaknot demo`` (optimizers on the seed
-curves), ``metaknot suite`` (the benchmark suite), ``metaknot list``."""
+tolerance), ``metaknot report`` (statistical comparison of a stored study), ``metaknot
+export`` (a study's traces for IOHanalyzer), ``metaknot demo`` (optimizers on the seed curves),
+``metaknot suite`` (the benchmark suite), ``metaknot list``."""
 
 from __future__ import annotations
 
@@ -42,6 +42,18 @@ def build_parser() -> argparse.ArgumentParser:
                              "euclidean_distance, max_deviation, n_control_points")
     report.add_argument("--no-figures", action="store_true", help="tables only (faster)")
     report.set_defaults(func=_report)
+    export = sub.add_parser("export", help="a stored study's traces in another tool's format",
+                            description="Writes the study's traces for IOHanalyzer "
+                                        "(--format iohprofiler: the files ioh's Analyzer "
+                                        "logger writes). Never modifies the study.")
+    export.add_argument("study", help="the study folder, RESULTS_DIR/STUDY")
+    export.add_argument("--format", required=True, choices=["iohprofiler"],
+                        help="the output format")
+    export.add_argument("--out", default=None,
+                        help="output folder (default: RESULTS_DIR/STUDY-FORMAT)")
+    export.add_argument("--force", action="store_true",
+                        help="write into a folder that is not empty")
+    export.set_defaults(func=_export)
     sub.add_parser("run", add_help=False,
                    help="runs and sweeps from Hydra overrides into the results store "
                         "(metaknot run --help lists the config groups)")
@@ -56,6 +68,18 @@ def _report(args: argparse.Namespace) -> int:
 
     build(args.study, args.out, alpha=args.alpha, metrics=args.metric,
           figures=not args.no_figures)
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from metaknot.experiments.export import export_iohprofiler
+
+    study = Path(args.study)
+    out = Path(args.out) if args.out else study.with_name(f"{study.name}-{args.format}")
+    written = export_iohprofiler(study, out, force=args.force)
+    print(f"metaknot export: {len(written)} files in {out}")
     return 0
 
 

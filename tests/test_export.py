@@ -1,0 +1,150 @@
+"""``metaknot export STUDY --format iohprofiler``: a real study's traces written as IOHanalyzer
+loads them, compared with what IOHexperimenter's own logger (``ioh``'s Analyzer) writes when the
+same runs are replayed through an ioh-wrapped problem."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import ioh
+import pytest
+
+from metaknot.cli import main
+from metaknot.experiments.export import export_iohprofiler, function_id
+from metaknot.experiments.store import load_study
+
+
+def _run(*args: str, cwd: Path) -> None:
+    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "run", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory) -> Path:
+    """Suite runs (two methods, two seeds, one instance and task) and one run on noisy
+    non-suite data, in one study."""
+    root = tmp_path_factory.mktemp("export")
+    _run("-m", "problem=suite", "problem.instance=titanium", "problem.task=tolerance",
+         "optimizer=ga,one_plus_one", "seed=0,1", "budget=60", "study=S",
+         f"results_dir={root}", cwd=root)
+    _run("optimizer=random_search", "budget=40", "seed=3", "problem.noise=0.01", "study=S",
+         f"results_dir={root}", cwd=root)
+    return root / "S"
+
+
+def _replay(study_dir: Path, out: Path, exported: Path) -> dict[int, int]:
+    """Every run of the study replayed through ioh's Analyzer into ``out``: the objective
+    returns the trace's best-so-far at its improvements and at the run's last evaluation (ioh
+    logs that one), a worse value elsewhere, and the run's best candidate at its best
+    evaluation. Returns ioh's function id -> ours."""
+    study = load_study(study_dir)
+    improvements = study.trace[study.trace["improvement"].astype(bool)]
+    ids, current = {}, {"y": 0.0}
+    for label, runs in study.runs.groupby("label"):
+        info = json.loads(next((exported / label).glob("*.json")).read_text())
+        logger = ioh.logger.Analyzer(root=str(out), folder_name=label, algorithm_name=label,
+                                     algorithm_info=info["algorithm"]["info"])
+        for _, run in runs.sort_values(["seed", "run_id"]).iterrows():
+            name = (f"{run['suite.instance']}__{run['suite.task']}"
+                    if isinstance(run["suite.task"], str)
+                    else f"{run['data']}__{run['problem']}__{run['objective']}")
+            rows = improvements[improvements["run_id"] == run["run_id"]]
+            values = dict(zip(rows["evaluations"], rows["best_f"], strict=True))
+            config = json.loads(run["config"])
+            instance = int(run["seed"]) if config["problem"]["noise"] else 1
+            problem = ioh.wrap_problem(lambda x: current["y"], name=name,
+                                       dimension=int(run["n_var"]), instance=instance)
+            ids[problem.meta_data.problem_id] = function_id(name)
+            problem.attach_logger(logger)
+            best_at, worse = int(rows["evaluations"].iloc[-1]), float(rows["best_f"].max()) + 1
+            n_evaluations = int(run["n_evaluations"])
+            values.setdefault(n_evaluations, rows["best_f"].iloc[-1])  # not an improvement
+            for evaluation in range(1, n_evaluations + 1):
+                current["y"] = float(values.get(evaluation, worse))
+                x = run["best_x"] if evaluation == best_at else [0.5] * int(run["n_var"])
+                problem([float(v) for v in x])
+            problem.detach_logger()
+        logger.close()
+    return ids
+
+
+def _files(folder: Path, ids: dict[int, int] | None = None) -> dict[str, str]:
+    """Relative path -> text of every file under ``folder`` (ioh's function ids mapped to
+    ours, in the names and the meta data)."""
+    files = {}
+    for path in sorted(p for p in folder.rglob("*") if p.is_file()):
+        name, text = path.relative_to(folder).as_posix(), path.read_text()
+        for theirs, ours in (ids or {}).items():
+            name = name.replace(f"f{theirs}_", f"f{ours}_")
+            text = text.replace(f"f{theirs}_", f"f{ours}_").replace(
+                f'"function_id": {theirs},', f'"function_id": {ours},')
+        files[name] = text
+    return files
+
+
+def test_the_files_are_those_ioh_writes_for_the_same_runs(study, tmp_path) -> None:
+    exported = tmp_path / "exported"
+    written = export_iohprofiler(study, exported)
+    ours = _files(exported)
+    assert sorted(ours) == sorted(p.relative_to(exported).as_posix() for p in written)
+    ids = _replay(study, tmp_path / "ioh", exported)
+    theirs = _files(tmp_path / "ioh", ids)
+    assert sorted(ours) == sorted(theirs)
+    for name, text in ours.items():
+        if name.endswith(".dat"):
+            assert text == theirs[name], name  # rows, headers, number format: the same text
+        else:
+            meta, expected = json.loads(text), json.loads(theirs[name])
+            assert expected.pop("suite") == "unknown_suite" and meta.pop("suite") == "metaknot"
+            assert meta == expected, name
+    # one algorithm folder per method; the suite function named by instance and task
+    assert {name.split("/")[0] for name in ours} == {"ga", "one_plus_one", "random_search"}
+    suite_meta = json.loads(ours[f"ga/IOHprofiler_f{function_id('titanium__tolerance_1e-3')}"
+                                 "_titanium__tolerance_1e-3.json"])
+    assert [len(s["runs"]) for s in suite_meta["scenarios"]] == [2]
+    assert suite_meta["scenarios"][0]["dimension"] == 47  # n_var: titanium's 47 masks bits
+    noisy = next(t for n, t in ours.items() if n.startswith("random_search/") and
+                 n.endswith(".json"))
+    assert json.loads(noisy)["function_name"] == "epitrochoid__mask__paper"
+    assert json.loads(noisy)["scenarios"][0]["runs"][0]["instance"] == 3  # the noise's seed
+
+
+def test_only_improvements_are_written(study, tmp_path) -> None:
+    export_iohprofiler(study, tmp_path / "out")
+    trace = load_study(study).trace
+    rows = [line for path in (tmp_path / "out").rglob("*.dat")
+            for line in path.read_text().splitlines() if line != "evaluations raw_y"]
+    runs = load_study(study).runs
+    improvements = trace[trace["improvement"].astype(bool)]
+    last = improvements.groupby("run_id")["evaluations"].max()
+    # and a last row for each run whose final evaluation did not improve
+    ends = sum(n > last[r] for r, n in zip(runs["run_id"], runs["n_evaluations"], strict=True))
+    assert len(rows) == len(improvements) + ends < len(trace)
+
+
+def test_function_ids_depend_on_the_name_alone() -> None:
+    assert function_id("titanium__tolerance_1e-3") == 708716  # documented: crc32 mapping
+    assert function_id("titanium__tolerance_1e-2") != function_id("titanium__tolerance_1e-3")
+
+
+def test_the_command_refuses_a_folder_that_is_not_empty(study, tmp_path, capsys) -> None:
+    out = tmp_path / "out"
+    assert main(["export", str(study), "--format", "iohprofiler", "--out", str(out)]) == 0
+    assert "files in" in capsys.readouterr().out
+    assert main(["export", str(study), "--format", "iohprofiler", "--out", str(out)]) == 2
+    assert "not empty" in capsys.readouterr().err
+    assert main(["export", str(study), "--format", "iohprofiler", "--out", str(out),
+                 "--force"]) == 0
+    # the default folder sits beside the study
+    assert main(["export", str(study), "--format", "iohprofiler"]) == 0
+    assert (study.parent / "S-iohprofiler" / "ga").is_dir()
+
+
+def test_a_study_without_runs_is_named(tmp_path) -> None:
+    (tmp_path / "empty" / "runs").mkdir(parents=True)
+    with pytest.raises(ValueError, match="no finished run"):
+        export_iohprofiler(tmp_path / "empty", tmp_path / "out")
