@@ -236,3 +236,25 @@ def test_the_cd_diagram_uses_the_methods_colours(tmp_path, monkeypatch):
     colours = figures_module.palette(comparison)
     assert seen["color_palette"] == {m: matplotlib.colors.to_hex(c) for m, c in colours.items()}
     matplotlib.pyplot.close(figure)
+
+
+def test_markers_skip_lines_with_nothing_to_draw(tmp_path) -> None:
+    """A method without values on a scope (nlopt on mask tasks) draws an empty line: it gets
+    no markers, which matplotlib cannot place along an empty path (the knotbench report
+    crashed there)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from metaknot.experiments.report.figures import _markevery
+
+    x, empty = np.array([1.0, 2.0, 4.0]), np.full(3, np.nan)
+    assert _markevery(0, x, empty) is None and _markevery(1, x, [0.1, 0.2, 0.3]) is not None
+    fig, ax = plt.subplots()
+    ax.step(x, empty, where="post", marker="o", markevery=_markevery(0, x, empty))
+    ax.step(x, [0.1, 0.5, 1.0], where="post", marker="s",
+            markevery=_markevery(1, x, [0.1, 0.5, 1.0]))
+    ax.set_xscale("log")
+    fig.savefig(tmp_path / "lines.png")
+    plt.close(fig)

@@ -48,8 +48,14 @@ def styles(comparison: Comparison) -> dict[str, dict[str, Any]]:
             for k, method in enumerate(comparison.methods)}
 
 
-def _markevery(k: int, n: int = 6) -> tuple[float, float]:
-    """Markers at ``n`` positions along a line, shifted per method so they do not overlap."""
+def _markevery(k: int, x: Any, y: Any, n: int = 6) -> tuple[float, float] | None:
+    """Markers at ``n`` positions along the line ``(x, y)``, shifted per method so they do
+    not overlap; none on a line of fewer than two drawable points (matplotlib cannot place
+    markers along an empty path, and a method without values on a scope draws nothing)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    drawable = np.isfinite(x) & np.isfinite(y) & (x > 0)
+    if np.count_nonzero(drawable) < 2:
+        return None
     return (0.02 + 0.13 * (k % 7) / n, 1.0 / n)
 
 
@@ -64,7 +70,8 @@ def _band(ax: Any, x: np.ndarray, values: pd.DataFrame, style: dict[str, Any], l
           k: int = 0) -> None:
     median = values.median(axis=1)
     low, high = values.quantile(0.25, axis=1), values.quantile(0.75, axis=1)
-    ax.plot(x, median, label=label, lw=1.6, ms=4, markevery=_markevery(k), **style)
+    ax.plot(x, median, label=label, lw=1.6, ms=4, markevery=_markevery(k, x, median),
+            **style)
     ax.fill_between(x, low, high, color=style["color"], alpha=0.2, lw=0)
 
 
@@ -137,7 +144,7 @@ def ecdf_figure(comparison: Comparison, instances: list[str], title: str) -> plt
                 continue
             fraction = (values[None, :] <= x[:, None]).mean(axis=1)
             ax.step(x, fraction, where="post", label=method, ms=4,
-                    markevery=_markevery(k), **look[method])
+                    markevery=_markevery(k, x, fraction), **look[method])
         ax.set_xscale("log")
         ax.set_ylim(0, 1.02)
         ax.set_xlabel("evaluations")
@@ -357,7 +364,7 @@ def suite_ecdf_figure(comparison: Comparison, suite: Any, hits: pd.DataFrame) ->
         for k, method in enumerate(suite.methods):
             if method in shares:
                 ax.step(x, shares[method], where="post", label=method, ms=4,
-                        markevery=_markevery(k), **look[method])
+                        markevery=_markevery(k, x, shares[method]), **look[method])
         ax.set_xscale("log")
         ax.set_ylim(-0.02, 1.02)
         problems = part.problem.nunique()
@@ -381,7 +388,7 @@ def profile_figure(comparison: Comparison, suite: Any) -> plt.Figure:
         profile, _ = performance_profile(medians, taus)
         for k, method in enumerate(suite.methods):
             ax.step(taus, profile[method], where="post", label=method, ms=4,
-                    markevery=_markevery(k), **look[method])
+                    markevery=_markevery(k, taus, profile[method]), **look[method])
         ax.set_xscale("log")
         ax.set_ylim(-0.02, 1.02)
         ax.set_title(f"{scope} ({len(medians)} problems)", fontsize=9)
