@@ -14,7 +14,6 @@ import gc
 
 import numpy as np
 import pytest
-from test_all_optimizers import CASES, IDS
 
 import metaknot as mk
 from metaknot import audit
@@ -27,6 +26,7 @@ from metaknot.bspline.periodic import (
     periodic_errors,
 )
 from metaknot.problems import FreeKnots, KnotIndices, KnotProblem, KnotSelection, get_curve
+from tests.test_all_optimizers import CASES, IDS
 
 SPIRAL = get_curve("archimedean", n_points=60)
 OUTLINE = get_curve("epitrochoid", n_points=80)

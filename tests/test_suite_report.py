@@ -14,7 +14,6 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy import stats
-from test_report import _one_cell, _run, _write
 
 from metaknot.experiments import load_study
 from metaknot.experiments.report import build, prepare
@@ -31,6 +30,7 @@ from metaknot.experiments.report.tables import (
 from metaknot.suite.best import load_best_known
 from metaknot.suite.splits import split
 from metaknot.suite.tasks import get_task
+from tests.test_report import _one_cell, _run, _write
 
 ALPHA = 0.05
 METHODS = ("random_search", "one_plus_one", "ga")

@@ -21,9 +21,9 @@ import optuna
 import pytest
 from optuna.storages import RDBStorage
 from optuna.trial import TrialState
-from test_tune import wait_until_held
 
 from metaknot.experiments.tuning.runner import HOLD_WORKER_ENV
+from tests.test_tune import wait_until_held
 
 ROOT = Path(__file__).resolve().parent.parent
 pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("postgres")]
