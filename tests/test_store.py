@@ -424,10 +424,10 @@ def test_a_run_that_fails_before_evaluating_has_the_fields_of_a_finished_run(
         {key: ok[key] for key in settings}
     outcome = {*store_module.SPLINE_FIELDS, *TIMINGS}
     missing = {key for key in set(ok) - set(failed)  # the optimizers differ, and the trace
-               if not key.startswith(("algorithm.", store_module.TRACE_PREFIX))}
+               if not key.startswith(("optimizer.", store_module.TRACE_PREFIX))}
     assert missing <= outcome, missing - outcome
     assert (failed["status"], failed["n_evaluations"], failed["best_x"]) == ("failed", 0, None)
-    assert (failed["algorithm"], failed["algorithm.crash_at"]) == ("test_crash", 1)
+    assert (failed["optimizer"], failed["optimizer.crash_at"]) == ("test_crash", 1)
 
 
 def test_every_attempt_of_a_failing_run_is_kept(tmp_path, crash_optimizer):
