@@ -13,7 +13,7 @@ from omegaconf import OmegaConf
 ROOT = Path(__file__).resolve().parent.parent
 FOLDERS = ("metaknot", "problems", "algorithms", "experiments", "benchmarks", "tests")
 #: Top-level names of this repository's own modules (a private name of our own is fine).
-OWN = {"metaknot", "problems", "algorithms", "experiments"}
+OWN = {"tests", "metaknot", "problems", "algorithms", "experiments"}
 
 
 def _private(dotted: str) -> bool:
