@@ -25,7 +25,7 @@ import numpy as np
 
 from metaknot.problems import KnotProblem
 
-from .tasks import Task, get_task
+from .tasks import Task
 
 __all__ = [
     "BEST_KNOWN_FILE",
@@ -119,7 +119,7 @@ def _entry(task: Task, problem: KnotProblem, x: np.ndarray, value: float, method
            budget: int, seed: int | None, proven: bool = False) -> BestKnown:
     solution = problem.decode(x)
     metrics = solution.metrics
-    knots = problem._interior_knots(solution.x)
+    knots = solution.fit.interior_knots
     kind = task.encoding["kind"]
     if kind == "mask":
         candidate = np.flatnonzero(solution.x).astype(float) + 1
@@ -244,11 +244,3 @@ def improve(instance_ids: Iterable[str], *, budget: int, seeds: Sequence[int] = 
         save_best_known(entries, path)
     return counts
 
-
-def best_known_value(instance: str, task_id: str,
-                     entries: dict[tuple[str, str], BestKnown] | None = None) -> float | None:
-    """The best-known value of ``task_id`` on ``instance`` (``None`` if there is none)."""
-    entries = load_best_known() if entries is None else entries
-    entry = entries.get((instance, task_id))
-    get_task(instance, task_id)  # an unknown task is an error, not "no value"
-    return None if entry is None else entry.value

@@ -139,6 +139,9 @@ def test_the_knotbench_study_covers_the_suite(tmp_path) -> None:
     fixed_k_small.indices tasks and the six methods; a small slice of it runs."""
     from hydra import compose, initialize_config_dir
 
+    from metaknot.experiments.app import register_hydra_plugins
+
+    register_hydra_plugins()  # the study sweeper, as metaknot run registers it
     with initialize_config_dir(version_base="1.3", config_dir=str(CONF)):
         cfg = compose("config", overrides=["experiment=knotbench"], return_hydra_config=True)
     params = cfg.hydra.sweeper.params
