@@ -72,6 +72,11 @@ class Instance:
         return self.kind == "closed"
 
     @property
+    def base_id(self) -> str:
+        """The id of the noise-free instance this one derives from (its own id if noise-free)."""
+        return self.id.split("+", 1)[0]
+
+    @property
     def definition(self) -> str:
         """What the data are and their source (the generator's docstring)."""
         return " ".join((self.generate.__doc__ or "").split())

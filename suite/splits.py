@@ -12,15 +12,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .instances import Instance, base_instances, instances
+from .instances import base_instances, instances
 
 __all__ = ["SPLITS", "split", "write_configs"]
 
 SPLITS = ("all", "base", "mini", "train", "test")
-
-
-def _base_id(instance: Instance) -> str:
-    return instance.id.split("+", 1)[0]
 
 
 def _test_bases() -> set[str]:
@@ -54,7 +50,7 @@ def split(name: str) -> list[str]:
     if name == "all":
         return [i.id for i in found]
     test = _test_bases()
-    return [i.id for i in found if (_base_id(i) in test) == (name == "test")]
+    return [i.id for i in found if (i.base_id in test) == (name == "test")]
 
 
 def config_text(name: str) -> str:

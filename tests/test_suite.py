@@ -69,6 +69,7 @@ def test_noisy_variants_are_deterministic_and_scaled_to_the_range():
     other = get_instance("dj_doppler+noise0.03s1").point_set()
     assert not np.array_equal(other.points, a.points)
     assert a.name == "dj_doppler+noise0.03s0" and a.noise == pytest.approx(0.03 * clean.scale)
+    assert instance.base_id == base["dj_doppler"].base_id == "dj_doppler"
 
 
 def test_closed_instances_are_closed_by_the_one_rule_and_open_ones_open():

@@ -52,7 +52,11 @@ class Instance:
     @property
     def base(self) -> str:
         """The instance without its noise: held-out instances must differ in this."""
-        return self.suite.split("+", 1)[0] if self.suite is not None else str(self.curve)
+        if self.suite is None:
+            return str(self.curve)
+        from metaknot.suite import get_instance
+
+        return get_instance(self.suite).base_id
 
 
 @dataclass(frozen=True)
