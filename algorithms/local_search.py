@@ -12,7 +12,9 @@ The simple local method any population method must beat at equal budget:
    is at a local optimum.
 3. **Iterate** (``iterated=True``, the default): from the best solution found so far, make
    ``kick`` random moves of the same kinds (drawn from the run's generator) and improve again
-   from there; repeat until the budget is spent. This is an iterated local search (Lourenço,
+   from there; repeat until the budget is spent. Each kick after which the best did not improve
+   makes the next one a move longer, up to one move per candidate position (a longer random
+   walk reaches nothing new, and on a handful of points it would only cost time). This is an iterated local search (Lourenço,
    Martin & Stützle 2003) that always restarts from the best, the simplest acceptance rule.
    With ``iterated=False`` the search stops at its first local optimum (``finished``), leaving
    the rest of the budget unused, as the plain variant always did.
@@ -139,7 +141,10 @@ class LocalSearch(Optimizer):
     def _kicked_best(self) -> np.ndarray | None:
         """The best solution after ``kick`` random moves (None if it has no neighbour)."""
         x = self.best_x
-        for _ in range(self.kick + self._failed_kicks):
+        encoding = self.problem.encoding
+        positions = encoding.n_var if encoding.kind == "binary" else \
+            int(encoding.upper.max() - encoding.lower.min()) + 1
+        for _ in range(min(self.kick + self._failed_kicks, max(self.kick, positions))):
             moves = self._neighbours(x)
             if len(moves) == 0:
                 return None

@@ -222,6 +222,13 @@ def test_kicks_start_from_the_best_and_grow_while_they_fail():
         kicked = ls._kicked_best()[0]
         moved = np.setdiff1d(kicked, ls.best_x).size
         assert 1 <= moved <= 2 + failed and np.all(np.diff(kicked) > 0)
+    # ... up to one move per candidate position, however many kicks failed
+    calls, neighbours = [], ls._neighbours
+    ls._neighbours = lambda x: calls.append(1) or neighbours(x)
+    ls._failed_kicks = 10**4
+    ls._kicked_best()
+    encoding = problem.encoding
+    assert len(calls) == encoding.upper.max() - encoding.lower.min() + 1
     one = mk.minimize(problem, LocalSearch(kick=1), budget=2000, seed=0)
     five = mk.minimize(problem, LocalSearch(kick=5), budget=2000, seed=0)
     assert not np.array_equal(one.trace_evaluations, five.trace_evaluations)
