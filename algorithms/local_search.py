@@ -14,8 +14,9 @@ The simple local method any population method must beat at equal budget:
    ``kick`` random moves of the same kinds (drawn from the run's generator) and improve again
    from there; repeat until the budget is spent. Each kick after which the best did not improve
    makes the next one a move longer, up to one move per candidate position (a longer random
-   walk reaches nothing new, and on a handful of points it would only cost time). This is an iterated local search (Lourenço,
-   Martin & Stützle 2003) that always restarts from the best, the simplest acceptance rule.
+   walk reaches nothing new, and on a handful of points it would only cost time). This is an
+   iterated local search (Lourenço, Martin & Stützle 2003) that always restarts from the
+   best, the simplest acceptance rule.
    With ``iterated=False`` the search stops at its first local optimum (``finished``), leaving
    the rest of the budget unused, as the plain variant always did.
 """

@@ -16,6 +16,9 @@ from metaknot.cli import main
 from metaknot.experiments.export import export_iohprofiler, function_id
 from metaknot.experiments.store import load_study
 
+# one shared study or build for the module: keep its tests on one xdist worker
+pytestmark = pytest.mark.xdist_group("export")
+
 
 def _run(*args: str, cwd: Path) -> None:
     done = subprocess.run([sys.executable, "-m", "metaknot.cli", "run", *args], cwd=cwd,
@@ -23,7 +26,7 @@ def _run(*args: str, cwd: Path) -> None:
     assert done.returncode == 0, done.stderr
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if other modules run in between
 def study(tmp_path_factory) -> Path:
     """Suite runs (two methods, two seeds, one instance and task) and one run on noisy
     non-suite data, in one study."""

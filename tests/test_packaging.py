@@ -18,6 +18,9 @@ from pathlib import Path
 
 import pytest
 
+# one shared build for the module: keep its tests on one xdist worker
+pytestmark = pytest.mark.xdist_group("packaging")
+
 REPO = Path(__file__).resolve().parents[1]
 MAPPED = {"problems": "problems", "algorithms": "algorithms", "experiments": "experiments"}
 
@@ -34,6 +37,7 @@ for sub in ("problems", "algorithms", "experiments"):
     except ImportError:
         out["import " + sub] = False
 import metaknot
+
 out["metaknot"] = metaknot.__file__
 print(json.dumps(out))
 """
@@ -117,7 +121,7 @@ def _copy_source(dest: Path) -> Path:
     return dest
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if other modules run in between
 def wheel(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("wheel")
     src = _copy_source(root / "src")

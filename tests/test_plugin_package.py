@@ -17,6 +17,9 @@ from pathlib import Path
 
 import pytest
 
+# one shared study or build for the module: keep its tests on one xdist worker
+pytestmark = pytest.mark.xdist_group("plugin_package")
+
 ROOT = Path(__file__).resolve().parents[1]
 GUIDE = ROOT / "docs" / "adding-an-optimizer.md"
 
@@ -28,7 +31,7 @@ def guide_module() -> str:
     return blocks[0]
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if other modules run in between
 def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     src = tmp_path_factory.mktemp("plugin_src")
     (src / "mk_plugin_demo").mkdir()

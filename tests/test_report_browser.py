@@ -65,7 +65,7 @@ def chromium() -> str:
     return chromium_path()
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if other modules run in between
 def report(tmp_path_factory):
     """A small real study (3 methods x 2 instances x 2 budgets x 6 seeds) and its report."""
     tmp = tmp_path_factory.mktemp("report-browser")

@@ -32,11 +32,14 @@ from metaknot.suite.splits import split
 from metaknot.suite.tasks import get_task
 from tests.test_report import _one_cell, _run, _write
 
+# one shared study or build for the module: keep its tests on one xdist worker
+pytestmark = pytest.mark.xdist_group("suite_report")
+
 ALPHA = 0.05
 METHODS = ("random_search", "one_plus_one", "ga")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if other modules run in between
 def suite_study(tmp_path_factory):
     """A real suite study: the mini split, two tasks, three cheap optimizers, two seeds."""
     folder = tmp_path_factory.mktemp("suite")
@@ -49,12 +52,12 @@ def suite_study(tmp_path_factory):
     return folder / "mini"
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if other modules run in between
 def suite_report(suite_study, tmp_path_factory):
     return build(suite_study, tmp_path_factory.mktemp("out") / "report", log=None)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # kept if other modules run in between
 def view(suite_study):
     return suite_module.suite_comparison(prepare(suite_study))
 
