@@ -6,8 +6,14 @@ and seed that found it, and ``proven``: true when an exhaustive search over ever
 the task's encoding found it (index sets of a small ``fixed_k`` task, e.g. titanium's 49 points
 at ``K = 3``). The values ship in ``metaknot/suite/data/best_known.json``;
 :func:`improve` (``metaknot suite best``) searches again with a portfolio of the strongest
-methods and never replaces a value by a worse one. Pareto fronts (task ``front``) have no
-single best-known value here yet.
+methods and never replaces a value by a worse one.
+
+A Pareto front (task ``front``, objective ``pareto``) is known by the best front found: its
+value is the front's hypervolume gap (what a run of that task reports as ``best_f``), its
+members are stored as masks (:func:`front_candidates`), and ``knots`` / ``candidate`` /
+``metrics`` describe its knee. It is made of the averaging and the uniform knots at every
+count, every stored knot set of the instance's other mask and index tasks, and the front stored
+before: so it never gets worse.
 """
 
 from __future__ import annotations
@@ -32,14 +38,16 @@ __all__ = [
     "KINDS_WITH_BEST",
     "PORTFOLIO",
     "BestKnown",
+    "front_candidates",
     "improve",
     "load_best_known",
     "save_best_known",
     "search",
+    "search_front",
 ]
 
 BEST_KNOWN_FILE = Path(__file__).with_name("data") / "best_known.json"
-KINDS_WITH_BEST = ("fixed_k", "tolerance", "seed")
+KINDS_WITH_BEST = ("fixed_k", "tolerance", "seed", "front")
 #: The methods :func:`search` runs per encoding (registered optimizers and their options).
 PORTFOLIO: dict[str, tuple[tuple[str, dict[str, Any]], ...]] = {
     "indices": (("ga", {}), ("local_search", {}), ("one_plus_one", {})),
@@ -76,6 +84,10 @@ class BestKnown:
         True if no candidate of the encoding does better (exhaustive search).
     metrics
         ``n_control_points``, ``rmse`` and ``max_deviation`` of the fit.
+    front
+        Task ``front`` only: the front's members, each a mask as hexadecimal bytes
+        (``numpy.packbits``; :func:`front_candidates` reads them); ``knots``, ``candidate``
+        and ``metrics`` are then those of its knee.
     """
 
     instance: str
@@ -88,6 +100,7 @@ class BestKnown:
     seed: int | None
     proven: bool = False
     metrics: dict[str, float] = field(default_factory=dict)
+    front: list[str] | None = None
 
 
 def load_best_known(path: str | Path = BEST_KNOWN_FILE) -> dict[tuple[str, str], BestKnown]:
@@ -102,12 +115,19 @@ def load_best_known(path: str | Path = BEST_KNOWN_FILE) -> dict[tuple[str, str],
     return {(e["instance"], e["task"]): BestKnown(**e) for e in data["entries"]}
 
 
+def _without_empty_front(entry: BestKnown) -> dict[str, Any]:
+    data = asdict(entry)
+    if data["front"] is None:
+        del data["front"]
+    return data
+
+
 def save_best_known(entries: dict[tuple[str, str], BestKnown],
                     path: str | Path = BEST_KNOWN_FILE) -> None:
     """Write ``entries`` (sorted, one per line) atomically: a temporary file renamed over."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    lines = [json.dumps(asdict(entries[key]), separators=(",", ":"))
+    lines = [json.dumps(_without_empty_front(entries[key]), separators=(",", ":"))
              for key in sorted(entries)]
     text = (f'{{"version": {_FORMAT_VERSION}, "entries": [\n' + ",\n".join(lines) + "\n]}\n")
     temporary = path.with_name(path.name + ".tmp")
@@ -143,6 +163,52 @@ def candidate_of(entry: BestKnown, problem: KnotProblem) -> np.ndarray:
     if problem.encoding.kind == "integer":
         return c.astype(np.int64)
     return c
+
+
+def front_candidates(entry: BestKnown, problem: KnotProblem) -> np.ndarray:
+    """The members of a stored front as masks of ``problem`` (shape ``(members, n_var)``)."""
+    if entry.front is None:
+        raise ValueError(f"{entry.instance} {entry.task}: not a front")
+    n = problem.encoding.n_var
+    return np.array([np.unpackbits(np.frombuffer(bytes.fromhex(member), np.uint8))[:n]
+                     for member in entry.front], dtype=np.int64).reshape(-1, n)
+
+
+def _front_entry(task: Task, problem: KnotProblem, X: np.ndarray, method: str,
+                 budget: int) -> BestKnown | None:
+    """The front of the masks ``X`` under the task's objective ``pareto`` (None if empty)."""
+    from metaknot.front import ParetoArchive
+
+    objective = problem.objective
+    archive = ParetoArchive(objective.reference, objective.ideal)
+    archive.add(X, problem.evaluate(X))
+    if not len(archive):
+        return None
+    entry = _entry(task, problem, archive.X[archive.knee()], archive.gap, method, budget, None)
+    entry.front = [np.packbits(x.astype(np.uint8)).tobytes().hex() for x in archive.X]
+    return entry
+
+
+def search_front(task: Task, *, stored: Iterable[BestKnown] = (),
+                 previous: BestKnown | None = None) -> BestKnown | None:
+    """The best front of ``task`` (kind ``front``) from the averaging and the uniform knots at
+    every count, the knots of ``stored`` entries (other tasks of the same instance: any knot
+    set is a member candidate) and the ``previous`` front's members."""
+    from metaknot.algorithms.baselines import knots_to_candidate
+    from metaknot.bspline import averaging_knots
+
+    problem = task.problem()
+    u, degree = problem.params, problem.degree
+    lower, upper = u[0], u[-1]
+    counts = range(1, problem.last_candidate_point + 1)
+    knots = [averaging_knots(u, k, degree) for k in counts if k <= u.size - degree - 1]
+    knots += [np.linspace(lower, upper, k + 2)[1:-1] for k in counts]
+    knots += [np.asarray(e.knots) for e in stored if e.front is None]
+    X = [knots_to_candidate(problem, t) for t in knots]
+    if previous is not None and previous.front is not None:
+        X += list(front_candidates(previous, problem))
+    X = np.unique(np.array(X, dtype=np.int64), axis=0)
+    return _front_entry(task, problem, X, "averaging + uniform + suite knots", len(X))
 
 
 def _exhaustive(task: Task, problem: KnotProblem) -> BestKnown | None:
@@ -197,27 +263,36 @@ def search(task: Task, *, budget: int, seeds: Sequence[int] = (0,),
 
 
 def improve(instance_ids: Iterable[str], *, budget: int, seeds: Sequence[int] = (0,),
-            path: str | Path = BEST_KNOWN_FILE,
+            path: str | Path = BEST_KNOWN_FILE, kinds: Sequence[str] = KINDS_WITH_BEST,
             report: Callable[[str], None] = print) -> dict[str, int]:
-    """Search every task with a best-known value on ``instance_ids`` and store what improves.
+    """Search every task with a best-known value on ``instance_ids`` (of the task ``kinds``)
+    and store what improves.
 
     A value is replaced only by a lower one (by more than a relative ``1e-12``); a proven
     value is never searched again. The file is written after each instance, so an interrupted
     search keeps what it found. Returns counts: ``searched``, ``improved``, ``new``, ``kept``.
     """
-    from .tasks import tasks
+    from .tasks import get_task, tasks
 
+    unknown = set(kinds) - set(KINDS_WITH_BEST)
+    if unknown:
+        raise ValueError(f"task kinds with best-known values are {', '.join(KINDS_WITH_BEST)}; "
+                         f"got {', '.join(sorted(unknown))}")
     entries = load_best_known(path)
     counts = {"searched": 0, "improved": 0, "new": 0, "kept": 0}
     instance_ids = list(instance_ids)
     for number, instance_id in enumerate(instance_ids, 1):
         report(f"[{number}/{len(instance_ids)}] {instance_id}")
         by_k: dict[int, BestKnown] = {}
+        fronts: list[tuple[Task, tuple[str, str], BestKnown | None]] = []
         for task in tasks(instance_id):
-            if task.kind not in KINDS_WITH_BEST:
+            if task.kind not in kinds:
                 continue
             key = (task.instance, task.id)
             old = entries.get(key)
+            if task.kind == "front":  # after the other tasks: their knots are members too
+                fronts.append((task, key, old))
+                continue
             if old is not None and old.proven:
                 counts["kept"] += 1
                 found = old
@@ -241,6 +316,17 @@ def improve(instance_ids: Iterable[str], *, budget: int, seeds: Sequence[int] = 
                     found = old
             if found is not None and task.encoding["kind"] == "indices":
                 by_k[task.encoding["n_knots"]] = found
+        for task, key, old in fronts:
+            counts["searched"] += 1
+            stored = [e for (i, t), e in entries.items()
+                      if i == instance_id and get_task(i, t).encoding["kind"] != "free"]
+            found = search_front(task, stored=stored, previous=old)
+            if found is not None and (old is None or
+                                      found.value < old.value - IMPROVEMENT * abs(old.value)):
+                counts["new" if old is None else "improved"] += 1
+                entries[key] = found
+            else:
+                counts["kept"] += 1
         save_best_known(entries, path)
     return counts
 

@@ -18,6 +18,7 @@ from metaknot.suite.best import (
     KINDS_WITH_BEST,
     BestKnown,
     candidate_of,
+    front_candidates,
     improve,
     load_best_known,
     save_best_known,
@@ -68,7 +69,43 @@ def test_every_task_has_a_best_known_value() -> None:
     assert set(ENTRIES) - wanted == set()  # nothing stored for tasks that do not exist
 
 
-@pytest.mark.parametrize("key", sorted(ENTRIES), ids="/".join)
+def reference_gap(task, problem, masks: np.ndarray) -> float:
+    """The front's hypervolume gap written out from the objective ``pareto``: each member's
+    (control points / N, 1 + log10(max(RMSE / scale, floor)) / -log10(floor)) by scipy's
+    fit, and the area they dominate in the unit box as a staircase."""
+    floor, n = task.objective["error_floor"], problem.curve.n_points
+    points = []
+    for x in masks:
+        knots = problem.params[np.flatnonzero(x) + 1]
+        rmse = np.sqrt(np.mean(reference_residuals(problem, knots) ** 2))
+        cp = len(knots) + problem.curve.extra_control_points
+        error = 1 + np.log10(max(rmse / problem.data.scale, floor)) / -np.log10(floor)
+        points.append((cp / n, error))
+    area, lowest = 0.0, 1.0
+    for f0, f1 in sorted(points):
+        if f0 < 1 and f1 < lowest:
+            area += (1 - f0) * (lowest - f1)
+            lowest = f1
+    return 1 - area
+
+
+@pytest.mark.parametrize("key", sorted(k for k in ENTRIES if ENTRIES[k].front is not None),
+                         ids="/".join)
+def test_stored_fronts_give_the_stored_gap(key: tuple[str, str]) -> None:
+    entry = ENTRIES[key]
+    task = get_task(*key)
+    problem = task.problem()
+    masks = front_candidates(entry, problem)
+    assert reference_gap(task, problem, masks) == pytest.approx(entry.value, rel=1e-9)
+    # no member dominates another, and the knee is one of them
+    F = problem.evaluate(masks)
+    assert not any(np.all(F[i] <= F[j]) and i != j for i in range(len(F)) for j in range(len(F)))
+    knee = problem.params[np.asarray(entry.candidate, dtype=np.int64)]
+    assert any(np.array_equal(knee, problem.params[np.flatnonzero(x) + 1]) for x in masks)
+
+
+@pytest.mark.parametrize("key", sorted(k for k in ENTRIES if ENTRIES[k].front is None),
+                         ids="/".join)
 def test_stored_knots_give_the_stored_value(key: tuple[str, str]) -> None:
     entry = ENTRIES[key]
     task = get_task(*key)
@@ -123,6 +160,13 @@ def test_a_value_is_never_replaced_by_a_worse_one(tmp_path) -> None:
         t.id for t in tasks("titanium") if t.kind in KINDS_WITH_BEST}
     again = improve(["titanium"], budget=1, path=path, report=lambda _: None)
     assert again["searched"] == len(load_best_known(path)) - 1  # the proven one is skipped
+    # the front is searched on its own, from the other tasks' knots and its own members
+    front = load_best_known(path)[("titanium", "front")]
+    assert improve(["titanium"], budget=1, path=path, kinds=("front",),
+                   report=lambda _: None) == {"searched": 1, "improved": 0, "new": 0, "kept": 1}
+    assert load_best_known(path)[("titanium", "front")] == front
+    with pytest.raises(ValueError, match="got nope"):
+        improve(["titanium"], budget=1, path=path, kinds=("nope",))
 
 
 def test_the_file_round_trips_and_refuses_other_formats(tmp_path) -> None:

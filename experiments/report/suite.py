@@ -119,8 +119,8 @@ def _best_known(runs: pd.DataFrame, notes: list[str]) -> pd.Series:
     if len(missing):
         tasks = ", ".join(sorted(set(problems[missing])))
         notes.append(f"{len(missing)} of {len(by_problem)} problem(s) have no best-known value "
-                     f"(tasks: {tasks}; a Pareto front has none): they are left out of the "
-                     "target-based parts (ECDF, gap) and kept in the rank-based ones.")
+                     f"(tasks: {tasks}; `metaknot suite best` computes them): they are left "
+                     "out of the target-based parts (ECDF, gap) and kept in the rank-based ones.")
     not_positive = by_problem[by_problem <= 0].index
     if len(not_positive):
         notes.append(f"{len(not_positive)} problem(s) have a best-known value ≤ 0, for which a "

@@ -31,6 +31,9 @@ def add_suite(sub: Any) -> None:
                     "improves; a stored value is never replaced by a worse one.")
     best.add_argument("--budget", type=int, default=2000, help="evaluations per method run")
     best.add_argument("--seeds", type=int, default=1, help="seeds per method (0, 1, ...)")
+    best.add_argument("--kind", nargs="+", default=None,
+                      choices=("fixed_k", "tolerance", "seed", "front"),
+                      help="only tasks of these kinds")
     best.add_argument("--family", default=None, help="only this family")
     best.add_argument("--instance", nargs="+", default=None, help="only these instances")
     best.add_argument("--file", default=None,
@@ -70,13 +73,13 @@ def _tasks(args: argparse.Namespace) -> int:
 
 def _best(args: argparse.Namespace) -> int:
     from metaknot.suite import instances
-    from metaknot.suite.best import BEST_KNOWN_FILE, improve
+    from metaknot.suite.best import BEST_KNOWN_FILE, KINDS_WITH_BEST, improve
 
     if args.budget < 1 or args.seeds < 1:
         raise ValueError("--budget and --seeds must be at least 1")
     ids = args.instance or [i.id for i in instances(family=args.family)]
     counts = improve(ids, budget=args.budget, seeds=range(args.seeds),
-                     path=args.file or BEST_KNOWN_FILE)
+                     path=args.file or BEST_KNOWN_FILE, kinds=args.kind or KINDS_WITH_BEST)
     print(f"{counts['searched']} tasks searched: {counts['improved']} improved, "
           f"{counts['new']} new, {counts['kept']} kept")
     return 0
