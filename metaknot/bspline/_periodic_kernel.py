@@ -13,6 +13,9 @@ import numpy as np
 
 from ._kernel import FEASIBLE, SINGULAR, TOO_MANY_CONTROL_POINTS
 
+# A pivot of the factor at most this fraction of the largest one makes the system singular.
+PIVOT_RATIO = 1e-11
+
 
 @numba.njit(cache=True)
 def _basis(t: np.ndarray, span: int, x: float, p: int, out: np.ndarray,
@@ -28,6 +31,18 @@ def _basis(t: np.ndarray, span: int, x: float, p: int, out: np.ndarray,
             out[r] = saved + right[r + 1] * temp
             saved = left[j - r] * temp
         out[j] = saved
+
+
+@numba.njit(cache=True)
+def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
+    """Fill ``t`` (``m + 2p + 1`` entries) with the extended knot vector of the ``m``
+    breakpoints ``breaks`` (0 first): p periodic copies on each side."""
+    m = breaks.size
+    for k in range(p):
+        t[k] = breaks[m - p + k] - 1.0
+    t[p : p + m] = breaks
+    for k in range(p + 1):
+        t[p + m + k] = (breaks[k] if k < m else breaks[k - m] + 1.0) + 1.0
 
 
 @numba.njit(cache=True)
@@ -115,10 +130,10 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
     for k in range(p):
         largest = max(largest, abs(tail[nb + k, k]))
     for r in range(nb):
-        if abs(band[r, 0]) <= 1e-11 * largest:
+        if abs(band[r, 0]) <= PIVOT_RATIO * largest:
             return np.inf, SINGULAR
     for k in range(p):
-        if abs(tail[nb + k, k]) <= 1e-11 * largest:
+        if abs(tail[nb + k, k]) <= PIVOT_RATIO * largest:
             return np.inf, SINGULAR
     # back substitution: the triangle, then the band rows
     x_tail = np.zeros((p, d))
@@ -191,11 +206,7 @@ def evaluate_batch(u: np.ndarray, q: np.ndarray, p: int, knots: np.ndarray,
         breaks[0] = 0.0
         breaks[1:] = interior
         t = np.empty(m + 2 * p + 1)
-        for k in range(p):
-            t[k] = breaks[m - p + k] - 1.0
-        t[p : p + m] = breaks
-        for k in range(p + 1):
-            t[p + m + k] = (breaks[k] if k < m else breaks[k - m] + 1.0) + 1.0
+        extended_knots(breaks, p, t)
         coef = np.zeros((m, d))
         value, code = fit_one(u, q, t, p, coef)
         sse[b], reason[b] = value, code
