@@ -61,8 +61,8 @@ from ._kernel import (
 from ._moves import CERTIFY, PATH_CHECKS, PATH_DELTA, PATH_FULL
 from ._periodic_kernel import PIVOT_RATIO, _basis, extended_knots, fit_one, max_deviation
 
-# The frames of an incumbent: cut at breakpoint 0 and half a period on.
-N_FRAMES = 2
+# _candidate's verdict on knots given out of order (and sorted there) but feasible so far.
+UNSORTED = -1
 
 
 @njit(cache=True)
@@ -304,7 +304,9 @@ def bind(u, q, t, p, cuts):
 def _candidate(interior, start, stop, inserted, breaks):
     """Fill ``breaks`` with 0 and the incumbent's interior knots whose ``start:stop`` are
     replaced by ``inserted``; return the reason the batch evaluator would give for malformed
-    knots (out of range before coincident), only the inserted knots being checked."""
+    knots (out of range before coincident), only the inserted knots being checked. Knots out
+    of order are sorted, as the batch evaluator sorts them (``UNSORTED``: no longer a local
+    change, the full fit decides)."""
     k = interior.size
     breaks[0] = 0.0
     for i in range(start):
@@ -319,7 +321,13 @@ def _candidate(interior, start, stop, inserted, breaks):
         if not (x > 0.0 and x < 1.0):  # also catches NaN
             return KNOT_OUT_OF_RANGE
     for i in range(max(start + 1, 2), min(tail + 1, breaks.size)):
-        if breaks[i] <= breaks[i - 1]:
+        if breaks[i] < breaks[i - 1]:  # out of order: the batch evaluator sorts the knots
+            breaks[1:] = np.sort(breaks[1:])
+            for j in range(2, breaks.size):
+                if breaks[j] <= breaks[j - 1]:
+                    return COINCIDENT_KNOTS
+            return UNSORTED
+        if breaks[i] == breaks[i - 1]:
             return COINCIDENT_KNOTS
     return FEASIBLE
 
@@ -396,6 +404,9 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
         path_out[b] = PATH_CHECKS
         br = breaks[:m2]
         code = _candidate(interior, start, stop, inserted, br)
+        local = code == FEASIBLE
+        if code == UNSORTED:
+            code = FEASIBLE
         if code == FEASIBLE and m2 < p:
             code = SINGULAR
         if code == FEASIBLE and m2 > n:
@@ -405,7 +416,7 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
             continue
         tb = t2[: m2 + 2 * p + 1]
         extended_knots(br, p, tb)
-        if start == stop and inserted.size == 0:  # the incumbent itself
+        if local and start == stop and inserted.size == 0:  # the incumbent itself
             reason_out[b] = FEASIBLE
             sse_out[b] = base_sse
             path_out[b] = PATH_DELTA
@@ -416,7 +427,7 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
         # last and first unchanged ones; rows of frame spans < KL and >= KR keep their basis
         frame = -1
         KL = KR = s2 = 0
-        for f in range(cuts.size):
+        for f in range(cuts.size if local else 0):
             s = cuts[f]
             A = start - s
             if A < 0:

@@ -245,18 +245,33 @@ class MoveEvaluator:
                              _replacing=(starts, stops))
 
 
+#: The most cuts a periodic incumbent is swept from (few breakpoints of a high degree).
+MAX_CUTS = 6
+
+
+def _cuts(m: int, degree: int) -> np.ndarray:
+    """Breakpoints to cut the circle at, evenly spaced: enough that every change of one or two
+    neighbouring knots lies inside one cut's sweeps (a cut holds changes ``2 degree``
+    breakpoints or more from it), two at least and ``MAX_CUTS`` at most; none if no cut can
+    hold such a change (too few breakpoints for the degree: every move is fitted in full)."""
+    reach = m - 4 * degree  # the positions of a two-knot change one cut holds
+    count = 0 if reach <= 0 else min(MAX_CUTS, max(2, -(-m // reach)))
+    return np.unique(np.arange(count) * m // count).astype(np.int64)
+
+
 class PeriodicMoveEvaluator(MoveEvaluator):
     """:class:`MoveEvaluator` for closed curves: candidates near one incumbent periodic spline
     (:mod:`metaknot.bspline.periodic`), scored as :func:`~metaknot.bspline.evaluate_periodic`
     scores them.
 
-    The circle is cut at two breakpoints half a period apart (0 and the middle one); for each
-    cut, the Givens factorization of the rows swept forwards and backwards from it is cached at
-    every breakpoint, the wrap-around block (the ``degree`` columns both ends of the cut touch)
-    with it. A change that lies, with its ``2 degree`` spans on either side, between the ends
-    of one cut's sweeps is merged from that cut's states; the rest (changes wider than about
-    half the circle) is fitted in full, as is a candidate the conditioning certificate cannot
-    declare feasible (see :mod:`metaknot.bspline._periodic_moves`).
+    The circle is cut at evenly spaced breakpoints (0 and one half a period on; more when
+    there are few breakpoints for the degree); for each cut, the Givens factorization of the
+    rows swept forwards and backwards from it is cached at every breakpoint, the wrap-around
+    block (the ``degree`` columns both ends of the cut touch) with it. A change that lies, with
+    ``2 degree`` breakpoints on either side, between the ends of one cut's sweeps is merged
+    from that cut's states; the rest (changes wider than about half the circle) is fitted in
+    full, as is a candidate the conditioning certificate cannot declare feasible (see
+    :mod:`metaknot.bspline._periodic_moves`).
 
     Parameters
     ----------
@@ -301,7 +316,7 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         self.n = m
         self.sse = float(sse)
         self._max_dev = float(_periodic_kernel.max_deviation(u, q, t, p, coef))
-        self._cuts = np.array([0, m // 2], dtype=np.int64)
+        self._cuts = _cuts(m, p)
         (self.spans, self.basis, self.row_start, column_sums, *self._states,
          self._inverse) = _periodic_moves.bind(u, q, t, p, self._cuts)
         self._gram_norm = float(np.sqrt(column_sums.max()))
