@@ -59,7 +59,13 @@ from ._kernel import (
     TOO_MANY_CONTROL_POINTS,
 )
 from ._moves import CERTIFY, PATH_CHECKS, PATH_DELTA, PATH_FULL
-from ._periodic_kernel import PIVOT_RATIO, _basis, extended_knots, fit_one, max_deviation
+from ._periodic_kernel import (
+    PIVOT_RATIO,
+    _basis,
+    deviation_from_basis,
+    extended_knots,
+    fit_one,
+)
 
 # _candidate's verdict on knots given out of order (and sorted there) but feasible so far.
 UNSORTED = -1
@@ -383,6 +389,8 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
     w = np.empty(rows_max + p)
     x_band = np.zeros((m_max, d))
     x_wrap = np.zeros((p, d))
+    full_basis = np.empty((n if want_max_dev else 0, p + 1))  # the full fit's rows
+    full_spans = np.empty(n if want_max_dev else 0, dtype=np.int64)
     window_basis = np.empty((n, p + 1))
     window_span = np.empty(n, dtype=np.int64)
     left = np.empty(p + 1)
@@ -536,11 +544,11 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
         # the full fit decides
         path_out[b] = PATH_FULL
         c2 = coef[:m2]
-        value, code = fit_one(u, q, tb, p, c2)
+        value, code = fit_one(u, q, tb, p, c2, full_basis, full_spans)
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
-            max_dev_out[b] = max_deviation(u, q, tb, p, c2)
+            max_dev_out[b] = deviation_from_basis(q, p, m2, c2, full_basis, full_spans)
 
 
 @njit(cache=True)

@@ -308,14 +308,16 @@ class PeriodicMoveEvaluator(MoveEvaluator):
             raise ValueError("the incumbent cannot be fitted: "
                              f"{Infeasibility(_kernel.TOO_MANY_CONTROL_POINTS).message}")
         coef = np.zeros((m, q.shape[1]))
-        sse, code = _periodic_kernel.fit_one(u, q, t, p, coef)
+        basis = np.empty((u.size, p + 1))
+        spans = np.empty(u.size, dtype=np.int64)
+        sse, code = _periodic_kernel.fit_one(u, q, t, p, coef, basis, spans)
         if code != _kernel.FEASIBLE:
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()
         self.t = t
         self.n = m
         self.sse = float(sse)
-        self._max_dev = float(_periodic_kernel.max_deviation(u, q, t, p, coef))
+        self._max_dev = float(_periodic_kernel.deviation_from_basis(q, p, m, coef, basis, spans))
         self._cuts = _cuts(m, p)
         (self.spans, self.basis, self.row_start, column_sums, *self._states,
          self._inverse) = _periodic_moves.bind(u, q, t, p, self._cuts)
