@@ -54,6 +54,17 @@ def _basis_table(t: np.ndarray, span: int, x: float, p: int, iv: np.ndarray, out
         out[j] = saved
 
 
+@numba.njit(cache=True, inline="always")
+def givens_norm(a: float, b: float) -> float:
+    """``sqrt(a^2 + b^2)``: by the square root where the squares neither underflow nor
+    overflow, else by ``hypot`` (a tiny entry squared to zero would make a rotation singular
+    or inexact)."""
+    big = max(abs(a), abs(b))
+    if 1e-150 < big < 1e150:
+        return math.sqrt(a * a + b * b)
+    return math.hypot(a, b)
+
+
 @numba.njit(cache=True)
 def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
     """Fill ``t`` (``m + 2p + 1`` entries) with the extended knot vector of the ``m``
@@ -121,7 +132,7 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
             if w == 0.0:
                 continue
             r0 = band[col, 0]
-            h = math.sqrt(r0 * r0 + w * w)
+            h = givens_norm(r0, w)
             inv = 1.0 / h
             cs, sn = r0 * inv, w * inv
             band[col, 0] = h
@@ -149,7 +160,7 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
                 continue
             r = nb + k
             r0 = tail[r, k]
-            h = math.sqrt(r0 * r0 + w * w)
+            h = givens_norm(r0, w)
             inv = 1.0 / h
             cs, sn = r0 * inv, w * inv
             tail[r, k] = h

@@ -65,6 +65,7 @@ from ._periodic_kernel import (
     deviation_from_basis,
     extended_knots,
     fit_one,
+    givens_norm,
 )
 
 # _candidate's verdict on knots given out of order (and sorted there) but feasible so far.
@@ -83,7 +84,7 @@ def rotate_in(band, wrap, rhs, nbx, p, d, row, row_rhs, first):
         if w == 0.0:
             continue
         r0 = band[col, 0]
-        h = math.sqrt(r0 * r0 + w * w)
+        h = givens_norm(r0, w)
         cs, sn = r0 / h, w / h
         band[col, 0] = h
         row[col] = 0.0
@@ -106,7 +107,7 @@ def rotate_in(band, wrap, rhs, nbx, p, d, row, row_rhs, first):
             continue
         r = nbx + k
         r0 = wrap[r, k]
-        h = math.sqrt(r0 * r0 + w * w)
+        h = givens_norm(r0, w)
         cs, sn = r0 / h, w / h
         wrap[r, k] = h
         row[nbx + k] = 0.0
