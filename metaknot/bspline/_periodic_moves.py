@@ -31,8 +31,9 @@ lies at least about ``2p`` spans from the cut) the candidate's SSE is exactly
       triangle]
 
 the last a small least-squares problem over band positions ``KL - p .. KR' - 1`` and the wrap
-columns (the window rows touch no wrap column). Every incumbent carries two frames, cut half a
-period apart, so every change narrower than about half the circle lies inside one of them.
+columns (the window rows touch no wrap column). Every incumbent carries two frames or more,
+cut at evenly spaced breakpoints (:func:`metaknot.bspline.moves._cuts`), so every change of one
+or two neighbouring knots lies inside one of them.
 
 *Certificate.* The periodic kernel reports a system singular when a pivot of its factor is at
 most ``PIVOT_RATIO`` times the largest. Every pivot lies between ``sigma_min(B)`` and the largest

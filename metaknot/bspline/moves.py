@@ -35,6 +35,11 @@ O(n p) without any rotation, and every point's deviation follows from its cached
 
 The result is a :class:`BatchFit` identical to the batched evaluator's (SSE to rounding) plus,
 per candidate, the path that decided it.
+
+Closed curves have :class:`PeriodicMoveEvaluator`, behind the same interface: the circle is cut
+at a few breakpoints and the same forward and backward states are cached from each cut, the
+wrap-around block of the periodic factor in every state (:mod:`._periodic_moves`); the same
+certificate rule holds against the periodic kernel's singularity test.
 """
 
 from __future__ import annotations
