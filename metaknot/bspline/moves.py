@@ -260,7 +260,9 @@ def _cuts(m: int, degree: int) -> np.ndarray:
     breakpoints or more from it), two at least and ``MAX_CUTS`` at most; none if no cut can
     hold such a change (too few breakpoints for the degree: every move is fitted in full)."""
     reach = m - 4 * degree  # the positions of a two-knot change one cut holds
-    count = 0 if reach <= 0 else min(MAX_CUTS, max(2, -(-m // reach)))
+    if reach <= 0:
+        return np.empty(0, dtype=np.int64)
+    count = min(MAX_CUTS, max(2, -(-m // reach)))
     return np.unique(np.arange(count) * m // count).astype(np.int64)
 
 
