@@ -299,6 +299,12 @@ def test_wide_changes_fall_back_to_the_full_fit():
     assert list(path) == [PATH_DELTA, PATH_FULL]
     me = PeriodicMoveEvaluator(u, q, interior, 3, max_window_rows=3)
     assert list(assert_same(me, *stack([near]))) == [PATH_FULL]
+    # too few breakpoints for the degree: no cut holds a change, every move is fitted in full
+    few = u[10::14].copy()
+    me = PeriodicMoveEvaluator(u, q, few, 5)
+    assert me._cuts.size == 0
+    rows = [np.delete(few, 3), np.sort(np.append(few, (few[4] + few[5]) / 2)), few]
+    assert list(assert_same(me, *stack(rows))) == [PATH_FULL, PATH_FULL, PATH_DELTA]
 
 
 # --------------------------------------------------------------------------------------------
