@@ -18,6 +18,13 @@ Then the (1+1) EA in the seed's setting (the three seed curves, 0/1 masks, the g
 reached and the median objective. Last line
 ``move_speedup_vs_batched: <ratio of the moves at density 0.5>``.
 
+The same for closed curves: the epitrochoid as a closed outline (its repeated last point
+dropped), every one-bit flip of random incumbents at density 0.5, scored by a
+:class:`~metaknot.bspline.moves.PeriodicMoveEvaluator` and by the periodic batched kernel
+(:func:`~metaknot.bspline.evaluate_periodic`), side by side on one thread; the line
+``periodic_move_speedup_vs_batched: <periodic batched time per candidate / periodic move
+time>``.
+
 Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5] [--seconds 5]
 [--seeds 5]`` (run it on a quiet machine: the wall-clock part is a race against the clock).
 """
@@ -33,7 +40,8 @@ from _timing import best_time
 import metaknot as mk
 from metaknot.bspline import evaluate_knots, parameterize
 from metaknot.bspline.knots import stack_masks
-from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, bit_flips
+from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, PeriodicMoveEvaluator, bit_flips
+from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
 from metaknot.problems import KnotSelection, get_curve
 
 CURVES = ("epitrochoid", "archimedean", "vivaldi")
@@ -60,6 +68,59 @@ def ea_at_fixed_wall_clock(seconds: float, seeds: int) -> None:
         (e0, f0), (e1, f1) = cells
         print(f"{name:12s} {e0:10.0f} evals {f0:9.4g} {e1:12.0f} evals {f1:9.4g}  "
               f"x{e1 / e0:.2f}")
+
+
+def periodic_moves(incumbents: int, repeats: int, degree: int, density: float = 0.5) -> float:
+    """Every one-bit flip of random incumbents on the closed epitrochoid, by the periodic move
+    evaluator and by the periodic batched kernel; returns the speedup per move."""
+    points = get_curve("epitrochoid").points[:-1]  # its last point repeats the first
+    u = closed_parameterize(points, "centripetal")
+    n_var = u.size - 1
+    rng = np.random.default_rng(20130302)
+    t_moves = t_full = t_single = t_rebind = 0.0
+    moves = delta_share = 0
+    worst = 0.0
+    done = 0
+    while done < incumbents:
+        mask = rng.random(n_var) < density
+        try:
+            evaluator = PeriodicMoveEvaluator(u, points, u[1:][mask], degree)
+        except ValueError:
+            continue  # an infeasible incumbent: draw another
+        done += 1
+        flips = np.repeat(mask[None], n_var, axis=0) ^ np.eye(n_var, dtype=bool)
+        positions = np.where(flips, u[1:][None, :], np.nan)
+        flipped = bit_flips(u, mask, np.arange(n_var), closed=True)
+        by_moves, path = evaluator.evaluate_replacements(*flipped)  # compile outside the timing
+        ref = evaluate_periodic(u, points, positions, degree, max_deviation=False)
+        if not np.array_equal(by_moves.reason, ref.reason):
+            raise SystemExit("periodic delta and full evaluation disagree on feasibility")
+        ok = ref.feasible
+        worst = max(worst, float(np.max(np.abs(by_moves.sse[ok] - ref.sse[ok]) / ref.sse[ok])))
+        moves += n_var
+        delta_share += int(np.count_nonzero(path == PATH_DELTA))
+        t_moves += best_time(lambda e=evaluator, f=flipped: e.evaluate_replacements(*f),
+                             repeats)
+        t_full += best_time(lambda x=positions: evaluate_periodic(
+            u, points, x, degree, max_deviation=False), repeats)
+        one = bit_flips(u, mask, [0], closed=True)
+        t_single += best_time(lambda e=evaluator, f=one: [
+            e.evaluate_replacements(*f) for _ in range(100)], repeats) / 100
+        t_rebind += best_time(lambda e=evaluator, m=mask: e.rebind(u[1:][m]), repeats)
+    per_moves = t_moves / moves * 1e6
+    per_full = t_full / moves * 1e6
+    print(f"\nclosed epitrochoid ({u.size} points, periodic), density {density}, "
+          f"{incumbents} incumbents:")
+    print(f"  periodic batched kernel:       {per_full:8.2f} us/move")
+    print(f"  periodic delta evaluation:     {per_moves:8.2f} us/move  (speedup "
+          f"{per_full / per_moves:.1f}x; {delta_share / moves:.1%} decided by the delta path)")
+    print(f"  one move per call: {t_single / incumbents * 1e6:7.2f} us/call")
+    print(f"  rebind (a fit, forward + backward sweeps from two cuts): "
+          f"{t_rebind / incumbents / (per_full * 1e-6):.1f} full fits")
+    print(f"  max relative SSE difference: {worst:.1e}")
+    if worst > 1e-10:
+        raise SystemExit("periodic delta evaluation is not exact")
+    return per_full / per_moves
 
 
 def main() -> None:
@@ -130,8 +191,10 @@ def main() -> None:
         print(f"  max relative SSE difference: {worst:.1e}")
         if worst > 1e-10:
             raise SystemExit("delta evaluation is not exact")
+    periodic = periodic_moves(args.incumbents, args.repeats, p)
     if args.seconds > 0:
         ea_at_fixed_wall_clock(args.seconds, args.seeds)
+    print(f"periodic_move_speedup_vs_batched: {periodic:.1f}")
     print(f"candidate_speedup_vs_batched: {candidates[0.5]:.1f}")
     print(f"move_speedup_vs_batched_density_0.2: {ratios[0.2]:.1f}")
     print(f"move_speedup_vs_batched: {ratios[0.5]:.1f}")

@@ -98,7 +98,7 @@ class KnotProblem(Problem):
     """Common machinery: data, parameterization, degree, objective.
 
     Candidates made from one incumbent by local moves are scored by exact delta evaluation
-    (:meth:`evaluate_near`, :mod:`metaknot.bspline.moves`) on open curves; set
+    (:meth:`evaluate_near`, :mod:`metaknot.bspline.moves`) on open and closed curves; set
     ``delta_evaluation`` to False to fit every candidate in full (the values are the same).
 
     Parameters
@@ -187,10 +187,11 @@ class KnotProblem(Problem):
                       ) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
         """:meth:`evaluate_with_metrics` for candidates made from ``near`` by local moves.
 
-        On open curves the candidates are scored by a :class:`MoveEvaluator` bound to
-        ``near`` (kept between calls, moved when ``near`` changes): the same values as a full
-        evaluation, each candidate decided by delta evaluation where it can be. Returns the
-        values, the metrics and how many candidates the delta path decided.
+        The candidates are scored by a :class:`MoveEvaluator` (on closed curves its periodic
+        counterpart) bound to ``near`` (kept between calls, moved when ``near`` changes): the
+        same values as a full evaluation, each candidate decided by delta evaluation where it
+        can be. Returns the values, the metrics and how many candidates the delta path
+        decided.
         """
         moves = self._move_evaluator(near) if self.delta_evaluation \
             and type(self).evaluate is KnotProblem.evaluate else None
@@ -202,20 +203,18 @@ class KnotProblem(Problem):
             int(np.count_nonzero(path == PATH_DELTA))
 
     def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
-        """The move evaluator bound to ``near`` (None on closed curves, or if ``near`` cannot
-        be fitted)."""
+        """The move evaluator bound to ``near`` (None if ``near`` cannot be fitted)."""
         near = np.asarray(near)
         key = near.dtype.str.encode() + near.tobytes()
         if key != self._moves_key:
             self._moves_key = key
             near = self.encoding.check(near)[0]
-            # None on closed curves and for an infeasible incumbent: candidates are then
-            # fitted in full
+            # None for an infeasible incumbent: candidates are then fitted in full
             self._moves = self.curve.move_evaluator(self._interior_knots(near), self._moves)
         return self._moves
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Candidates as flattened interior knots and row offsets (open curves)."""
+        """Candidates as flattened interior knots and row offsets."""
         raise NotImplementedError
 
     def _evaluate_moves(self, moves: MoveEvaluator, X: np.ndarray, near: np.ndarray
@@ -333,7 +332,7 @@ class KnotIndices(KnotProblem):
         return np.sort(self.params[np.asarray(x, dtype=np.int64)])
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return stack_indices(self.params, X)
+        return stack_indices(self.params, X, closed=self.closed)
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "n_knots": self.n_knots}

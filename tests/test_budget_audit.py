@@ -18,7 +18,7 @@ import pytest
 import metaknot as mk
 from metaknot import audit
 from metaknot.bspline import evaluate_masks, fit_spline, parameterize
-from metaknot.bspline.moves import MoveEvaluator
+from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
 from metaknot.bspline.periodic import (
     closed_parameterize,
     evaluate_periodic,
@@ -58,6 +58,13 @@ def test_every_entry_point_of_the_fitting_layer_counts_its_fits():
     assert tallied(lambda: evaluate_periodic(w, OUTLINE.points, rows)) == 5
     assert tallied(lambda: fit_periodic(w, OUTLINE.points, w[[10, 30, 50, 70]])) == 1
     assert tallied(lambda: periodic_errors(w, OUTLINE.points, [w[[10, 40]], w[[20, 60]]])) == 2
+    closed_knots = w[[10, 20, 30, 40, 50, 60, 70]]
+    closed_moves = PeriodicMoveEvaluator(w, OUTLINE.points, closed_knots)
+    assert tallied(lambda: closed_moves.rebind(w[[10, 25, 40, 55, 70]])) == 1
+    assert tallied(lambda: closed_moves.evaluate(np.concatenate((closed_knots, closed_knots[:4])),
+                                                 np.array([0, 7, 11]))[0]) == 2
+    assert tallied(lambda: closed_moves.evaluate_replacements([0, 2, 4], [1, 2, 4], [0.3],
+                                                              [0, 0, 1, 1])[0]) == 3
 
 
 def test_the_tally_is_per_thread():

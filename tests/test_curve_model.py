@@ -7,6 +7,7 @@ import pytest
 
 from metaknot.bspline import evaluate_masks, fit_spline, parameterize
 from metaknot.bspline.curve import ClosedCurve, OpenCurve, closure, make_curve
+from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
 from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
 from metaknot.problems import get_curve
 
@@ -76,8 +77,12 @@ def test_open_and_closed_curves_fit_as_the_kernels_do():
                                   fit_periodic(w, outline[:-1], knots).spline.c)
     assert (closed_curve.extra_control_points, closed_curve.max_interior_knots,
             closed_curve.max_index, closed_curve.knot_bounds) == (1, 88, 88, (0.0, 1.0))
-    assert closed_curve.move_evaluator(knots) is None
-    assert open_curve.move_evaluator(u[[10, 30, 50]]) is not None
+    moves = closed_curve.move_evaluator(knots)
+    assert isinstance(moves, PeriodicMoveEvaluator)
+    np.testing.assert_allclose(moves.sse, evaluate_periodic(w, outline[:-1], knots[None]).sse[0],
+                               rtol=1e-12)
+    assert type(open_curve.move_evaluator(u[[10, 30, 50]])) is MoveEvaluator
+    assert closed_curve.move_evaluator(np.array([0.5, 0.5, 0.6])) is None  # cannot be fitted
 
 
 @pytest.mark.parametrize("closed", [False, True])

@@ -75,14 +75,14 @@ def test_evaluate_near_equals_the_full_evaluation(name):
     np.testing.assert_array_equal(problem.evaluate_near(X, x)[0], full)
 
 
-def test_closed_curves_and_infeasible_origins_are_evaluated_in_full():
+def test_closed_curves_use_delta_evaluation_and_infeasible_origins_are_evaluated_in_full():
     rng = np.random.default_rng(2)
     closed = KnotSelection("epitrochoid", closed=True)
     x = (rng.random(closed.encoding.n_var) < 0.3).astype(np.int64)
     X = neighbours_of(closed, x, rng, 10)
     values, _, n_delta = closed.evaluate_near(X, x)
-    assert n_delta == 0
-    np.testing.assert_array_equal(values, closed.evaluate(X))
+    assert n_delta > 5
+    np.testing.assert_allclose(values, closed.evaluate(X), rtol=1e-9)
     problem = KnotIndices(POINTS, n_knots=5)
     x = np.array([3, 3, 10, 20, 30])  # coincident knots: the origin cannot be fitted
     X = np.array([[3, 4, 10, 20, 30], [2, 3, 10, 20, 30]])

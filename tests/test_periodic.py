@@ -300,3 +300,15 @@ def test_a_single_fit_of_many_points_needs_no_dense_matrix() -> None:
     fitted = fit_periodic(u, points, u[2::2], 3)
     assert fitted.n_control_points == 100_000
     assert fitted.max_deviation < 1e-9
+
+
+@pytest.mark.parametrize("name", ["epitrochoid", "vivaldi"])
+def test_a_breakpoint_at_every_point_of_a_seed_outline_is_fitted(name) -> None:
+    """Interpolation (what ``metaknot fit`` measures first): rotations meet entries so small
+    that their squares underflow, and must stay orthogonal."""
+    from metaknot.bspline.curve import make_curve
+    from metaknot.problems import get_curve
+
+    curve = make_curve(get_curve(name).points, closed=True)
+    residuals = curve.interpolation_residuals()
+    assert residuals.max() < 1e-9 * curve.points.std()

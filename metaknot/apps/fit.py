@@ -117,8 +117,8 @@ class _Search:
 
     def errors(self, rows: list[np.ndarray], near: np.ndarray | None = None) -> np.ndarray:
         """Error of each row of sorted interior knots (``inf`` if it cannot be fitted); rows
-        one move from the knots ``near`` are scored by delta evaluation where the curve has
-        it (open curves)."""
+        one move from the knots ``near`` are scored by delta evaluation (open and closed
+        curves)."""
         self.evaluations += len(rows)
         moves = None if near is None else self._move_evaluator(near)
         if moves is None:

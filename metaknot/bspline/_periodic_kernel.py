@@ -8,10 +8,15 @@ last p columns and a p x p triangle at the end: O(N p^2) per candidate, like the
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
-from ._kernel import FEASIBLE, SINGULAR, TOO_MANY_CONTROL_POINTS
+from ._kernel import FEASIBLE, SINGULAR, TOO_MANY_CONTROL_POINTS, reciprocals_into
+
+# A pivot of the factor at most this fraction of the largest one makes the system singular.
+PIVOT_RATIO = 1e-11
 
 
 @numba.njit(cache=True)
@@ -31,36 +36,93 @@ def _basis(t: np.ndarray, span: int, x: float, p: int, out: np.ndarray,
 
 
 @numba.njit(cache=True)
-def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray) -> tuple:
+def _basis_table(t: np.ndarray, span: int, x: float, p: int, iv: np.ndarray, out: np.ndarray,
+                 left: np.ndarray, right: np.ndarray) -> None:
+    """:func:`_basis` with the reciprocal knot differences looked up in ``iv``
+    (:func:`~metaknot.bspline._kernel.reciprocals_into` of ``t``) instead of divided."""
+    size = t.size
+    out[0] = 1.0
+    for j in range(1, p + 1):
+        left[j] = x - t[span + 1 - j]
+        right[j] = t[span + j] - x
+        saved = 0.0
+        row = (j - 1) * size + span + 1 - j
+        for r in range(j):
+            temp = out[r] * iv[row + r]
+            out[r] = saved + right[r + 1] * temp
+            saved = left[j - r] * temp
+        out[j] = saved
+
+
+@numba.njit(cache=True, inline="always")
+def givens_norm(a: float, b: float) -> float:
+    """``sqrt(a^2 + b^2)``: by the square root where the squares neither underflow nor
+    overflow, else by ``hypot`` (a tiny entry squared to zero would make a rotation singular
+    or inexact)."""
+    big = max(abs(a), abs(b))
+    if 1e-150 < big < 1e150:
+        return math.sqrt(a * a + b * b)
+    return math.hypot(a, b)
+
+
+@numba.njit(cache=True)
+def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
+    """Fill ``t`` (``m + 2p + 1`` entries) with the extended knot vector of the ``m``
+    breakpoints ``breaks`` (0 first): p periodic copies on each side."""
+    m = breaks.size
+    for k in range(p):
+        t[k] = breaks[m - p + k] - 1.0
+    t[p : p + m] = breaks
+    for k in range(p + 1):
+        t[p + m + k] = (breaks[k] if k < m else breaks[k - m] + 1.0) + 1.0
+
+
+@numba.njit(cache=True)
+def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray,
+            basis: np.ndarray, spans: np.ndarray) -> tuple:
     """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots).
-    Writes the m distinct coefficients into ``coef[:m]`` and returns (sse, reason)."""
+    Writes the m distinct coefficients into ``coef[:m]`` and returns (sse, reason); unless
+    the workspaces ``basis`` (``(N, p + 1)``) and ``spans`` (``(N,)``) are empty, keeps every
+    row's basis values and span there (for :func:`deviation_from_basis`)."""
     n, d = q.shape
     m = t.size - 2 * p - 1
     if m > n:
         return np.inf, TOO_MANY_CONTROL_POINTS
+    keep = basis.shape[0] > 0
     nb = m - p  # band columns
     band = np.zeros((max(nb, 1), p + 1))  # band[r, k]: column r + k (if < nb)
     tail = np.zeros((m, p))  # tail[r, k]: column nb + k, for every row r of R
+    has_tail = np.zeros(m, dtype=np.bool_)  # row r of R has a nonzero tail entry
     rhs = np.zeros((m, d))
     row = np.zeros(m)
     row_rhs = np.zeros(d)
     values = np.empty(p + 1)
     left = np.empty(p + 1)
     right = np.empty(p + 1)
+    iv = np.empty(p * t.size)
+    reciprocals_into(t, p, iv)
     sse = 0.0
     j = 0
     for i in range(n):
         x = u[i]
         while j < m - 1 and x >= t[p + j + 1]:
             j += 1
-        _basis(t, p + j, x, p, values, left, right)
+        _basis_table(t, p + j, x, p, iv, values, left, right)
+        if keep:
+            spans[i] = j
+            for k in range(p + 1):
+                basis[i, k] = values[k]
         first = nb  # smallest band column touched
+        row_tail = False  # the row has a nonzero tail entry
         for k in range(p + 1):
-            ci = (j + k) % m
+            ci = j + k
+            if ci >= m:
+                ci -= m
             col = ci - p if ci >= p else nb + ci
             row[col] += values[k]
             if col < first:
                 first = col
+            row_tail |= col >= nb
         for c in range(d):
             row_rhs[c] = q[i, c]
         # eliminate the band columns, left to right: the data are sorted, so the row's band
@@ -70,8 +132,9 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
             if w == 0.0:
                 continue
             r0 = band[col, 0]
-            h = np.hypot(r0, w)
-            cs, sn = r0 / h, w / h
+            h = givens_norm(r0, w)
+            inv = 1.0 / h
+            cs, sn = r0 * inv, w * inv
             band[col, 0] = h
             row[col] = 0.0
             for k in range(1, p + 1):
@@ -79,23 +142,27 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
                     a, b = band[col, k], row[col + k]
                     band[col, k] = cs * a + sn * b
                     row[col + k] = -sn * a + cs * b
-            for k in range(p):
-                a, b = tail[col, k], row[nb + k]
-                tail[col, k] = cs * a + sn * b
-                row[nb + k] = -sn * a + cs * b
+            if row_tail or has_tail[col]:  # both tails zero stay zero
+                for k in range(p):
+                    a, b = tail[col, k], row[nb + k]
+                    tail[col, k] = cs * a + sn * b
+                    row[nb + k] = -sn * a + cs * b
+                has_tail[col] = True
+                row_tail = True
             for c in range(d):
                 a, b = rhs[col, c], row_rhs[c]
                 rhs[col, c] = cs * a + sn * b
                 row_rhs[c] = -sn * a + cs * b
         # then the last p columns against the final triangle
-        for k in range(p):
+        for k in range(p if row_tail else 0):
             w = row[nb + k]
             if w == 0.0:
                 continue
             r = nb + k
             r0 = tail[r, k]
-            h = np.hypot(r0, w)
-            cs, sn = r0 / h, w / h
+            h = givens_norm(r0, w)
+            inv = 1.0 / h
+            cs, sn = r0 * inv, w * inv
             tail[r, k] = h
             row[nb + k] = 0.0
             for kk in range(k + 1, p):
@@ -115,10 +182,10 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
     for k in range(p):
         largest = max(largest, abs(tail[nb + k, k]))
     for r in range(nb):
-        if abs(band[r, 0]) <= 1e-11 * largest:
+        if abs(band[r, 0]) <= PIVOT_RATIO * largest:
             return np.inf, SINGULAR
     for k in range(p):
-        if abs(tail[nb + k, k]) <= 1e-11 * largest:
+        if abs(tail[nb + k, k]) <= PIVOT_RATIO * largest:
             return np.inf, SINGULAR
     # back substitution: the triangle, then the band rows
     x_tail = np.zeros((p, d))
@@ -146,26 +213,22 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
 
 
 @numba.njit(cache=True)
-def max_deviation(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int,
-                  coef: np.ndarray) -> float:
-    """Largest distance of a data point to the periodic spline with coefficients ``coef``."""
+def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis: np.ndarray,
+                         spans: np.ndarray) -> float:
+    """Largest distance of a data point to the periodic spline with coefficients ``coef``
+    (``m`` of them), from the basis values and spans :func:`fit_one` kept."""
     n, d = q.shape
-    m = t.size - 2 * p - 1
-    values = np.empty(p + 1)
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
     worst = 0.0
-    j = 0
     for i in range(n):
-        x = u[i]
-        while j < m - 1 and x >= t[p + j + 1]:
-            j += 1
-        _basis(t, p + j, x, p, values, left, right)
+        j = spans[i]
         dist2 = 0.0
         for c in range(d):
             s = 0.0
             for k in range(p + 1):
-                s += values[k] * coef[(j + k) % m, c]
+                ci = j + k
+                if ci >= m:
+                    ci -= m
+                s += basis[i, k] * coef[ci, c]
             dist2 += (q[i, c] - s) ** 2
         worst = max(worst, dist2)
     return np.sqrt(worst)
@@ -191,13 +254,13 @@ def evaluate_batch(u: np.ndarray, q: np.ndarray, p: int, knots: np.ndarray,
         breaks[0] = 0.0
         breaks[1:] = interior
         t = np.empty(m + 2 * p + 1)
-        for k in range(p):
-            t[k] = breaks[m - p + k] - 1.0
-        t[p : p + m] = breaks
-        for k in range(p + 1):
-            t[p + m + k] = (breaks[k] if k < m else breaks[k - m] + 1.0) + 1.0
+        extended_knots(breaks, p, t)
         coef = np.zeros((m, d))
-        value, code = fit_one(u, q, t, p, coef)
+        rows = u.size if want_max else 0
+        basis = np.empty((rows, p + 1))
+        spans = np.empty(rows, dtype=np.int64)
+        value, code = fit_one(u, q, t, p, coef, basis, spans)
         sse[b], reason[b] = value, code
         if want_max:
-            max_dev[b] = max_deviation(u, q, t, p, coef) if code == FEASIBLE else np.inf
+            max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
+                if code == FEASIBLE else np.inf

@@ -174,9 +174,12 @@ class Curve(ABC):
     def move_evaluator(self, interior_knots: np.ndarray,
                        previous: MoveEvaluator | None = None) -> MoveEvaluator | None:
         """A :class:`~metaknot.bspline.moves.MoveEvaluator` bound to these knots (``previous``
-        moved to them if given), or None where moves are fitted in full (closed curves, knots
-        that cannot be fitted)."""
-        return None
+        moved to them if given; a :class:`~metaknot.bspline.moves.PeriodicMoveEvaluator` on
+        closed curves), or None if the knots cannot be fitted (moves are then fitted in
+        full)."""
+        return bound_to(previous, self.params, self.points,
+                        np.ascontiguousarray(interior_knots, dtype=np.float64), self.degree,
+                        closed=self.closed)
 
     @abstractmethod
     def spread_knots(self, count: int) -> np.ndarray:
@@ -249,10 +252,6 @@ class OpenCurve(Curve):
 
     def fit(self, interior_knots):
         return fit_spline(self.params, self.points, interior_knots, self.degree)
-
-    def move_evaluator(self, interior_knots, previous=None):
-        return bound_to(previous, self.params, self.points,
-                        np.ascontiguousarray(interior_knots, dtype=np.float64), self.degree)
 
     def spread_knots(self, count):
         """The averaging knots (NURBS Book eqs. 9.68-9.69)."""

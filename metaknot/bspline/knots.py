@@ -122,10 +122,12 @@ def stack_masks(u: np.ndarray, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray
     return masks_to_knots(u, np.ascontiguousarray(masks))
 
 
-def stack_indices(u: np.ndarray, indices: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+def stack_indices(u: np.ndarray, indices: ArrayLike, *, closed: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Flatten a ``(B, K)`` batch of data indices (each sorted per row) to knots plus offsets.
 
     Rows are sorted; repeated indices are kept and reported by the evaluator as coincident knots.
+    Indices lie in ``1..N-2`` (the interior data points), or ``1..N-1`` on a ``closed`` curve.
     """
     idx = np.asarray(indices)
     if idx.ndim != 2:
@@ -134,8 +136,10 @@ def stack_indices(u: np.ndarray, indices: ArrayLike) -> tuple[np.ndarray, np.nda
         if not np.array_equal(idx, np.round(idx)):
             raise ValueError("indices must be integers")
         idx = idx.astype(np.int64)
-    if idx.size and (idx.min() < 1 or idx.max() > u.size - 2):
-        raise ValueError(f"indices must lie in 1..{u.size - 2} (interior data points)")
+    last = u.size - (1 if closed else 2)
+    if idx.size and (idx.min() < 1 or idx.max() > last):
+        raise ValueError(f"indices must lie in 1..{last} "
+                         f"({'data points after the first' if closed else 'interior data points'})")
     idx = np.sort(idx.astype(np.int64, copy=False), axis=1)
     counts = np.full(idx.shape[0], idx.shape[1], dtype=np.int64)
     return np.ascontiguousarray(u[idx].ravel()), _offsets(counts)

@@ -35,6 +35,11 @@ O(n p) without any rotation, and every point's deviation follows from its cached
 
 The result is a :class:`BatchFit` identical to the batched evaluator's (SSE to rounding) plus,
 per candidate, the path that decided it.
+
+Closed curves have :class:`PeriodicMoveEvaluator`, behind the same interface: the circle is cut
+at a few breakpoints and the same forward and backward states are cached from each cut, the
+wrap-around block of the periodic factor in every state (:mod:`._periodic_moves`); the same
+certificate rule holds against the periodic kernel's singularity test.
 """
 
 from __future__ import annotations
@@ -44,10 +49,12 @@ from numpy.typing import ArrayLike
 
 from .. import audit
 from ..validate import is_integer
-from . import _kernel, _moves
-from .fit import BatchFit, _prepare
+from . import _kernel, _moves, _periodic_kernel, _periodic_moves
+from . import periodic as _periodic
+from .fit import BatchFit, Infeasibility, _prepare
 
-__all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "bit_flips", "bound_to"]
+__all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "PeriodicMoveEvaluator",
+           "bit_flips", "bound_to"]
 
 PATH_DELTA = _moves.PATH_DELTA
 PATH_CHECKS = _moves.PATH_CHECKS
@@ -56,28 +63,33 @@ _NO_MOVES = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
 
 
 def bound_to(evaluator: MoveEvaluator | None, u: ArrayLike, points: ArrayLike,
-             interior_knots: np.ndarray, degree: int) -> MoveEvaluator | None:
-    """``evaluator`` moved to ``interior_knots`` (a new one if it is None), or None if those
-    knots cannot be fitted (their candidates must then be fitted in full)."""
+             interior_knots: np.ndarray, degree: int, *, closed: bool = False
+             ) -> MoveEvaluator | None:
+    """``evaluator`` moved to ``interior_knots`` (a new one if it is None: a
+    :class:`PeriodicMoveEvaluator` if ``closed``), or None if those knots cannot be fitted
+    (their candidates must then be fitted in full)."""
     try:
         if evaluator is None:
-            return MoveEvaluator(u, points, interior_knots, degree)
+            kind = PeriodicMoveEvaluator if closed else MoveEvaluator
+            return kind(u, points, interior_knots, degree)
         evaluator.rebind(interior_knots)
         return evaluator
     except ValueError:
         return None
 
 
-def bit_flips(u: ArrayLike, mask: ArrayLike, bits: ArrayLike
+def bit_flips(u: ArrayLike, mask: ArrayLike, bits: ArrayLike, *, closed: bool = False
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Replacements (for :meth:`MoveEvaluator.evaluate_replacements`) that flip the given
-    bits of a 0/1 mask over the interior data points (``u[1:-1]``): a set bit removes its knot,
-    a clear bit inserts ``u[bit + 1]``. Returns ``(starts, stops, inserted, offsets)``."""
+    bits of a 0/1 mask over the candidate data points (``u[1:-1]``, or ``u[1:]`` on a
+    ``closed`` curve): a set bit removes its knot, a clear bit inserts ``u[bit + 1]``. Returns
+    ``(starts, stops, inserted, offsets)``."""
     u = np.asarray(u, dtype=np.float64)
     mask = np.asarray(mask).astype(bool)
     bits = np.asarray(bits, dtype=np.int64)
-    if mask.shape != (u.size - 2,):
-        raise ValueError(f"mask must have shape ({u.size - 2},); got {mask.shape}")
+    n_var = u.size - (1 if closed else 2)
+    if mask.shape != (n_var,):
+        raise ValueError(f"mask must have shape ({n_var},); got {mask.shape}")
     if bits.ndim != 1 or (bits < 0).any() or (bits >= mask.size).any():
         raise ValueError(f"bits must be indices into the mask, 0..{mask.size - 1}")
     rank = np.concatenate(([0], np.cumsum(mask)))[bits]  # knots before each bit
@@ -113,19 +125,25 @@ class MoveEvaluator:
 
     def __init__(self, u: ArrayLike, points: ArrayLike, interior_knots: ArrayLike,
                  degree: int = 3, *, max_window_rows: int | None = None) -> None:
-        self.u, self.q = _prepare(u, points, degree)
+        self.u, self.q = self._prepare(u, points, degree)
         self.degree = int(degree)
         m = self.u.size
-        # the mirrored problem of the backward sweep (parameters negated and reversed, points
-        # reversed)
-        self._u_mirror = np.ascontiguousarray(-self.u[::-1])
-        self._q_mirror = np.ascontiguousarray(self.q[::-1])
         if max_window_rows is not None and (not is_integer(max_window_rows)
                                             or max_window_rows < 0):
             raise ValueError(f"max_window_rows must be a whole number >= 0; got "
                              f"{max_window_rows!r}")
         self.max_window_rows = m if max_window_rows is None else int(max_window_rows)
         self.rebind(interior_knots)
+
+    def _prepare(self, u: ArrayLike, points: ArrayLike, degree: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Parameters and points, checked, as the compiled code takes them."""
+        u, q = _prepare(u, points, degree)
+        # the mirrored problem of the backward sweep (parameters negated and reversed, points
+        # reversed)
+        self._u_mirror = np.ascontiguousarray(-u[::-1])
+        self._q_mirror = np.ascontiguousarray(q[::-1])
+        return u, q
 
     def rebind(self, interior_knots: ArrayLike) -> None:
         """Move the incumbent to ``interior_knots`` (one forward and one backward sweep)."""
@@ -184,13 +202,20 @@ class MoveEvaluator:
         reason = np.empty(b, dtype=np.int8)
         path = np.empty(b, dtype=np.int8)
         starts, stops = _NO_MOVES if _replacing is None else _replacing
+        self._score(knots, offsets, starts, stops, max_deviation, sse, max_dev, n_ctrl, reason,
+                    path)
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason), path
+
+    def _score(self, knots: np.ndarray, offsets: np.ndarray, starts: np.ndarray,
+               stops: np.ndarray, max_deviation: bool, sse: np.ndarray, max_dev: np.ndarray,
+               n_ctrl: np.ndarray, reason: np.ndarray, path: np.ndarray) -> None:
+        """The compiled evaluation of :meth:`evaluate` into its output arrays."""
         _moves.evaluate_moves(
             self.u, self.q, self.degree, self.t, self._iv, self.n, self.spans, self.basis,
             self.row_start, self.match, self._F, self._Fsse, self._Fcol, self._G, self._Gsse,
             self._Gcol, self._st_f, self._st_m, self._col_before, self._col_from, self.sse,
             self._inverse_left, self._inverse_right, self._gram_norm, knots, offsets, starts,
             stops, self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
-        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason), path
 
     def evaluate_replacements(self, starts: ArrayLike, stops: ArrayLike, inserted: ArrayLike,
                               offsets: ArrayLike, *, max_deviation: bool = False
@@ -223,3 +248,92 @@ class MoveEvaluator:
                              f"0 <= start <= stop <= {k}")
         return self.evaluate(inserted, offsets, max_deviation=max_deviation,
                              _replacing=(starts, stops))
+
+
+#: The most cuts a periodic incumbent is swept from (few breakpoints of a high degree).
+MAX_CUTS = 6
+
+
+def _cuts(m: int, degree: int) -> np.ndarray:
+    """Breakpoints to cut the circle at, evenly spaced: enough that every change of one or two
+    neighbouring knots lies inside one cut's sweeps (a cut holds changes ``2 degree``
+    breakpoints or more from it), two at least and ``MAX_CUTS`` at most; none if no cut can
+    hold such a change (too few breakpoints for the degree: every move is fitted in full)."""
+    reach = m - 4 * degree  # the positions of a two-knot change one cut holds
+    if reach <= 0:
+        return np.empty(0, dtype=np.int64)
+    count = min(MAX_CUTS, max(2, -(-m // reach)))
+    return np.unique(np.arange(count) * m // count).astype(np.int64)
+
+
+class PeriodicMoveEvaluator(MoveEvaluator):
+    """:class:`MoveEvaluator` for closed curves: candidates near one incumbent periodic spline
+    (:mod:`metaknot.bspline.periodic`), scored as :func:`~metaknot.bspline.evaluate_periodic`
+    scores them.
+
+    The circle is cut at evenly spaced breakpoints (0 and one half a period on; more when
+    there are few breakpoints for the degree); for each cut, the Givens factorization of the
+    rows swept forwards and backwards from it is cached at every breakpoint, the wrap-around
+    block (the ``degree`` columns both ends of the cut touch) with it. A change that lies, with
+    ``2 degree`` breakpoints on either side, between the ends of one cut's sweeps is merged
+    from that cut's states; the rest (changes wider than about half the circle) is fitted in
+    full, as is a candidate the conditioning certificate cannot declare feasible (see
+    :mod:`metaknot.bspline._periodic_moves`).
+
+    Parameters
+    ----------
+    u, points
+        Parameter values ``(N,)`` in [0, 1) (:func:`~metaknot.bspline.closed_parameterize`)
+        and data points ``(N, d)`` of a closed outline.
+    interior_knots
+        The incumbent's breakpoints in (0, 1) (0 is always one), a feasible fit.
+    degree, max_window_rows
+        As for :class:`MoveEvaluator`.
+
+    Raises
+    ------
+    ValueError
+        If the incumbent's knots cannot be fitted (the message names the reason).
+    """
+
+    def _prepare(self, u: ArrayLike, points: ArrayLike, degree: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        _, u, q = _periodic._prepare(u, points, degree)
+        return u, q
+
+    def rebind(self, interior_knots: ArrayLike) -> None:
+        """Move the incumbent to ``interior_knots`` (a fit, then a forward and a backward sweep
+        from each cut)."""
+        p, u, q = self.degree, self.u, self.q
+        interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
+        if interior.ndim != 1:
+            raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
+        t = _periodic.periodic_knot_vector(interior, p)
+        m = interior.size + 1
+        audit.add_fits(1)
+        if m > u.size:
+            raise ValueError("the incumbent cannot be fitted: "
+                             f"{Infeasibility(_kernel.TOO_MANY_CONTROL_POINTS).message}")
+        coef = np.zeros((m, q.shape[1]))
+        basis = np.empty((u.size, p + 1))
+        spans = np.empty(u.size, dtype=np.int64)
+        sse, code = _periodic_kernel.fit_one(u, q, t, p, coef, basis, spans)
+        if code != _kernel.FEASIBLE:
+            raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
+        self.interior = interior.copy()
+        self.t = t
+        self.n = m
+        self.sse = float(sse)
+        self._max_dev = float(_periodic_kernel.deviation_from_basis(q, p, m, coef, basis, spans))
+        self._cuts = _cuts(m, p)
+        (self.spans, self.basis, self.row_start, column_sums, *self._states,
+         self._inverse) = _periodic_moves.bind(u, q, t, p, self._cuts)
+        self._gram_norm = float(np.sqrt(column_sums.max()))
+
+    def _score(self, knots, offsets, starts, stops, max_deviation, sse, max_dev, n_ctrl, reason,
+               path):
+        _periodic_moves.evaluate_moves(
+            self.u, self.q, self.degree, self.interior, self.spans, self.basis,
+            self.row_start, self._cuts, *self._states, self._inverse, self._gram_norm,
+            self.sse, self._max_dev, knots, offsets, starts, stops, self.max_window_rows,
+            max_deviation, sse, max_dev, n_ctrl, reason, path)

@@ -124,7 +124,8 @@ def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
     if m > len(u):
         raise ValueError(f"{m} control points for {len(u)} data points")
     coef = np.zeros((m, q.shape[1]))
-    _, code = _periodic_kernel.fit_one(u, q, t, p, coef)
+    _, code = _periodic_kernel.fit_one(u, q, t, p, coef, np.empty((0, p + 1)),
+                                       np.empty(0, dtype=np.int64))
     if code != Infeasibility.FEASIBLE:
         raise ValueError("the least-squares system is singular: some knot spans have no data")
     return PeriodicFit(BSpline(t, np.vstack((coef, coef[:p])), p), u, q)
