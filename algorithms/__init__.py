@@ -17,15 +17,30 @@ name               method
 ``nevergrad``      any nevergrad optimizer (``nevergrad:NGOpt``, ``nevergrad:CMA``, ...)
 ``pymoo``          pymoo's GA, DE or BRKGA (``pymoo:GA``, ``pymoo:DE``, ``pymoo:BRKGA``)
 =================  ===============================================================
+
+Knot placement methods from the literature, fewest knots within a tolerance
+(:mod:`~metaknot.algorithms.literature`):
+
+=====================  ===========================================================
+name                   method
+=====================  ===========================================================
+``newknt``             de Boor's ``newknt``: ``|D^(p+1) f|^(1/(p+1))`` equidistributed
+``equidistribution``   feature equidistribution (Razdan 1999; Li et al. 2005; Yeh et al.
+                       2020)
+``dominant_points``    dominant points, adaptive refinement (Park & Lee 2007)
+=====================  ===========================================================
 """
 
 from .baselines import AveragingKnots, FitpackKnots, UniformKnots
 from .cmaes_adapter import CMAESKnots
 from .dolphin import DolphinEcholocation
+from .dominant_points import DominantPoints
+from .equidistribution import Equidistribution
 from .free_front import FreeKnotFront
 from .ga import GeneticAlgorithm
 from .local_search import LocalSearch
 from .nevergrad_adapter import NevergradOptimizer
+from .newknt import NewKnt
 from .nlopt_knots import NloptKnots
 from .one_plus_one import OnePlusOneEA
 from .pymoo_adapter import PymooOptimizer
@@ -35,11 +50,14 @@ __all__ = [
     "AveragingKnots",
     "CMAESKnots",
     "DolphinEcholocation",
+    "DominantPoints",
+    "Equidistribution",
     "FitpackKnots",
     "FreeKnotFront",
     "GeneticAlgorithm",
     "LocalSearch",
     "NevergradOptimizer",
+    "NewKnt",
     "NloptKnots",
     "OnePlusOneEA",
     "PymooOptimizer",
