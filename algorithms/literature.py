@@ -179,19 +179,41 @@ class Target:
         """The fewest interior knots a fit can have (a closed spline needs ``degree - 1``)."""
         return self.curve.min_interior_knots
 
+    def with_data_between(self, knots: np.ndarray) -> np.ndarray:
+        """``knots`` less those that would leave a knot span without a data parameter (which
+        no least-squares fit allows), kept from the left."""
+        lo, hi = self.bounds
+        u = self.params if not self.closed else np.append(self.params, 1.0)
+        knots = np.sort(np.asarray(knots, dtype=np.float64))
+        below = np.searchsorted(u, knots, side="left")  # data parameters < knot
+        up_to = np.searchsorted(u, knots, side="right")  # data parameters <= knot
+        before_hi = np.searchsorted(u, hi, side="left")
+        kept, last = [], np.searchsorted(u, lo, side="right")
+        for i in range(knots.size):
+            if below[i] > last and before_hi > up_to[i]:
+                kept.append(i)
+                last = up_to[i]
+        return knots[kept]
+
     def fewest(self, knots_at: Callable[[int], np.ndarray | None],
                lowest: int | None = None) -> np.ndarray:
         """The knots at the fewest count whose fit is within the tolerance: the count doubled
         from ``lowest`` (default: the fewest a fit can have) until within, then bisected
         between the last count beyond and the first within. ``knots_at(k)`` gives the knots of
-        count ``k`` (None if it has none). If no count is, the knots of the largest count."""
+        count ``k`` (None if it has none); knots that cannot be fitted lose those that leave a
+        span without data (:meth:`with_data_between`). If no count is within, the knots of the
+        lowest error."""
         lo = self.min_count if lowest is None else max(lowest, self.min_count)
         found: dict[int, tuple[float, np.ndarray | None]] = {}
 
         def probe(k: int) -> bool:
             if k not in found:
                 knots = knots_at(k)
-                found[k] = (np.inf if knots is None else self.error(knots), knots)
+                error = np.inf if knots is None else self.error(knots)
+                if knots is not None and error == np.inf:  # a span without data, perhaps
+                    knots = self.with_data_between(knots)
+                    error = self.error(knots)
+                found[k] = (error, knots)
             return found[k][0] <= self.tolerance
 
         beyond, k = lo - 1, lo

@@ -21,7 +21,9 @@ Choices the paper leaves open (or that differ):
   the data), not to the previous spline.
 * The dense start: half the knots the data can carry (the averaging knots of an open curve,
   every other data point of a closed one), a spline close to the data that still smooths
-  it; the full count would interpolate, and a least-squares fit there is ill-conditioned.
+  it, or 3/4, 7/8, 15/16 of them if that is not within the tolerance (none within: the one
+  of lowest error); the full count would interpolate, and a least-squares fit there is
+  ill-conditioned.
 * The search over ``m``: doubling from 1, then bisection (the error need not grow
   monotonically with ``m``; the largest ``m`` found within is taken).
 """
@@ -91,7 +93,13 @@ def most_removable(target: Target, knots: np.ndarray, order: np.ndarray) -> int:
 @tolerance_method("lyche_morken")
 def lyche_morken(target: Target) -> np.ndarray:
     """Lyche & Mørken's knot removal by ranked weights (see the module docstring)."""
-    knots = target.curve.spread_knots(target.max_count // 2)
+    starts = [target.curve.spread_knots(target.max_count - target.max_count // share)
+              for share in (2, 4, 8, 16)]  # half the knots the data carry, or more
+    for knots in starts:
+        if target.within(knots):
+            break
+    else:  # none within: the start of lowest error
+        knots = starts[int(np.argmin(target.errors(starts)))]
     p = target.degree
     while knots.size > target.min_count:
         found = target.fit(knots)

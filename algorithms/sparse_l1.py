@@ -23,7 +23,9 @@ Choices the paper leaves open (or that differ):
   above 1e-9 of the largest jump the data's range allows: rounding). A run of
   at most ``p + 1`` adjacent nonzero jumps is one knot between candidates; a longer run (small
   ``lambda``: a region that needs many knots) gives a knot at every other candidate (every
-  one would leave more coefficients than data).
+  one would leave more coefficients than data); knots that would leave a span without data
+  are dropped. If the smallest ``lambda``'s selection is not within the tolerance, every jump
+  above rounding there is taken, at every other candidate.
 * ``lambda`` is searched by bisection on its logarithm (down to a width of 0.05, over 16
   decades around
   ``max |B^T (q - mean q)| / max_j sum |J_j|``), keeping the fewest knots seen within the
@@ -122,7 +124,8 @@ def sparse_l1(target: Target, threshold: float = 1e-3, rounds: int = 30) -> np.n
     ridge = 1e-12 * gram.diagonal().max()
     from scipy import sparse
 
-    def knots_for(lam: float) -> np.ndarray:
+    def knots_for(lam: float, share: float = threshold,
+                  longest: int = target.degree + 1) -> np.ndarray:
         weights = np.ones(candidates.size)
         c = None
         for _ in range(rounds):
@@ -135,19 +138,17 @@ def sparse_l1(target: Target, threshold: float = 1e-3, rounds: int = 30) -> np.n
             if np.abs(1.0 / (z + eps) - weights).max() <= 1e-3 * weights.max():
                 break  # converged
             weights = 1.0 / (z + eps)
-        return select_knots(np.linalg.norm(jumps @ c, axis=1), candidates, threshold, floor,
-                            target.degree + 1)
+        return target.with_data_between(select_knots(
+            np.linalg.norm(jumps @ c, axis=1), candidates, share, floor, longest))
 
     if target.within(start := target.curve.spread_knots(target.min_count)):
         return start  # a polynomial (or the fewest breakpoints) is within already
     lo, hi = np.log(scale) - 12 * np.log(10), np.log(scale) + 4 * np.log(10)
-    best = None
-    for log_lam in (lo, hi):
-        knots = knots_for(float(np.exp(log_lam)))
-        if target.within(knots) and (best is None or knots.size < best.size):
-            best = knots
-    if best is None:  # not even the smallest lambda: the densest selection, as found
-        return knots_for(float(np.exp(lo)))
+    best = knots_for(float(np.exp(lo)))
+    if not target.within(best):  # every jump above rounding, at every other candidate
+        best = knots_for(float(np.exp(lo)), share=0.0, longest=0)
+        if not target.within(best):
+            return best  # not even the densest selection: as found (the reason is given)
     within, beyond = lo, hi
     while beyond - within >= 0.05:
         mid = 0.5 * (within + beyond)
