@@ -12,7 +12,7 @@ from metaknot.algorithms.literature import METHODS, Target
 from metaknot.bspline import fit_spline, parameterize
 from metaknot.bspline.periodic import closed_parameterize, fit_periodic
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, PointSet, add_noise, get_curve
-from metaknot.suite.functions import KANG_KNOTS, kang_spline
+from metaknot.suite.functions import KANG_KNOTS, kang_spline, titanium
 
 NAMES = sorted(METHODS)
 #: methods that place knots where a derivative jumps (or remove all others)
@@ -140,3 +140,32 @@ def test_a_fixed_count_gets_that_many_knots_closed_and_open(problem):
     assert np.count_nonzero(~np.isnan(np.asarray(result.best_x, dtype=float))) == \
         problem.n_knots
 
+
+# --------------------------------------------------------------------------------------------
+# metaknot fit: --method NAME, and the literature's knots as starts of its own search
+
+
+def test_fit_method_name_returns_that_methods_knots_within_the_tolerance():
+    points = get_curve("archimedean", n_points=120).points
+    result = mk.fit(points, 1e-3, relative=True, method="dominant_points", closed=False)
+    direct = METHODS["dominant_points"](result.params, result.points, result.tolerance)
+    assert result.method == "dominant_points"
+    assert result.n_control_points == direct.knots.size + 4
+    assert result.metrics["max_deviation"] <= result.tolerance
+    x, y = titanium()  # 49 points with a sharp peak: the classic ranking stops short
+    with pytest.raises(ValueError, match="'lyche_morken' does not reach the tolerance: its "
+                                         "fit with") as error:
+        mk.fit(np.column_stack((x, y)), 1e-3, relative=True, function=True,
+               method="lyche_morken")
+    assert "\n" not in str(error.value)
+    with pytest.raises(ValueError, match=r"or a literature method .*sparse_l1.*; got 'ga'"):
+        mk.fit(points, 1e-3, method="ga")
+
+
+def test_the_cli_help_names_every_literature_method(capsys):
+    from metaknot.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["fit", "--help"])
+    shown = " ".join(capsys.readouterr().out.split())
+    assert all(name in shown for name in NAMES)
