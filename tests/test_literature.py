@@ -169,3 +169,17 @@ def test_the_cli_help_names_every_literature_method(capsys):
         main(["fit", "--help"])
     shown = " ".join(capsys.readouterr().out.split())
     assert all(name in shown for name in NAMES)
+
+
+def test_fit_starts_from_the_literature_knots_and_ends_no_worse(monkeypatch):
+    from metaknot.apps import fit as tolerance_fit
+
+    # a cubic spline with three knots off the data grid: bisection's refined knots find them
+    knots = np.r_[[0.0] * 4, 0.2113, 0.5071, 0.7519, [1.0] * 4]
+    data = np.column_stack((X, BSpline(knots, np.array([0.0, 1, -1, 2, 0.5, 1.5, -0.5]), 3)(X)))
+    result = mk.fit(data, 1e-5, relative=True, function=True, method="removal")
+    assert "literature starts: bisection 7, lyche_morken" in " ".join(result.stages)
+    assert result.n_control_points == 7
+    monkeypatch.setattr(tolerance_fit, "LITERATURE_STARTS", ())
+    without = mk.fit(data, 1e-5, relative=True, function=True, method="removal")
+    assert without.n_control_points > 7  # the start is what makes the difference

@@ -6,8 +6,10 @@ Open curves and function data get a clamped spline of degree p; closed outlines 
 1. **FITPACK's answer** — the reference everyone knows: FITPACK's smoothing spline
    (``scipy.interpolate.splprep``) over a scan of its smoothing factor s, refined by bisection
    on log s, keeping the fewest control points whose error is within the tolerance.
-2. **Starts** — FITPACK's knots and the averaging knots (NURBS Book) at the fewest knots whose
-   least-squares fit is within the tolerance, both refitted by least squares.
+2. **Starts** — FITPACK's knots, the averaging knots (NURBS Book) at the fewest knots whose
+   least-squares fit is within the tolerance, and the knots of the literature methods in
+   :data:`LITERATURE_STARTS` (:mod:`metaknot.algorithms.literature`), all refitted by least
+   squares: a portfolio, so the result is no worse than any of them.
 3. **Knot removal** — from each start, every "remove one knot" candidate is scored in one batch
    (by exact delta evaluation from the current knots, :mod:`metaknot.bspline.moves`); the best
    is taken while it stays within the tolerance. When none
@@ -377,6 +379,8 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     averaging = search.fewest_averaging(len(starts[0]) + 1)
     if averaging is not None:
         starts.append(averaging)
+    if method != "fitpack":
+        starts += _literature_starts(curve, tol_abs, metric, stages)
     best = None
     for knots in starts if method != "fitpack" else []:
         (err,) = search.errors([knots])
@@ -419,6 +423,25 @@ def _result(curve: Curve, knots: np.ndarray, method: str, tol: float, metric: Me
                         metric=metric, method=method, metrics=metrics,
                         fitpack={k: v for k, v in reference.items() if k != "spline"},
                         stages=stages, closed=curve.closed, points=curve.points)
+
+
+#: Literature methods whose knots also start the knot removal of ``method="auto"`` and
+#: ``"removal"`` (a portfolio: the search starts from the best of them too, so it ends no worse
+#: than they do; ``benchmarks/bench_literature.py``).
+LITERATURE_STARTS = ("bisection", "lyche_morken")
+
+
+def _literature_starts(curve: Curve, tol: float, metric: Metric,
+                       stages: list[str]) -> list[np.ndarray]:
+    """The knots of the :data:`LITERATURE_STARTS` methods that are within the tolerance."""
+    from metaknot.algorithms.literature import METHODS
+
+    found = [METHODS[name](curve.params, curve.points, tol, degree=curve.degree,
+                           closed=curve.closed, metric=metric) for name in LITERATURE_STARTS]
+    stages.append("literature starts: " + ", ".join(
+        f"{name} {r.knots.size + curve.extra_control_points if r.within else '-'}"
+        for name, r in zip(LITERATURE_STARTS, found, strict=True)) + " control points")
+    return [r.knots for r in found if r.within]
 
 
 def _literature_fit(curve: Curve, method: str, tol: float, metric: Metric, reference: dict,
