@@ -45,6 +45,7 @@ from metaknot.registry import register
 
 from ._adapters import FinitePenalty
 from .knot_map import KnotMap
+from .literature import equidistribute, knot_density
 from .nlopt_knots import LOCAL_ALGORITHMS, NLOPT_STOPS, check_free_knots
 
 __all__ = ["FreeKnotFront"]
@@ -106,39 +107,15 @@ class FreeKnotFront(Optimizer):
             self._density = self._knot_density()
 
     def _knot_density(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(u, F(u))``: the normalised cumulative knot density on a fine grid, from a pilot
-        least-squares spline of degree p + 2 (None if the data are too few for it)."""
-        from scipy.interpolate import make_lsq_spline
-
+        """``(u, F(u))``: the normalised cumulative knot density on a fine grid
+        (:func:`~metaknot.algorithms.literature.knot_density`, one external fit)."""
         p = self.problem
-        u, q, degree = p.params, p.points, p.degree + 2
-        n_interior = (u.size - degree - 1) // 2
-        if n_interior < 1:
-            return None
-        t = np.concatenate((np.full(degree + 1, u[0]), averaging_knots(u, n_interior, degree),
-                            np.full(degree + 1, u[-1])))
         self.count_fits(1)
-        try:
-            pilot = make_lsq_spline(u, q, t, k=degree)
-        except (ValueError, np.linalg.LinAlgError):
-            return None
-        grid = np.linspace(u[0], u[-1], 20 * u.size)
-        size = np.linalg.norm(pilot.derivative(p.degree + 1)(grid).reshape(grid.size, -1),
-                              axis=1)
-        if not np.isfinite(size).all() or size.max() <= 0:
-            return None
-        rho = (size + 1e-3 * size.mean()) ** self.density_exponent
-        cumulative = np.concatenate(([0.0], np.cumsum(0.5 * (rho[1:] + rho[:-1])
-                                                      * np.diff(grid))))
-        return grid, cumulative / cumulative[-1]
+        return knot_density(p.params, p.points, p.degree, self.density_exponent)
 
     def density_knots(self, k: int) -> np.ndarray | None:
         """The ``k`` knots that split the knot density into equal parts (None without one)."""
-        if self._density is None:
-            return None
-        grid, cumulative = self._density
-        knots = np.interp(np.arange(1, k + 1) / (k + 1), cumulative, grid)
-        return knots if np.all(np.diff(knots) > 0) else None
+        return equidistribute(self._density, k)
 
     # -- candidates and their scores ---------------------------------------------------------
 

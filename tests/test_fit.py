@@ -91,6 +91,7 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
     monkeypatch.setattr(tolerance_fit._Search, "remove", lambda self, knots: knots)
     monkeypatch.setattr(tolerance_fit._Search, "fewest_averaging", lambda self, upper: None)
     monkeypatch.setattr(tolerance_fit, "_fewer_at_fixed_counts", lambda *a, **k: (None, 0))
+    monkeypatch.setattr(tolerance_fit, "LITERATURE_STARTS", ())
     points = get_curve("archimedean").points
     result = mk.fit(points, 1e-3, relative=True)
     assert result.method == "fitpack"

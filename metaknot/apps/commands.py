@@ -53,9 +53,11 @@ def add_fit(sub: Any) -> None:
                        help="closed if the chord from the last point back to the first "
                             "is at most 2.5 typical point spacings (the default; the output "
                             "says which was chosen)")
-    parser.add_argument("--method", choices=["auto", "removal", "fitpack"], default="auto",
+    parser.add_argument("--method", default="auto",
                      help="auto: knot removal then a search at fixed counts (the default); "
-                          "removal: knot removal only; fitpack: FITPACK's answer")
+                          "removal: knot removal only; fitpack: FITPACK's answer; or a "
+                          "method from the literature: newknt, equidistribution, "
+                          "dominant_points, lyche_morken, bisection, sparse_l1")
     parser.add_argument("--budget", type=int, default=20000,
                      help="evaluations of the GA at each count of the fixed-count search")
     parser.add_argument("--seed", type=int, default=0, help="seed of the searches")

@@ -6,8 +6,10 @@ Open curves and function data get a clamped spline of degree p; closed outlines 
 1. **FITPACK's answer** — the reference everyone knows: FITPACK's smoothing spline
    (``scipy.interpolate.splprep``) over a scan of its smoothing factor s, refined by bisection
    on log s, keeping the fewest control points whose error is within the tolerance.
-2. **Starts** — FITPACK's knots and the averaging knots (NURBS Book) at the fewest knots whose
-   least-squares fit is within the tolerance, both refitted by least squares.
+2. **Starts** — FITPACK's knots, the averaging knots (NURBS Book) at the fewest knots whose
+   least-squares fit is within the tolerance, and the knots of the literature methods in
+   :data:`LITERATURE_STARTS` (:mod:`metaknot.algorithms.literature`), all refitted by least
+   squares: a portfolio, so the result is no worse than any of them.
 3. **Knot removal** — from each start, every "remove one knot" candidate is scored in one batch
    (by exact delta evaluation from the current knots, :mod:`metaknot.bspline.moves`); the best
    is taken while it stays within the tolerance. When none
@@ -54,8 +56,8 @@ class ToleranceFit:
     tolerance, metric
         The absolute tolerance and the error it bounds.
     method
-        ``"knot removal"`` or ``"knot removal + fixed-count search"`` (metaknot's search), or
-        ``"fitpack"`` (FITPACK's answer was not beaten).
+        ``"knot removal"`` or ``"knot removal + fixed-count search"`` (metaknot's search),
+        ``"fitpack"`` (FITPACK's answer was not beaten), or the literature method asked for.
     metrics
         ``n_control_points``, ``max_deviation``, ``rmse``, ``seconds``.
     fitpack
@@ -301,8 +303,11 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         it repeats the first. The first stage line says which was chosen and why.
     method
         ``"auto"`` (knot removal, then the fixed-count search: the best in
-        ``benchmarks/bench_fit.py``), ``"removal"`` (knot removal only, fastest) or
-        ``"fitpack"`` (FITPACK's answer).
+        ``benchmarks/bench_fit.py``), ``"removal"`` (knot removal only, fastest),
+        ``"fitpack"`` (FITPACK's answer), or the name of a literature method
+        (:data:`metaknot.algorithms.literature.METHODS`: ``newknt``, ``equidistribution``,
+        ``dominant_points``, ``lyche_morken``, ``bisection``, ``sparse_l1``): its knots as
+        they are (a ``ValueError`` says why if they are not within the tolerance).
     budget, seed
         Evaluations of the GA at each count of the fixed-count search (the local search gets
         a quarter) and the seed of both.
@@ -324,8 +329,11 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     """
     start = time.perf_counter()
     p = check_degree(degree)
-    if method not in ("auto", "removal", "fitpack"):
-        raise ValueError(f"method must be 'auto', 'removal' or 'fitpack'; got {method!r}")
+    from metaknot.algorithms.literature import METHODS as LITERATURE
+
+    if method not in ("auto", "removal", "fitpack", *LITERATURE):
+        raise ValueError(f"method must be 'auto', 'removal', 'fitpack' or a literature method "
+                         f"({', '.join(sorted(LITERATURE))}); got {method!r}")
     if not is_integer(budget) or budget < 1:
         raise ValueError(f"budget must be a positive integer; got {budget!r}")
     if metric not in ("max_deviation", "rmse"):
@@ -364,11 +372,15 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     reference = fitpack.fewest_within(u, q, p, tol_abs, metric, closed=curve.closed)
     stages.append(f"FITPACK: {reference['n_control_points']} control points (s = "
                   f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
+    if method in LITERATURE:
+        return _literature_fit(curve, method, tol_abs, metric, reference, stages, start)
     t_fp = reference["spline"].t
     starts = [np.asarray(t_fp[p + 1 : len(t_fp) - p - 1])]
     averaging = search.fewest_averaging(len(starts[0]) + 1)
     if averaging is not None:
         starts.append(averaging)
+    if method != "fitpack":
+        starts += _literature_starts(curve, tol_abs, metric, stages)
     best = None
     for knots in starts if method != "fitpack" else []:
         (err,) = search.errors([knots])
@@ -389,19 +401,57 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
                       "knots fewer")
         if fewer is not None:  # and knot removal once more from there
             best, method_name = search.remove(fewer), "knot removal + fixed-count search"
-    seconds = time.perf_counter() - start
     if best is not None and \
             len(best) + curve.extra_control_points < reference["n_control_points"]:
-        solution = curve.fit(best)
-        spline, method = solution.spline, method_name
-        metrics = {"n_control_points": solution.n_control_points,
-                   "max_deviation": solution.max_deviation, "rmse": solution.rmse}
-    else:
-        spline, method = reference["spline"], "fitpack"
-        metrics = {k: reference[k] for k in ("n_control_points", "max_deviation", "rmse")}
-    metrics["seconds"] = seconds
-    return ToleranceFit(spline=spline, params=u, tolerance=tol_abs, metric=metric,
-                        method=method, metrics=metrics,
+        return _result(curve, best, method_name, tol_abs, metric, reference, stages, start)
+    metrics = {k: reference[k] for k in ("n_control_points", "max_deviation", "rmse")}
+    metrics["seconds"] = time.perf_counter() - start
+    return ToleranceFit(spline=reference["spline"], params=u, tolerance=tol_abs, metric=metric,
+                        method="fitpack", metrics=metrics,
                         fitpack={k: v for k, v in reference.items() if k != "spline"},
-                        stages=stages,
-                        closed=curve.closed, points=q)
+                        stages=stages, closed=curve.closed, points=q)
+
+
+def _result(curve: Curve, knots: np.ndarray, method: str, tol: float, metric: Metric,
+            reference: dict, stages: list[str], start: float) -> ToleranceFit:
+    """The fit with these knots, as :func:`fit` returns it."""
+    solution = curve.fit(knots)
+    metrics = {"n_control_points": solution.n_control_points,
+               "max_deviation": solution.max_deviation, "rmse": solution.rmse,
+               "seconds": time.perf_counter() - start}
+    return ToleranceFit(spline=solution.spline, params=curve.params, tolerance=tol,
+                        metric=metric, method=method, metrics=metrics,
+                        fitpack={k: v for k, v in reference.items() if k != "spline"},
+                        stages=stages, closed=curve.closed, points=curve.points)
+
+
+#: Literature methods whose knots also start the knot removal of ``method="auto"`` and
+#: ``"removal"`` (a portfolio: the search starts from the best of them too, so it ends no worse
+#: than they do; ``benchmarks/bench_literature.py``).
+LITERATURE_STARTS = ("bisection", "lyche_morken")
+
+
+def _literature_starts(curve: Curve, tol: float, metric: Metric,
+                       stages: list[str]) -> list[np.ndarray]:
+    """The knots of the :data:`LITERATURE_STARTS` methods that are within the tolerance."""
+    from metaknot.algorithms.literature import METHODS
+
+    found = [METHODS[name](curve.params, curve.points, tol, degree=curve.degree,
+                           closed=curve.closed, metric=metric) for name in LITERATURE_STARTS]
+    stages.append("literature starts: " + ", ".join(
+        f"{name} {r.knots.size + curve.extra_control_points if r.within else '-'}"
+        for name, r in zip(LITERATURE_STARTS, found, strict=True)) + " control points")
+    return [r.knots for r in found if r.within]
+
+
+def _literature_fit(curve: Curve, method: str, tol: float, metric: Metric, reference: dict,
+                    stages: list[str], start: float) -> ToleranceFit:
+    """``fit(method=<a literature method>)``: that method's knots, least-squares fitted."""
+    from metaknot.algorithms.literature import METHODS
+
+    found = METHODS[method](curve.params, curve.points, tol, degree=curve.degree,
+                            closed=curve.closed, metric=metric)
+    if not found.within:
+        raise ValueError(f"method {method!r} does not reach the tolerance: {found.reason}")
+    stages.append(f"{method}: {found.knots.size} knots, {found.fits:,} fits")
+    return _result(curve, found.knots, method, tol, metric, reference, stages, start)
