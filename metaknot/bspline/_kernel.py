@@ -4,8 +4,9 @@ Each candidate is fitted by Givens QR on the banded collocation matrix, row by r
 ``fpcurf`` does: O(N p^2) work and O(n p) memory per candidate, numerically stable (no normal
 equations). A batch of candidates is spread over threads with ``prange``; each thread reuses its
 workspaces from one candidate to the next. Small batches are fitted on the calling thread
-(:func:`evaluate_batch_serial`, :func:`evaluate_masks_serial`): the same per-candidate code, so the
-same results, without waking the thread pool.
+(:func:`evaluate_batch_serial`, :func:`evaluate_masks_serial`,
+:func:`evaluate_positions_serial`): the same per-candidate code, so the same results, without
+waking the thread pool.
 
 Reason codes (see :class:`metaknot.bspline.Infeasibility`):
 0 feasible, 1 more control points than data points, 2 knot outside the open parameter range or
@@ -327,6 +328,24 @@ def evaluate_masks_serial(u, q, p, masks, sse, max_dev, n_ctrl, reason):
                 interior[k] = u[i + 1]
                 k += 1
         _score(u, q, p, interior[:k], b, ws, sse, max_dev, n_ctrl, reason)
+
+
+@njit(cache=True)
+def evaluate_positions_serial(u, q, p, positions, nan_is_absent, sse, max_dev, n_ctrl, reason):
+    """:func:`evaluate_batch` of a ``(B, K)`` batch of knot positions on the calling thread,
+    each row sorted in one workspace (NaN last, as numpy sorts; dropped if ``nan_is_absent``,
+    else reported by the knot checks)."""
+    n_cand, k = positions.shape
+    ws = _workspaces(u.size, q.shape[1], p, min(k, u.size) + p + 1, max_dev.size > 0)
+    interior = np.empty(k)
+    for b in range(n_cand):
+        interior[:] = positions[b]
+        interior.sort()
+        count = k
+        if nan_is_absent:
+            while count > 0 and np.isnan(interior[count - 1]):
+                count -= 1
+        _score(u, q, p, interior[:count], b, ws, sse, max_dev, n_ctrl, reason)
 
 
 @njit(cache=True, parallel=True)

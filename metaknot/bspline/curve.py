@@ -29,11 +29,12 @@ from .fit import (
     CurveFit,
     _evaluate,
     _evaluate_masks,
+    _evaluate_positions,
     _prepare,
     evaluate_knots,
     fit_spline,
 )
-from .knots import averaging_knots, stack_indices, stack_positions
+from .knots import averaging_knots, stack_indices
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
 from .periodic import closed_parameterize, evaluate_periodic, fit_periodic
@@ -248,9 +249,8 @@ class OpenCurve(Curve):
                          max_deviation)
 
     def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
-        return _evaluate(self._u, self._q, *stack_positions(positions,
-                                                            nan_is_absent=nan_is_absent),
-                         self.degree, max_deviation)
+        return _evaluate_positions(self._u, self._q, positions, self.degree, max_deviation,
+                                   nan_is_absent)
 
     def fit(self, interior_knots):
         return fit_spline(self.params, self.points, interior_knots, self.degree)

@@ -112,10 +112,10 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
     return u, q
 
 
-#: Batches of at most this many candidates are fitted on the calling thread: waking the
-#: kernel's thread pool costs more than it saves (a busy machine makes it worse). 0 sends every
-#: batch to the thread pool.
-SERIAL_BATCH = 4
+#: Batches of at most this many candidates (a sequential optimizer's, a CMA-ES generation, a
+#: nevergrad batch) are fitted on the calling thread: waking the kernel's thread pool costs
+#: more than it saves (on a busy machine far more). 0 sends every batch to the thread pool.
+SERIAL_BATCH = 16
 
 
 def _outputs(b: int, max_deviation: bool) -> tuple[np.ndarray, ...]:
@@ -149,6 +149,18 @@ def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
                          max_deviation)
     sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
     _kernel.evaluate_masks_serial(u, q, p, masks, *out)
+    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
+
+
+def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: int,
+                        max_deviation: bool, nan_is_absent: bool) -> BatchFit:
+    """Fit a ``(B, K)`` batch of knot positions (see :func:`evaluate_positions`)."""
+    positions = np.asarray(positions, dtype=np.float64)
+    if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
+        return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
+                         max_deviation)
+    sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
+    _kernel.evaluate_positions_serial(u, q, p, positions, nan_is_absent, *out)
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
@@ -204,8 +216,7 @@ def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, de
     so rows may have different knot counts).
     """
     u, q = _prepare(u, points, degree)
-    knots, offsets = stack_positions(positions, nan_is_absent=nan_is_absent)
-    return _evaluate(u, q, knots, offsets, int(degree), max_deviation)
+    return _evaluate_positions(u, q, positions, int(degree), max_deviation, nan_is_absent)
 
 
 @dataclass(frozen=True, eq=False)
