@@ -10,7 +10,9 @@
    candidate: its whole-run time per evaluation against the kernel's time per candidate on the
    same candidates fitted in batches of 50. The (1+1) EA (every child a local move, scored by
    delta evaluation): its whole-run time per evaluation against the time of one delta move
-   (every one-bit flip of the run's best mask, scored by a ``MoveEvaluator`` in one call).
+   (every one-bit flip of the run's best mask, scored by a ``MoveEvaluator`` in one call,
+   repeated until as many moves as the run made are timed: on a shared machine a short
+   timing would catch a quiet moment that the whole run does not).
 
 3. Sweep scaling. 40 runs as a ``metaknot run -m`` sweep with the joblib launcher, once with one
    worker and once with two (each worker runs the kernel on one thread), each into a fresh
@@ -142,11 +144,13 @@ def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float]:
     moves = MoveEvaluator(problem.params, problem.points, problem.params[1:-1][best])
     flips = bit_flips(problem.params, best, np.arange(best.size))
     moves.evaluate_replacements(*flips)  # compile outside the timing
+    calls = -(-evaluations // best.size)  # as many moves as the run made: timed alike
     per_move = np.inf
     for _ in range(repeats):
         start = time.perf_counter()
-        moves.evaluate_replacements(*flips)
-        per_move = min(per_move, (time.perf_counter() - start) / best.size)
+        for _ in range(calls):
+            moves.evaluate_replacements(*flips)
+        per_move = min(per_move, (time.perf_counter() - start) / (calls * best.size))
     print(f"\nsequential optimizers on the epitrochoid masks, {evaluations} evaluations, one "
           f"kernel thread, best of {repeats}")
     print(f"random search, batch 1:  {1e6 * per_random:7.2f} us/evaluation; kernel on its "
