@@ -322,11 +322,13 @@ def evaluate_masks_serial(u, q, p, masks, sse, max_dev, n_ctrl, reason):
     ws = _workspaces(u.size, q.shape[1], p, min(k_max, u.size) + p + 1, max_dev.size > 0)
     interior = np.empty(k_max)
     for b in range(n_cand):
+        end = n_var  # branch-free gathering, as in masks_to_knots
+        while end > 0 and masks[b, end - 1] == 0:
+            end -= 1
         k = 0
-        for i in range(n_var):
-            if masks[b, i] != 0:
-                interior[k] = u[i + 1]
-                k += 1
+        for i in range(end):
+            interior[k] = u[i + 1]
+            k += masks[b, i] != 0
         _score(u, q, p, interior[:k], b, ws, sse, max_dev, n_ctrl, reason)
 
 

@@ -114,15 +114,8 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
 
 #: Batches of at most this many candidates (a sequential optimizer's, a CMA-ES generation, a
 #: nevergrad batch) are fitted on the calling thread: waking the kernel's thread pool costs
-#: more than it saves (on a busy machine far more). So is every batch while the kernel has one
-#: thread (``numba.set_num_threads(1)``, a sweep's workers). 0 sends every batch to the pool.
+#: more than it saves (on a busy machine far more). 0 sends every batch to the thread pool.
 SERIAL_BATCH = 16
-
-
-def _on_calling_thread(b: int) -> bool:
-    """Whether a batch of ``b`` candidates is fitted on the calling thread (see
-    :data:`SERIAL_BATCH`)."""
-    return b <= SERIAL_BATCH or (SERIAL_BATCH > 0 and numba.get_num_threads() == 1)
 
 
 def _outputs(b: int, max_deviation: bool) -> tuple[np.ndarray, ...]:
@@ -138,7 +131,7 @@ def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarr
     """Fit a flattened batch (``u``, ``q`` as :func:`_prepare` returns them)."""
     sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
     knots = np.ascontiguousarray(knots, dtype=np.float64)
-    if _on_calling_thread(sse.size):
+    if sse.size <= SERIAL_BATCH:
         _kernel.evaluate_batch_serial(u, q, p, knots, offsets, *out)
     else:
         _kernel.evaluate_batch(u, q, p, knots, offsets, *out, 8 * numba.get_num_threads())
@@ -151,7 +144,7 @@ def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
     masks = check_mask_shape(u, masks)
     if masks.dtype.kind not in "biu":
         masks = masks.astype(bool)
-    if not _on_calling_thread(len(masks)):
+    if len(masks) > SERIAL_BATCH:
         return _evaluate(u, q, *masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool)), p,
                          max_deviation)
     sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
@@ -163,7 +156,7 @@ def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: i
                         max_deviation: bool, nan_is_absent: bool) -> BatchFit:
     """Fit a ``(B, K)`` batch of knot positions (see :func:`evaluate_positions`)."""
     positions = np.asarray(positions, dtype=np.float64)
-    if positions.ndim != 2 or not _on_calling_thread(len(positions)):
+    if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
         return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
                          max_deviation)
     sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
