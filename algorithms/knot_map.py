@@ -53,6 +53,7 @@ class KnotMap:
         self.min_gap, self.data_gap, self.span_range = float(min_gap), float(data_gap), \
             float(span_range)
         self._priors: dict[int, np.ndarray] = {}
+        self._frames: dict[int, tuple[float, float, float]] = {}
 
     def gap(self, n_knots: int) -> float:
         """The smallest span for ``n_knots`` knots."""
@@ -62,9 +63,14 @@ class KnotMap:
         return min(gap, 0.5 * length / (n_knots + 1))
 
     def _frame(self, n_knots: int) -> tuple[float, float, float]:
-        a, b = float(self.params[0]), float(self.params[-1])
-        gap = self.gap(n_knots)
-        return a, gap, (b - a) - (n_knots + 1) * gap
+        """The range's start, the gap and the free length for ``n_knots`` knots (computed once
+        per count: an optimizer maps one candidate after another)."""
+        frame = self._frames.get(n_knots)
+        if frame is None:
+            a, b = float(self.params[0]), float(self.params[-1])
+            gap = self.gap(n_knots)
+            frame = self._frames[n_knots] = (a, gap, (b - a) - (n_knots + 1) * gap)
+        return frame
 
     def _prior(self, n_knots: int) -> np.ndarray:
         """Log-shares of the free length of the averaging knots' spans."""

@@ -6,12 +6,23 @@
    alone, in the same batches. Printed: evaluations per second of the run and of the kernel, and
    their ratio (kernel time / run time: 1 means the optimizer and the framework cost nothing).
 
-2. Sweep scaling. The same 40 short runs as a ``metaknot run -m`` sweep with the joblib launcher,
-   once with one worker and once with two (each worker runs the kernel on one thread), each into
-   a fresh results directory, alternated twice. Printed: the wall times and the ratio of the
-   best of each (the whole command: start-up, validation, workers, runs and records).
+2. Sequential optimizers, one kernel thread, side by side. Random search with batches of one
+   candidate: its whole-run time per evaluation against the kernel's time per candidate on the
+   same candidates fitted in batches of 50. The (1+1) EA (every child a local move, scored by
+   delta evaluation): its whole-run time per evaluation against the time of one delta move
+   (every one-bit flip of the run's best mask, scored by a ``MoveEvaluator`` in one call,
+   repeated until as many moves as the run made are timed: on a shared machine a short
+   timing would catch a quiet moment that the whole run does not).
 
-3. Store writes. The record of a GA run (20,000 evaluations: settings, best candidate and
+3. Sweep scaling. 40 runs as a ``metaknot run -m`` sweep with the joblib launcher, once with one
+   worker and once with two (each worker runs the kernel on one thread), each into a fresh
+   results directory, alternated twice. The budget per run is sized by time: enough that the
+   one-worker sweep computes for at least ``--sweep-seconds`` (60 s) at the rate the runs of
+   part 1 reached, so that starting the workers does not dominate on a fast machine. Printed:
+   the wall times and the ratio of the best of each (the whole command: start-up, validation,
+   workers, runs and records).
+
+4. Store writes. The record of a GA run (20,000 evaluations: settings, best candidate and
    trace) written into a results store in the current directory (the disk results go to, not a
    temp file system), each as a new run: synced to disk (file and folder, as every run is
    stored) and, for comparison, with the syncs skipped. Printed: milliseconds per record and
@@ -20,12 +31,17 @@
 The last lines are::
 
     run_overhead_ratio: <the worst optimizer's kernel time / run time>       (target >= 0.5)
+    sequential_overhead_ratio: <random search batch 1, run time per evaluation / kernel time
+                                per candidate in a batch>                  (target <= 1.5)
+    one_plus_one_move_ratio: <(1+1) EA, run time per evaluation / delta-move time per move>
+                                                                           (target <= 4)
     store_write_ms: <one synced record write, in milliseconds>
     store_write_share: <that write / the fastest run of part 1>
     sweep_scaling_2_workers: <one-worker time / two-worker time>             (target >= 1.7)
 
-Run: ``python benchmarks/bench_runs.py [--evaluations 20000] [--sweep-runs 40]``; ``--no-sweep``
-skips part 2. The figures are ratios measured in one run, as the machine may be shared.
+Run: ``python benchmarks/bench_runs.py [--evaluations 20000] [--sweep-runs 40]
+[--sweep-seconds 60]``; ``--sweep-budget`` fixes the budget per run instead, ``--no-sweep``
+skips part 3. The figures are ratios measured in one run, as the machine may be shared.
 """
 
 from __future__ import annotations
@@ -42,6 +58,7 @@ import numpy as np
 
 import metaknot as mk
 from metaknot.bspline import evaluate_masks
+from metaknot.bspline.moves import MoveEvaluator, bit_flips
 from metaknot.experiments.store import Store
 from metaknot.problems import KnotSelection, get_curve
 
@@ -98,6 +115,51 @@ def run_overhead(evaluations: int, repeats: int) -> tuple[float, dict[str, float
     return min(ratios.values()), runs
 
 
+def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float]:
+    """Random search with batches of one against the kernel on its candidates, and the (1+1)
+    EA against one delta move: the two ratios (run time per evaluation / kernel time)."""
+    numba.set_num_threads(1)
+    data = get_curve("epitrochoid")
+    problem = KnotSelection(data)
+    single = {"batch_size": 1}
+
+    def best_run(name: str, options: dict) -> float:
+        mk.minimize(problem, name, budget=500, seed=0, optimizer_kwargs=options)  # warm
+        best = np.inf
+        for _ in range(repeats):
+            start = time.perf_counter()
+            mk.minimize(problem, name, budget=evaluations, seed=1, optimizer_kwargs=options)
+            best = min(best, time.perf_counter() - start)
+        return best / evaluations
+
+    per_random = best_run("random_search", single)
+    recording = Recording(data)
+    recording.batches = []
+    mk.minimize(recording, "random_search", budget=evaluations, seed=1, optimizer_kwargs=single)
+    candidates = np.concatenate(recording.batches)
+    batches = np.array_split(candidates, max(1, len(candidates) // 50))
+    per_kernel = kernel_seconds(problem, batches, repeats) / len(candidates)
+    per_ea = best_run("one_plus_one", {})
+    best = mk.minimize(problem, "one_plus_one", budget=evaluations, seed=1).best_x.astype(bool)
+    moves = MoveEvaluator(problem.params, problem.points, problem.params[1:-1][best])
+    flips = bit_flips(problem.params, best, np.arange(best.size))
+    moves.evaluate_replacements(*flips)  # compile outside the timing
+    calls = -(-evaluations // best.size)  # as many moves as the run made: timed alike
+    per_move = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(calls):
+            moves.evaluate_replacements(*flips)
+        per_move = min(per_move, (time.perf_counter() - start) / (calls * best.size))
+    print(f"\nsequential optimizers on the epitrochoid masks, {evaluations} evaluations, one "
+          f"kernel thread, best of {repeats}")
+    print(f"random search, batch 1:  {1e6 * per_random:7.2f} us/evaluation; kernel on its "
+          f"candidates in batches of 50: {1e6 * per_kernel:6.2f} us/candidate")
+    print(f"(1+1) EA:                {1e6 * per_ea:7.2f} us/evaluation; one delta move "
+          f"(every one-bit flip of its best mask): {1e6 * per_move:6.2f} us/move", flush=True)
+    return per_random / per_kernel, per_ea / per_move
+
+
 def store_write_seconds(evaluations: int, records: int) -> tuple[float, float, int]:
     """Seconds per record written into a store in the current directory, synced and with the
     syncs skipped, and the record's size in bytes."""
@@ -148,13 +210,15 @@ def main() -> None:
     parser.add_argument("--evaluations", type=int, default=20_000)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--sweep-runs", type=int, default=40)
-    parser.add_argument("--sweep-budget", type=int, default=30_000)
+    parser.add_argument("--sweep-seconds", type=float, default=60.0)
+    parser.add_argument("--sweep-budget", type=int, default=None)
     parser.add_argument("--sweep-repeats", type=int, default=2)
     parser.add_argument("--store-records", type=int, default=50)
     parser.add_argument("--no-sweep", action="store_true")
     args = parser.parse_args()
 
     worst, runs = run_overhead(args.evaluations, args.repeats)
+    sequential, one_plus_one = sequential_overhead(args.evaluations, args.repeats)
     synced, unsynced, size = store_write_seconds(args.evaluations, args.store_records)
     fastest = min(runs.values())
     print(f"\nstore writes ({args.store_records} records of {size / 1000:.0f} KB into "
@@ -162,17 +226,22 @@ def main() -> None:
           f"without the syncs; the fastest run above takes {1e3 * fastest:.0f} ms", flush=True)
     scaling = None
     if not args.no_sweep:
+        budget = args.sweep_budget
+        if budget is None:  # one worker computes for at least --sweep-seconds
+            rate = args.evaluations / min(runs["ga"], runs["random_search"])
+            budget = int(np.ceil(args.sweep_seconds * rate / args.sweep_runs / 1000)) * 1000
         print(f"\nsweep of {args.sweep_runs} runs (GA and random search, epitrochoid masks, "
-              f"{args.sweep_budget} evaluations each), joblib launcher")
+              f"{budget} evaluations each), joblib launcher")
         times: dict[int, list[float]] = {1: [], 2: []}
         for _ in range(args.sweep_repeats):  # alternated, so a slow spell hits both alike
             for workers in (1, 2):
-                times[workers].append(sweep_seconds(workers, args.sweep_runs,
-                                                    args.sweep_budget))
+                times[workers].append(sweep_seconds(workers, args.sweep_runs, budget))
                 print(f"{workers} worker{'s' if workers > 1 else ' '}: "
                       f"{times[workers][-1]:6.1f} s", flush=True)
         scaling = min(times[1]) / min(times[2])
     print(f"\nrun_overhead_ratio: {worst:.2f}")
+    print(f"sequential_overhead_ratio: {sequential:.2f}")
+    print(f"one_plus_one_move_ratio: {one_plus_one:.1f}")
     print(f"store_write_ms: {1e3 * synced:.2f}")
     print(f"store_write_share: {synced / fastest:.3f}")
     if scaling is not None:

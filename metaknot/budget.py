@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from . import audit
+from . import problem as problem_module
 from .front import ParetoArchive
 from .problem import Problem
 from .progress import Progress
@@ -195,14 +196,22 @@ class Evaluator:
                 f"{type(problem).__name__}.evaluate returned shape {F.shape}; "
                 f"expected {expected}"
             )
-        if np.isnan(F).any():
-            warnings.warn(
-                f"{type(problem).__name__}.evaluate returned NaN; counted as +inf",
-                RuntimeWarning, stacklevel=2,
-            )
-            F = np.where(np.isnan(F), np.inf, F)
-        self._n_evaluations += len(F)
         front = self._front
+        if front is None and F.size == 1 and problem_module.SINGLE_CANDIDATE_PATH:
+            # one candidate: the same steps on a float
+            value = F.item()
+            if value != value:
+                F = self._warn_nan(F)
+                value = np.inf
+            self._n_evaluations += 1
+            if value < self._best_f:
+                self._best_f = value
+                self._best_x = X[0].copy()
+            self._after_batch(F, metrics)
+            return F
+        if np.isnan(F).any():
+            F = self._warn_nan(F)
+        self._n_evaluations += len(F)
         scalar = F if front is None else front.add(X, F, metrics)
         if front is not None and not len(front):
             scalar = np.full(len(F), np.inf)  # nothing feasible yet: no front, no incumbent
@@ -210,6 +219,18 @@ class Evaluator:
         if scalar[best] < self._best_f:
             self._best_f = float(scalar[best])
             self._best_x = X[best].copy() if front is None else front.X[front.knee()].copy()
+        self._after_batch(scalar, metrics)
+        return F
+
+    def _warn_nan(self, F: np.ndarray) -> np.ndarray:
+        """``F`` with NaN counted as +inf, and a warning that the problem returned NaN."""
+        warnings.warn(f"{type(self._problem).__name__}.evaluate returned NaN; counted as +inf",
+                      RuntimeWarning, stacklevel=3)
+        return np.where(np.isnan(F), np.inf, F)
+
+    def _after_batch(self, scalar: np.ndarray, metrics: dict[str, np.ndarray]) -> None:
+        """Report the batch's values (``scalar``) to the callbacks; a stop they ask for ends
+        the run."""
         progress = Progress(self._n_evaluations, self._budget, self._best_f, scalar,
                             time.perf_counter() - self._start, metrics)
         fits_before = audit.fits()
@@ -217,7 +238,6 @@ class Evaluator:
             if on_batch(progress):
                 self._stop_requested = True
         self._callback_fits += audit.fits() - fits_before
-        return F
 
 
 def _batch_hook(callback: Any) -> Callable[[Progress], bool | None]:

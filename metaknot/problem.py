@@ -12,6 +12,24 @@ __all__ = ["Encoding", "Problem"]
 
 EncodingKind = Literal["binary", "integer", "continuous"]
 
+#: Batches of one candidate take scalar paths (the evaluator's bookkeeping, the knot problems'
+#: objective and metrics): the same results, bit for bit, without array arithmetic on arrays of
+#: one element. False sends them through the general batch path (the tests compare the two).
+SINGLE_CANDIDATE_PATH = True
+
+_compiled: dict[str, Any] = {}
+
+
+def _kernels() -> Any:
+    """:mod:`metaknot._encoding_kernels` (compiled: loaded on first use, so that importing
+    metaknot does not import numba)."""
+    module = _compiled.get("module")
+    if module is None:
+        from . import _encoding_kernels as module
+
+        _compiled["module"] = module
+    return module
+
 
 @dataclass(frozen=True, eq=False)
 class Encoding:
@@ -86,9 +104,9 @@ class Encoding:
                     not np.isfinite(X).all() or not np.array_equal(X, np.round(X))):
                 raise ValueError(f"{self.kind} candidates must hold whole numbers")
             X = X.astype(np.int64, copy=False)
-            if X.size and (X.min() < self._low or X.max() > self._high
-                           or (not self._uniform_bounds
-                               and ((X < self.lower).any() or (X > self.upper).any()))):
+            if not _kernels().within(X, self._low, self._high) or (
+                    not self._uniform_bounds and X.size
+                    and ((X < self.lower).any() or (X > self.upper).any())):
                 raise ValueError(
                     f"{self.kind} candidates must lie in [{self.lower.min()}, "
                     f"{self.upper.max()}]"
@@ -131,9 +149,7 @@ class Encoding:
             raise ValueError(f"cannot pick {self.n_var} distinct values from {lo}..{hi}")
         rows = np.flatnonzero((np.diff(X, axis=1) == 0).any(axis=1))
         if rows.size:
-            from ._repair import distinct_nearest_rows  # compiled: loaded on first use
-
-            distinct_nearest_rows(X, rows, lo, hi)
+            _kernels().distinct_nearest_rows(X, rows, lo, hi)
         return X
 
 

@@ -14,12 +14,14 @@ code and score it with an objective chosen by name (see :mod:`metaknot.problems.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from metaknot import problem as problem_module
 from metaknot.bspline import BatchFit, CurveFit
 from metaknot.bspline._moves import mask_replacements
 from metaknot.bspline.curve import Curve, make_curve
@@ -166,7 +168,7 @@ class KnotProblem(Problem):
     def evaluate_details(self, X: ArrayLike) -> tuple[np.ndarray, BatchFit]:
         """Objective values plus the per-candidate fit statistics."""
         fit = self._fit_batch(self.encoding.check(X))
-        return self.objective(fit, self.info), fit
+        return self._values(fit), fit
 
     def evaluate(self, X: np.ndarray) -> np.ndarray:
         return self.evaluate_details(X)[0]
@@ -199,7 +201,7 @@ class KnotProblem(Problem):
             return (*self.evaluate_with_metrics(X), 0)
         X = self.encoding.check(X)
         fit, path = self._evaluate_moves(moves, X, near)
-        return self.objective(fit, self.info), self._metrics(fit), \
+        return self._values(fit), self._metrics(fit), \
             int(np.count_nonzero(path == PATH_DELTA))
 
     def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
@@ -222,7 +224,18 @@ class KnotProblem(Problem):
         """Score the candidates ``X`` made from ``near`` with the move evaluator bound to it."""
         return moves.evaluate(*self._stack(X), max_deviation=self.objective.needs_max_deviation)
 
+    def _values(self, fit: BatchFit) -> np.ndarray:
+        """The objective's values of the fitted candidates (of a single one from plain numbers,
+        when the objective can: :meth:`Objective.single`)."""
+        if len(fit) == 1 and problem_module.SINGLE_CANDIDATE_PATH:
+            value = self.objective.single(fit, self.info)
+            if value is not None:
+                return np.array([value])
+        return self.objective(fit, self.info)
+
     def _metrics(self, fit: BatchFit) -> dict[str, np.ndarray]:
+        if len(fit) == 1 and problem_module.SINGLE_CANDIDATE_PATH:
+            return self._single_metrics(fit)
         ok = fit.feasible
         metrics = {
             "rmse": np.where(ok, np.sqrt(fit.sse / self.data.n_points), np.nan),
@@ -230,6 +243,19 @@ class KnotProblem(Problem):
         }
         if fit.max_deviation is not None:
             metrics["max_deviation"] = np.where(ok, fit.max_deviation, np.nan)
+        return metrics
+
+    def _single_metrics(self, fit: BatchFit) -> dict[str, np.ndarray]:
+        """:meth:`_metrics` of a single candidate, from plain numbers."""
+        if fit.reason[0] != 0:
+            metrics = {"rmse": np.array([math.nan]), "n_control_points": np.array([math.nan])}
+            if fit.max_deviation is not None:
+                metrics["max_deviation"] = np.array([math.nan])
+            return metrics
+        metrics = {"rmse": np.array([math.sqrt(fit.sse.item() / self.data.n_points)]),
+                   "n_control_points": np.array([float(fit.n_control_points.item())])}
+        if fit.max_deviation is not None:
+            metrics["max_deviation"] = np.array([fit.max_deviation.item()])
         return metrics
 
     def decode(self, x: ArrayLike) -> KnotSolution:

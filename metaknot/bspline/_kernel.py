@@ -3,7 +3,10 @@
 Each candidate is fitted by Givens QR on the banded collocation matrix, row by row, as FITPACK's
 ``fpcurf`` does: O(N p^2) work and O(n p) memory per candidate, numerically stable (no normal
 equations). A batch of candidates is spread over threads with ``prange``; each thread reuses its
-workspaces from one candidate to the next.
+workspaces from one candidate to the next. Small batches are fitted on the calling thread
+(:func:`evaluate_batch_serial`, :func:`evaluate_masks_serial`,
+:func:`evaluate_positions_serial`): the same per-candidate code, so the same results, without
+waking the thread pool.
 
 Reason codes (see :class:`metaknot.bspline.Infeasibility`):
 0 feasible, 1 more control points than data points, 2 knot outside the open parameter range or
@@ -239,6 +242,46 @@ def fit_one(u, q, interior, p):
     return reason, t, coef
 
 
+@njit(cache=True)
+def _largest_fit(offsets, n_points, p):
+    """Control points of the largest candidate of a flattened batch (capped at ``n_points``
+    + p + 1: larger candidates are refused before they touch a workspace)."""
+    k_max = 0
+    for b in range(offsets.size - 1):
+        k_max = max(k_max, offsets[b + 1] - offsets[b])
+    return min(k_max, n_points) + p + 1
+
+
+@njit(cache=True)
+def _workspaces(n_points, d, p, n_max, want_max_dev):
+    """The workspaces of :func:`_score` for candidates of at most ``n_max`` control points."""
+    t_ws = np.empty(n_max + p + 1)
+    coef_ws = np.empty((n_max, d))
+    basis = np.empty((n_points if want_max_dev else 0, p + 1))
+    spans = np.empty(n_points if want_max_dev else 0, dtype=np.int64)
+    iv_ws = np.empty((n_max + p + 1) * p)
+    st_ws = np.empty(n_max * (1 + p + d))
+    return t_ws, coef_ws, basis, spans, iv_ws, st_ws
+
+
+@njit(cache=True)
+def _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
+    """Fit candidate ``b`` (its sorted interior knots) with the workspaces ``ws`` of
+    :func:`_workspaces`; its results go to entry ``b`` of the output arrays."""
+    t_ws, coef_ws, basis, spans, iv_ws, st_ws = ws
+    n = interior.size + p + 1
+    n_ctrl[b] = n
+    t = t_ws[: n + p + 1]
+    coef = coef_ws[:n]
+    code = TOO_MANY_CONTROL_POINTS
+    sse[b] = np.inf
+    if n <= u.size:
+        code, sse[b] = _fit_ws(u, q, interior, p, t, coef, basis, spans, iv_ws, st_ws)
+    reason[b] = code
+    if max_dev.size > 0:
+        max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE else np.inf
+
+
 @njit(cache=True, parallel=True)
 def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chunks):
     """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``.
@@ -246,36 +289,65 @@ def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chun
     ``max_dev`` may be empty: the maximum deviation (a second pass over the data) is then
     skipped.
     """
-    want_max_dev = max_dev.size > 0
     n_cand = offsets.size - 1
-    k_max = 0
-    for b in range(n_cand):
-        k_max = max(k_max, offsets[b + 1] - offsets[b])
-    n_max = min(k_max, u.size) + p + 1
+    n_max = _largest_fit(offsets, u.size, p)
     n_chunks = min(n_cand, max(n_chunks, 1))
     for c in prange(n_chunks):
         # one workspace per chunk, sized for the largest candidate
-        t_ws = np.empty(n_max + p + 1)
-        coef_ws = np.empty((n_max, q.shape[1]))
-        basis = np.empty((u.size if want_max_dev else 0, p + 1))
-        spans = np.empty(u.size if want_max_dev else 0, dtype=np.int64)
-        iv_ws = np.empty((n_max + p + 1) * p)
-        st_ws = np.empty(n_max * (1 + p + q.shape[1]))
+        ws = _workspaces(u.size, q.shape[1], p, n_max, max_dev.size > 0)
         for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
-            interior = knots[offsets[b] : offsets[b + 1]]
-            n = interior.size + p + 1
-            n_ctrl[b] = n
-            t = t_ws[: n + p + 1]
-            coef = coef_ws[:n]
-            code = TOO_MANY_CONTROL_POINTS
-            sse[b] = np.inf
-            if n <= u.size:
-                code, sse[b] = _fit_ws(u, q, interior, p, t, coef, basis, spans, iv_ws,
-                                       st_ws)
-            reason[b] = code
-            if want_max_dev:
-                max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE \
-                    else np.inf
+            _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev, n_ctrl,
+                   reason)
+
+
+@njit(cache=True)
+def evaluate_batch_serial(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason):
+    """:func:`evaluate_batch` on the calling thread (small batches: no thread pool to wake)."""
+    ws = _workspaces(u.size, q.shape[1], p, _largest_fit(offsets, u.size, p), max_dev.size > 0)
+    for b in range(offsets.size - 1):
+        _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev, n_ctrl, reason)
+
+
+@njit(cache=True)
+def evaluate_masks_serial(u, q, p, masks, sse, max_dev, n_ctrl, reason):
+    """:func:`evaluate_batch` of a ``(B, N - 2)`` batch of masks (nonzero: a knot at that
+    interior point) on the calling thread, each mask's knots gathered in one workspace."""
+    n_cand, n_var = masks.shape
+    k_max = 0
+    for b in range(n_cand):
+        count = 0
+        for i in range(n_var):
+            count += masks[b, i] != 0
+        k_max = max(k_max, count)
+    ws = _workspaces(u.size, q.shape[1], p, min(k_max, u.size) + p + 1, max_dev.size > 0)
+    interior = np.empty(k_max)
+    for b in range(n_cand):
+        end = n_var  # branch-free gathering, as in masks_to_knots
+        while end > 0 and masks[b, end - 1] == 0:
+            end -= 1
+        k = 0
+        for i in range(end):
+            interior[k] = u[i + 1]
+            k += masks[b, i] != 0
+        _score(u, q, p, interior[:k], b, ws, sse, max_dev, n_ctrl, reason)
+
+
+@njit(cache=True)
+def evaluate_positions_serial(u, q, p, positions, nan_is_absent, sse, max_dev, n_ctrl, reason):
+    """:func:`evaluate_batch` of a ``(B, K)`` batch of knot positions on the calling thread,
+    each row sorted in one workspace (NaN last, as numpy sorts; dropped if ``nan_is_absent``,
+    else reported by the knot checks)."""
+    n_cand, k = positions.shape
+    ws = _workspaces(u.size, q.shape[1], p, min(k, u.size) + p + 1, max_dev.size > 0)
+    interior = np.empty(k)
+    for b in range(n_cand):
+        interior[:] = positions[b]
+        interior.sort()
+        count = k
+        if nan_is_absent:
+            while count > 0 and np.isnan(interior[count - 1]):
+                count -= 1
+        _score(u, q, p, interior[:count], b, ws, sse, max_dev, n_ctrl, reason)
 
 
 @njit(cache=True, parallel=True)

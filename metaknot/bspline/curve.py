@@ -27,13 +27,14 @@ from ._codegen import MAX_DIMENSION
 from .fit import (
     BatchFit,
     CurveFit,
-    evaluate_indices,
+    _evaluate,
+    _evaluate_masks,
+    _evaluate_positions,
+    _prepare,
     evaluate_knots,
-    evaluate_masks,
-    evaluate_positions,
     fit_spline,
 )
-from .knots import averaging_knots
+from .knots import averaging_knots, stack_indices
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
 from .periodic import closed_parameterize, evaluate_periodic, fit_periodic
@@ -218,6 +219,11 @@ class OpenCurve(Curve):
     kind = "open (clamped)"
     max_interior_knots_rule = "N - degree - 1"
 
+    def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
+        super().__init__(params, points, degree)
+        # the data as the kernel takes it, checked once: batches go to the kernel directly
+        self._u, self._q = _prepare(params, points, degree)
+
     @property
     def extra_control_points(self) -> int:
         return self.degree + 1
@@ -239,16 +245,15 @@ class OpenCurve(Curve):
                               max_deviation=max_deviation)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
-        return evaluate_masks(self.params, self.points, np.asarray(masks).astype(bool),
-                              self.degree, max_deviation=max_deviation)
+        return _evaluate_masks(self._u, self._q, masks, self.degree, max_deviation)
 
     def evaluate_indices(self, indices, *, max_deviation=True):
-        return evaluate_indices(self.params, self.points, indices, self.degree,
-                                max_deviation=max_deviation)
+        return _evaluate(self._u, self._q, *stack_indices(self._u, indices), self.degree,
+                         max_deviation)
 
     def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
-        return evaluate_positions(self.params, self.points, positions, self.degree,
-                                  max_deviation=max_deviation, nan_is_absent=nan_is_absent)
+        return _evaluate_positions(self._u, self._q, positions, self.degree, max_deviation,
+                                   nan_is_absent)
 
     def fit(self, interior_knots):
         return fit_spline(self.params, self.points, interior_knots, self.degree)

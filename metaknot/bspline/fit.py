@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numba
@@ -15,7 +15,8 @@ from .. import audit
 from ..compat import Metrics
 from . import _kernel
 from ._codegen import MAX_DIMENSION
-from .knots import stack_indices, stack_masks, stack_positions
+from ._kernel import masks_to_knots
+from .knots import check_mask_shape, check_masks, stack_indices, stack_positions
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
@@ -111,21 +112,56 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
     return u, q
 
 
+#: Batches of at most this many candidates (a sequential optimizer's, a CMA-ES generation, a
+#: nevergrad batch) are fitted on the calling thread: waking the kernel's thread pool costs
+#: more than it saves (on a busy machine far more). 0 sends every batch to the thread pool.
+SERIAL_BATCH = 16
+
+
+def _outputs(b: int, max_deviation: bool) -> tuple[np.ndarray, ...]:
+    """The kernel's output arrays for ``b`` candidates (SSE, maximum deviation, control
+    points, reason); the audit's tally counts the ``b`` fits they are for."""
+    audit.add_fits(b)
+    return (np.empty(b), np.empty(b if max_deviation else 0), np.empty(b, dtype=np.int64),
+            np.empty(b, dtype=np.int8))
+
+
 def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray, p: int,
               max_deviation: bool) -> BatchFit:
-    b = offsets.size - 1
-    audit.add_fits(b)
-    out = BatchFit(
-        sse=np.empty(b),
-        max_deviation=np.empty(b if max_deviation else 0),
-        n_control_points=np.empty(b, dtype=np.int64),
-        reason=np.empty(b, dtype=np.int8),
-    )
-    _kernel.evaluate_batch(
-        u, q, p, np.ascontiguousarray(knots, dtype=np.float64), offsets, out.sse,
-        out.max_deviation, out.n_control_points, out.reason, 8 * numba.get_num_threads(),
-    )
-    return out if max_deviation else replace(out, max_deviation=None)
+    """Fit a flattened batch (``u``, ``q`` as :func:`_prepare` returns them)."""
+    sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
+    knots = np.ascontiguousarray(knots, dtype=np.float64)
+    if sse.size <= SERIAL_BATCH:
+        _kernel.evaluate_batch_serial(u, q, p, knots, offsets, *out)
+    else:
+        _kernel.evaluate_batch(u, q, p, knots, offsets, *out, 8 * numba.get_num_threads())
+    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
+
+
+def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
+                    max_deviation: bool) -> BatchFit:
+    """Fit a ``(B, N - 2)`` batch of masks (nonzero: a knot; values are not checked)."""
+    masks = check_mask_shape(u, masks)
+    if masks.dtype.kind not in "biu":
+        masks = masks.astype(bool)
+    if len(masks) > SERIAL_BATCH:
+        return _evaluate(u, q, *masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool)), p,
+                         max_deviation)
+    sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
+    _kernel.evaluate_masks_serial(u, q, p, masks, *out)
+    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
+
+
+def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: int,
+                        max_deviation: bool, nan_is_absent: bool) -> BatchFit:
+    """Fit a ``(B, K)`` batch of knot positions (see :func:`evaluate_positions`)."""
+    positions = np.asarray(positions, dtype=np.float64)
+    if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
+        return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
+                         max_deviation)
+    sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
+    _kernel.evaluate_positions_serial(u, q, p, positions, nan_is_absent, *out)
+    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
 def evaluate_knots(
@@ -161,7 +197,7 @@ def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: in
                    max_deviation: bool = True) -> BatchFit:
     """Score a ``(B, N-2)`` batch of 0/1 masks over the interior data points."""
     u, q = _prepare(u, points, degree)
-    return _evaluate(u, q, *stack_masks(u, masks), int(degree), max_deviation)
+    return _evaluate_masks(u, q, check_masks(u, masks), int(degree), max_deviation)
 
 
 def evaluate_indices(u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree: int = 3, *,
@@ -180,8 +216,7 @@ def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, de
     so rows may have different knot counts).
     """
     u, q = _prepare(u, points, degree)
-    knots, offsets = stack_positions(positions, nan_is_absent=nan_is_absent)
-    return _evaluate(u, q, knots, offsets, int(degree), max_deviation)
+    return _evaluate_positions(u, q, positions, int(degree), max_deviation, nan_is_absent)
 
 
 @dataclass(frozen=True, eq=False)

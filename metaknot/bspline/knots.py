@@ -10,6 +10,8 @@ from .parameterize import check_degree
 
 __all__ = [
     "averaging_knots",
+    "check_mask_shape",
+    "check_masks",
     "clamped_knot_vector",
     "interior_from_indices",
     "interior_from_mask",
@@ -108,18 +110,30 @@ def _offsets(counts: np.ndarray) -> np.ndarray:
     return offsets
 
 
-def stack_masks(u: np.ndarray, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Flatten a ``(B, N-2)`` batch of masks to interior knots plus row offsets."""
+def check_mask_shape(u: np.ndarray, masks: ArrayLike) -> np.ndarray:
+    """``masks`` as an array, or a ``ValueError`` unless its shape is ``(B, N-2)``."""
     masks = np.asarray(masks)
     if masks.ndim != 2 or masks.shape[1] != u.size - 2:
         raise ValueError(
             f"masks must have shape (B, N - 2) = (B, {u.size - 2}); got {masks.shape}"
         )
+    return masks
+
+
+def check_masks(u: np.ndarray, masks: ArrayLike) -> np.ndarray:
+    """A ``(B, N-2)`` batch of 0/1 masks over the interior data points, as booleans; a
+    ``ValueError`` for another shape or other values."""
+    masks = check_mask_shape(u, masks)
     if masks.dtype != bool:
         if not np.isin(masks, (0, 1)).all():
             raise ValueError("masks must contain only 0 and 1")
         masks = masks.astype(bool)
-    return masks_to_knots(u, np.ascontiguousarray(masks))
+    return masks
+
+
+def stack_masks(u: np.ndarray, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten a ``(B, N-2)`` batch of masks to interior knots plus row offsets."""
+    return masks_to_knots(u, np.ascontiguousarray(check_masks(u, masks)))
 
 
 def stack_indices(u: np.ndarray, indices: ArrayLike, *, closed: bool = False

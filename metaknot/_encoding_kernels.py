@@ -1,9 +1,19 @@
-"""Compiled repair of integer sets (used by :meth:`metaknot.Encoding.repair`)."""
+"""Compiled helpers of :class:`metaknot.Encoding`: the bounds check of ``check`` and the repair of
+integer sets of ``repair``."""
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+
+@njit(cache=True)
+def within(X: np.ndarray, low: int, high: int) -> bool:
+    """True if every entry of ``X`` lies in ``low..high`` (stops at the first that does not)."""
+    for value in X.flat:
+        if value < low or value > high:
+            return False
+    return True
 
 
 @njit(cache=True)
