@@ -332,7 +332,7 @@ def test_a_npy_header_is_checked_before_the_data_is_read(tmp_path, shape, messag
     (b"1" * 10_000_000, "line 1 is longer than 4,096 characters"),
     (b"1,2\n3," + b"x" * 4000 + b"\n5,6\n",
      "line 2, column 2: '" + "x" * 80 + "'... (4,000 characters) is not a number"),
-])
+], ids=["binary", "latin-1", "long-line", "long-cell"])
 def test_a_file_that_is_no_text_table_is_refused_in_a_short_line(tmp_path, content, message):
     path = tmp_path / "scan.csv"
     path.write_bytes(content)

@@ -188,7 +188,7 @@ def test_function_data_as_a_plane_curve_in_dxf(tmp_path) -> None:
     ("\0" * 10_000_000, [], "pts.csv: binary data (a NUL byte at offset 0)"),
     ("0\n1\n2\n3\n4\n5\n", ["--function"], "--function"),
     ("0,0\n1,1\n2,0\n3,1\n4,0\n5,2\n", ["--tol", "0"], "tolerance must be a number > 0"),
-])
+], ids=["not-a-number", "ragged", "nan", "huge", "binary", "one-column-function", "zero-tol"])
 def test_bad_files_are_one_line_errors_and_leave_nothing(tmp_path, content, args,
                                                           message) -> None:
     (tmp_path / "pts.csv").write_text(content)
