@@ -45,19 +45,25 @@ def assert_same(me: MoveEvaluator, knots: np.ndarray, offsets: np.ndarray,
     """Scores of the move evaluator equal the full evaluator's; returns the paths."""
     fit, path = me.evaluate(knots, offsets, max_deviation=max_deviation)
     ref = evaluate_knots(me.u, me.q, knots, offsets, me.degree, max_deviation=max_deviation)
+    assert_same_scores(fit, ref, me.q, max_deviation)
+    if not max_deviation:
+        assert fit.max_deviation is None
+    assert set(np.unique(path)) <= {PATH_DELTA, PATH_CHECKS, PATH_FULL}
+    return path
+
+
+def assert_same_scores(fit, ref, q: np.ndarray, max_deviation: bool) -> None:
+    """A move evaluator's fits equal the reference kernel's: reasons and control points
+    exactly, SSE (and the maximum deviation) of the feasible ones to rounding, +inf else."""
     np.testing.assert_array_equal(fit.reason, ref.reason)
     np.testing.assert_array_equal(fit.n_control_points, ref.n_control_points)
     ok = ref.feasible
-    scale = float(np.sum(me.q ** 2))
+    scale = float(np.sum(q ** 2))
     np.testing.assert_allclose(fit.sse[ok], ref.sse[ok], rtol=1e-10, atol=1e-22 * scale)
     assert np.all(np.isinf(fit.sse[~ok]))
     if max_deviation:
         np.testing.assert_allclose(fit.max_deviation[ok], ref.max_deviation[ok], rtol=1e-9,
                                    atol=1e-11 * np.sqrt(scale))
-    else:
-        assert fit.max_deviation is None
-    assert set(np.unique(path)) <= {PATH_DELTA, PATH_CHECKS, PATH_FULL}
-    return path
 
 
 def random_mask(rng: np.random.Generator, n_var: int, density: float) -> np.ndarray:

@@ -66,6 +66,17 @@ CERTIFY = 0.5
 UNREACHED = EMPTY * 1e-10
 
 
+@njit(cache=True, inline='always')
+def check_offsets(offsets, size):
+    """Raise unless ``offsets`` runs from 0 to ``size`` without decreasing."""
+    n_cand = offsets.size - 1
+    bad = offsets[0] != 0 or offsets[n_cand] != size
+    for b in range(n_cand):
+        bad |= offsets[b + 1] < offsets[b]
+    if bad:
+        raise ValueError("offsets must run from 0 to len(knots) without decreasing")
+
+
 @njit(cache=True)
 def reciprocals(t, p, iv, lo_start, lo_stop):
     """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` (0 where not positive) for
@@ -318,11 +329,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
     m, d = q.shape
     w = 1 + p + d
     n_cand = offsets.size - 1
-    bad = offsets[0] != 0 or offsets[n_cand] != knots.size
-    for b in range(n_cand):
-        bad |= offsets[b + 1] < offsets[b]
-    if bad:
-        raise ValueError("offsets must run from 0 to len(knots) without decreasing")
+    check_offsets(offsets, knots.size)
     n_max = m + p + 1  # a candidate with more columns than points is rejected before a fit
     t2 = np.empty(n_max + p + 1)
     iv = np.zeros(p * (n_max + p + 1))

@@ -59,7 +59,7 @@ from ._kernel import (
     SINGULAR,
     TOO_MANY_CONTROL_POINTS,
 )
-from ._moves import CERTIFY, PATH_CHECKS, PATH_DELTA, PATH_FULL
+from ._moves import CERTIFY, PATH_CHECKS, PATH_DELTA, PATH_FULL, check_offsets
 from ._periodic_kernel import (
     PIVOT_RATIO,
     _basis,
@@ -371,11 +371,7 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
     m = interior.size + 1
     nb = m - p
     n_cand = offsets.size - 1
-    bad = offsets[0] != 0 or offsets[n_cand] != knots.size
-    for b in range(n_cand):
-        bad |= offsets[b + 1] < offsets[b]
-    if bad:
-        raise ValueError("offsets must run from 0 to len(knots) without decreasing")
+    check_offsets(offsets, knots.size)
     m_max = n + 1
     breaks = np.empty(m_max)
     t2 = np.empty(m_max + 2 * p + 1)
