@@ -8,7 +8,7 @@ name               method
 ``nlopt``          nlopt free-knot optimisation (local and global algorithms)
 ``uniform``        equally spaced knots
 ``averaging``      averaging knots (NURBS Book eqs. 9.68-9.69)
-``fitpack``        FITPACK's knots (scipy ``splprep``), smoothing factor searched
+``fitpack``        FITPACK's knots (:mod:`metaknot.bspline.fitpack`), smoothing factor searched
 ``random_search``  independent random candidates
 ``one_plus_one``   (1+1) EA (or (1+λ)), 1/n bit flips or index steps
 ``local_search``   best-improvement knot removal/insertion/shifts from averaging knots

@@ -137,7 +137,7 @@ class AveragingKnots(_KnotCountBaseline):
 
 @register("fitpack")
 class FitpackKnots(_KnotCountBaseline):
-    """The knots of FITPACK's smoothing spline (scipy ``splprep``, ``u`` = the problem's
+    """The knots of FITPACK's smoothing spline (``metaknot.bspline.fitpack``, ``u``: the problem's
     parameters, ``k`` = its degree), least-squares refitted by the problem.
 
     ``target="count"``: for each K, the smoothing factor s is searched by bisection on log s
@@ -177,7 +177,7 @@ class FitpackKnots(_KnotCountBaseline):
         self._found: dict[int, tuple[float, np.ndarray]] = {0: (fp0, np.empty(0))}
 
     def _knots(self, s: float) -> np.ndarray:
-        """FITPACK's interior knots at smoothing ``s`` (one ``splprep`` call, counted as an
+        """FITPACK's interior knots at smoothing ``s`` (one FITPACK call, counted as an
         external fit: it is not an evaluation of the problem's objective)."""
         self.count_fits(1)
         return fitpack.interior_knots(self.problem.params, self.problem.points,

@@ -44,9 +44,8 @@ __all__ = ["Bisection", "bisect_segments", "bisection", "refine_knots", "remove_
 
 def bisect_segments(target: Target) -> np.ndarray:
     """The interior segment ends of the recursive bisection (data parameters)."""
-    u, q, p = target.params, target.points, target.degree
-    if target.closed:  # round to point 0 again, at parameter 1
-        u, q = np.append(u, 1.0), np.vstack((q, q[:1]))
+    curve, p = target.curve, target.degree
+    u, q = curve.domain_params, curve.around(curve.points)  # a closed outline: round to 0 again
     ends, stack = [], [(0, u.size - 1)]
     while stack:
         a, b = stack.pop()

@@ -43,15 +43,7 @@ __all__ = ["DominantPoints", "dominant_knots", "dominant_points"]
 def dominant_knots(target: Target, dominant: np.ndarray) -> np.ndarray:
     """Interior knots of the dominant point indices (sorted): averages of ``p`` consecutive
     dominant parameters (open), the dominant parameters but 0 (closed)."""
-    u = target.params[dominant]
-    if target.closed:
-        return u[u > 0]
-    p = target.degree
-    n_interior = u.size - p - 1
-    if n_interior <= 0:
-        return np.empty(0)
-    window = np.lib.stride_tricks.sliding_window_view(u[1:-1], p)
-    return window.mean(axis=1)[:n_interior]
+    return target.curve.knots_for_breaks(target.params[dominant])
 
 
 def _candidates(target: Target, smoothing: float) -> tuple[np.ndarray, np.ndarray]:
@@ -59,8 +51,7 @@ def _candidates(target: Target, smoothing: float) -> tuple[np.ndarray, np.ndarra
     angle = smoothed_turning(target, smoothing)
     left, right = np.roll(angle, 1), np.roll(angle, -1)
     peak = (angle > left) & (angle >= right)
-    if not target.closed:
-        peak[[0, -1]] = False
+    peak[target.curve.end_indices] = False
     maxima = np.flatnonzero(peak)
     return angle, maxima[np.argsort(-angle[maxima], kind="stable")]
 
@@ -70,7 +61,7 @@ def dominant_points(target: Target, smoothing: float = 1.0) -> np.ndarray:
     """Park & Lee's adaptive refinement by dominant points (see the module docstring)."""
     n, p = target.params.size, target.degree
     curvature, maxima = _candidates(target, smoothing)
-    ends = [0] if target.closed else [0, n - 1]
+    ends = sorted({0, *target.curve.end_indices.tolist()})
     chosen = set(ends) | set(maxima[: p - 1].tolist())  # no interior knot (closed: p breaks)
     for i in np.linspace(0, n - 1, p + 1).astype(int):  # too few maxima: spread the rest
         if len(chosen) >= len(ends) + p - 1:
@@ -89,7 +80,8 @@ def dominant_points(target: Target, smoothing: float = 1.0) -> np.ndarray:
             return knots
         residual = found.residuals
         # segment s holds the points strictly between dominant[s] and the next dominant point
-        bounds = np.append(dominant, n if target.closed else dominant[-1])
+        # (an open curve's last point is dominant: its last segment is empty)
+        bounds = np.append(dominant, n)
         order = []
         for s in range(bounds.size - 1):
             inside = np.arange(bounds[s] + 1, bounds[s + 1]) % n

@@ -38,6 +38,7 @@ from typing import Any
 
 import numpy as np
 
+from metaknot.bspline.curve import Curve
 from metaknot.optimizer import check_param
 from metaknot.registry import register
 
@@ -54,10 +55,10 @@ __all__ = ["Equidistribution", "curvature_density", "equidistribution", "smoothe
            "turning_angles"]
 
 
-def turning_angles(points: np.ndarray, params: np.ndarray, closed: bool) -> np.ndarray:
+def turning_angles(curve: Curve) -> np.ndarray:
     """The turning angle of the data polygon at every point (0 at an open curve's ends);
     function data (one coordinate) as the graph ``(x, y)``, both scaled to [0, 1]."""
-    q = np.asarray(points, dtype=np.float64)
+    q, params = curve.points, curve.params
     if q.shape[1] == 1:
         span = np.ptp(q[:, 0]) or 1.0
         q = np.column_stack(((params - params[0]) / (params[-1] - params[0]), q[:, 0] / span))
@@ -66,19 +67,18 @@ def turning_angles(points: np.ndarray, params: np.ndarray, closed: bool) -> np.n
     cos = np.einsum("ij,ij->i", nxt, prv) / np.maximum(
         np.linalg.norm(nxt, axis=1) * np.linalg.norm(prv, axis=1), np.finfo(float).tiny)
     angle = np.arccos(np.clip(cos, -1.0, 1.0))
-    if not closed:
-        angle[[0, -1]] = 0.0
+    angle[curve.end_indices] = 0.0
     return angle
 
 
 def smoothed_turning(target: Target, smoothing: float) -> np.ndarray:
     """:func:`turning_angles` smoothed by a Gaussian of ``smoothing`` points (Li et al.'s
     smoothed discrete curvature; cyclic on a closed outline)."""
-    angle = turning_angles(target.points, target.params, target.closed)
+    angle = turning_angles(target.curve)
     if smoothing > 0:
         half = int(np.ceil(3 * smoothing))
         w = np.exp(-0.5 * (np.arange(-half, half + 1) / smoothing) ** 2)
-        padded = np.pad(angle, half, mode="wrap" if target.closed else "edge")
+        padded = target.curve.extend(angle, half, open_mode="edge")
         angle = np.convolve(padded, w / w.sum(), mode="valid")
     return angle
 
@@ -86,16 +86,11 @@ def smoothed_turning(target: Target, smoothing: float) -> np.ndarray:
 def curvature_density(target: Target, smoothing: float) -> tuple[np.ndarray, np.ndarray]:
     """The cumulative density of Razdan's combination (see the module docstring), over the
     data parameters (a closed outline's extended to 1)."""
-    u, q = target.params, target.points
-    angle = smoothed_turning(target, smoothing)
-    if target.closed:
-        grid = np.append(u, 1.0)
-        steps = np.linalg.norm(np.diff(np.vstack((q, q[:1])), axis=0), axis=1)
-        turn = 0.5 * (angle + np.roll(angle, -1))
-    else:
-        grid = u
-        steps = np.linalg.norm(np.diff(q, axis=0), axis=1)
-        turn = 0.5 * (angle[1:] + angle[:-1])
+    curve = target.curve
+    grid = curve.domain_params
+    steps = np.linalg.norm(np.diff(curve.around(curve.points), axis=0), axis=1)
+    angle = curve.around(smoothed_turning(target, smoothing))
+    turn = 0.5 * (angle[1:] + angle[:-1])
     share = steps / steps.sum() + (turn / turn.sum() if turn.sum() > 0 else 0.0)
     total = np.concatenate(([0.0], np.cumsum(share)))  # constant rate on each data interval
     return grid, total / total[-1]

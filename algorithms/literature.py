@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from metaknot.bspline import averaging_knots, check_degree
-from metaknot.bspline.curve import ClosedCurve, Curve, CurveFit, Metric, OpenCurve
+from metaknot.bspline.curve import Curve, CurveFit, Metric, curve_model
 from metaknot.optimizer import check_param
 from metaknot.problem import Problem
 
@@ -103,9 +103,6 @@ class Target:
                              f"{u.shape}")
         if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
             raise ValueError("params must be finite and strictly increasing")
-        if closed and (u[0] != 0.0 or u[-1] >= 1.0):
-            raise ValueError("a closed outline's params must start at 0 and stay below 1 "
-                             "(metaknot.bspline.periodic.closed_parameterize)")
         if q.shape[0] < p + 2:
             raise ValueError(f"{q.shape[0]} points are too few for degree {p}: at least "
                              f"{p + 2} needed")
@@ -114,7 +111,7 @@ class Target:
         if isinstance(tolerance, bool) or not isinstance(tolerance, int | float | np.floating) \
                 or not np.isfinite(tolerance) or tolerance <= 0:
             raise ValueError(f"the tolerance must be a number > 0; got {tolerance!r}")
-        self.curve: Curve = (ClosedCurve if closed else OpenCurve)(u, q, p)
+        self.curve: Curve = curve_model(closed)(u, q, p)
         self.tolerance = float(tolerance)
         self.metric: Metric = metric
         self.fits = 0
@@ -183,7 +180,7 @@ class Target:
         """``knots`` less those that would leave a knot span without a data parameter (which
         no least-squares fit allows), kept from the left."""
         lo, hi = self.bounds
-        u = self.params if not self.closed else np.append(self.params, 1.0)
+        u = self.curve.domain_params
         knots = np.sort(np.asarray(knots, dtype=np.float64))
         below = np.searchsorted(u, knots, side="left")  # data parameters < knot
         up_to = np.searchsorted(u, knots, side="right")  # data parameters <= knot
@@ -381,7 +378,7 @@ class ToleranceMethod(_KnotCountBaseline):
 
     def knot_sets(self) -> Iterator[np.ndarray]:
         p = self.problem
-        lower, upper = (0.0, 1.0) if p.closed else (float(p.params[0]), float(p.params[-1]))
+        lower, upper = p.knot_bounds
         for tolerance, metric in self.tolerances():
             found = type(self).method(p.params, p.points, tolerance, degree=p.degree,
                                       closed=p.closed, metric=metric, **self.method_options())

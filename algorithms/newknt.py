@@ -48,15 +48,11 @@ def newnot(target: Target, knots: np.ndarray) -> np.ndarray | None:
     mid = 0.5 * (breaks[1:] + breaks[:-1])
     a = found.spline.derivative(p)(mid).reshape(mid.size, -1)  # D^p s on each span
     width = np.diff(breaks)
-    if target.closed:  # cyclic: the span before the first is the last
-        prev = np.roll(a, 1, axis=0)
-        half = 0.5 * (width + np.roll(width, 1))
-        d = np.linalg.norm(a - prev, axis=1) / half  # at break i, i = 0..m-1
-        size = d + np.roll(d, -1)
-    else:
-        d = np.linalg.norm(np.diff(a, axis=0), axis=1) / (0.5 * (width[1:] + width[:-1]))
-        d = np.concatenate((d[:1], d, d[-1:]))  # a missing end difference: the other twice
-        size = d[:-1] + d[1:] if d.size else np.zeros(width.size)
+    # the jump at every break 0..m of the m spans: cyclic on a closed outline; at an open
+    # curve's ends the spans are mirrored, so a missing end difference is its neighbour's
+    a, width2 = target.curve.extend(a, 1, "reflect"), target.curve.extend(width, 1, "reflect")
+    d = np.linalg.norm(np.diff(a, axis=0), axis=1) / (0.5 * (width2[1:] + width2[:-1]))
+    size = d[:-1] + d[1:]
     rho = (size + 1e-3 * max(size.mean(), np.finfo(float).tiny)) ** (1.0 / (p + 1))
     total = np.concatenate(([0.0], np.cumsum(rho * width)))  # exact for a piecewise constant
     return equidistribute((breaks, total / total[-1]), knots.size)

@@ -43,7 +43,6 @@ from typing import Any
 
 import numpy as np
 
-from metaknot.bspline.periodic import periodic_knot_vector
 from metaknot.optimizer import check_param
 from metaknot.registry import register
 
@@ -60,17 +59,9 @@ def jump_matrices(target: Target):
     from scipy.interpolate import BSpline
 
     u, p = target.params, target.degree
-    if target.closed:
-        candidates = u[1:]
-        t = periodic_knot_vector(candidates, p)
-        n = t.size - p - 1
-        m = candidates.size + 1  # breakpoints, 0 included: the distinct coefficients
-        fold = sparse.csr_matrix((np.ones(n), (np.arange(n), np.arange(n) % m)), shape=(n, m))
-    else:
-        candidates = u[1:-1]
-        t = np.concatenate((np.full(p + 1, u[0]), candidates, np.full(p + 1, u[-1])))
-        n = t.size - p - 1
-        fold = sparse.identity(n, format="csr")
+    candidates = target.curve.candidate_params
+    t, fold = target.curve.coefficient_map(candidates)
+    n = t.size - p - 1
     basis = BSpline.design_matrix(u, t, p).tocsr() @ fold
     derivative = sparse.identity(n, format="csr")
     tk, k = t, p

@@ -4,7 +4,7 @@ Cases: the three seed curves, each clean and with Gaussian noise of 1e-4 and 2e-
 bounding-box diagonal per coordinate; function data (500 samples of a sharp Gaussian peak on a
 slope); and a closed outline (a 400-point rounded star) this script generates. Tolerance: 1e-3
 of the diagonal on the maximum deviation. For each case FITPACK's answer (the fewest control
-points of ``splprep``'s own spline within the tolerance, scanning its smoothing factor) and
+points of FITPACK's own spline within the tolerance, scanning its smoothing factor) and
 ``metaknot fit``'s, with both times, on one kernel thread. Closed curves (the outline, and the
 Vivaldi curve, whose ends meet) get periodic splines on both sides (FITPACK's ``per=1``). The
 last lines are

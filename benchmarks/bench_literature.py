@@ -29,6 +29,7 @@ from bench_fit import cases as fit_cases
 
 import metaknot as mk
 from metaknot.algorithms.literature import METHODS
+from metaknot.bspline.curve import curve_model
 from metaknot.suite import get_instance
 from metaknot.suite.tasks import get_task
 
@@ -62,7 +63,8 @@ def main() -> None:
         start = time.perf_counter()
         fitted = mk.fit(**options)
         seconds = time.perf_counter() - start
-        extra = 1 if fitted.closed else fitted.degree + 1
+        extra = curve_model(fitted.closed)(fitted.params, fitted.points,
+                                           fitted.degree).extra_control_points
         cells, best = [], None
         for name in names:
             start = time.perf_counter()

@@ -2,7 +2,7 @@
 
 This is the study ``experiment=fitpack_front`` (``metaknot run -m experiment=fitpack_front``),
 run and then read from the results store: one code path for the study and the benchmark.
-For each seed curve (centripetal parameters, cubic) FITPACK (``splprep``) picks a knot count
+For each seed curve (centripetal parameters, cubic) FITPACK picks a knot count
 at smoothing ``s = N * 1e-4`` and ``s = N * 1e-6``: six cases. In each case every method gets
 that same number of interior knots K and the same budget, for several seeds, minimising the
 error (objective ``paper`` without error floor: with K fixed it is K x Euclidean distance):

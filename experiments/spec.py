@@ -647,8 +647,7 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
             return KnotSelection(data, density=encoding["density"], **common)
         n_knots = encoding["n_knots"]
         if n_knots == "max":
-            n_knots = KnotSelection(data, **common).last_candidate_point - (
-                0 if common["closed"] else common["degree"] - 1)
+            n_knots = KnotSelection(data, **common).curve.max_interior_knots
         elif isinstance(n_knots, str):
             n_knots = fitpack_count(data, float(n_knots.split(":", 1)[1]), common)
         if kind == "indices":
@@ -660,7 +659,7 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
 
 
 def fitpack_count(data, factor: float, common: Mapping[str, Any]) -> int:
-    """Interior knots FITPACK (``splprep``) places at smoothing ``s = N * factor`` (at least 1)."""
+    """Interior knots FITPACK places at smoothing ``s = N * factor`` (at least 1)."""
     from metaknot.bspline import fitpack, parameterize
 
     method = data.params if data.params is not None else common["parameterization"]

@@ -42,13 +42,15 @@ __all__ = ["FreeKnotSpace", "FreeKnots", "KnotIndices", "KnotProblem", "KnotSele
 class KnotSpace(Protocol):
     """What an optimizer may rely on of a knot problem, seen directly or through its
     :class:`~metaknot.Task`: the data parameters and points, the degree, whether the curve is
-    closed, and the highest data index a knot may sit at. ``isinstance(problem, KnotSpace)`` is
+    closed, the open interval interior knots lie in, and the highest data index a knot may sit
+    at. ``isinstance(problem, KnotSpace)`` is
     the one test of "a knot problem" (duck-typed: wrappers of one pass too)."""
 
     params: np.ndarray
     points: np.ndarray
     degree: int
     closed: bool
+    knot_bounds: tuple[float, float]
     last_candidate_point: int
 
 
@@ -125,7 +127,7 @@ class KnotProblem(Problem):
 
     public_attributes = Problem.public_attributes | {
         "data", "points", "params", "degree", "closed", "parameterization", "objective",
-        "info", "last_candidate_point"}
+        "info", "knot_bounds", "last_candidate_point"}
     metric_names = ("n_control_points", "sse", "rmse", "euclidean_distance", "max_deviation")
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
@@ -277,6 +279,12 @@ class KnotProblem(Problem):
         return {**super().describe(), **self.data.describe(), "degree": self.degree,
                 "parameterization": self.parameterization, "closed": self.closed,
                 **self.objective.describe()}
+
+    @property
+    def knot_bounds(self) -> tuple[float, float]:
+        """The open interval interior knots lie in: ``(u_0, u_{N-1})`` (open), ``(0, 1)``
+        (closed)."""
+        return self.curve.knot_bounds
 
     @property
     def last_candidate_point(self) -> int:

@@ -100,3 +100,61 @@ def test_errors_and_knot_sets_of_either_curve(closed):
 def test_a_closed_curve_refuses_explicit_parameters():
     with pytest.raises(ValueError, match="explicit parameters do not apply"):
         make_curve(polygon(20), closed=True, params=np.linspace(0, 1, 20))
+
+
+def test_the_data_polygon_of_either_curve():
+    ring = polygon(12)
+    closed = make_curve(ring, closed=True)
+    line = make_curve(ring[:8])  # an arc: open
+    # a closed outline comes round to its first point, at parameter 1
+    assert np.array_equal(closed.domain_params, np.append(closed.params, 1.0))
+    assert np.array_equal(closed.around(closed.points)[-1], closed.points[0])
+    assert closed.around(closed.points).shape == (13, 2) and closed.end_indices.size == 0
+    assert np.array_equal(line.domain_params, line.params)
+    assert np.array_equal(line.around(line.points), line.points)
+    assert line.end_indices.tolist() == [0, 7]
+    values = np.arange(5.0)
+    assert closed.extend(values, 2).tolist() == [3, 4, 0, 1, 2, 3, 4, 0, 1]
+    assert line.extend(values, 2).tolist() == [0, 0, 0, 1, 2, 3, 4, 4, 4]
+    assert line.extend(values, 1, "reflect").tolist() == [1, 0, 1, 2, 3, 4, 3]
+    rows = np.arange(6.0).reshape(3, 2)  # per-span rows extend along the first axis only
+    assert closed.extend(rows, 1).tolist() == [[4, 5], [0, 1], [2, 3], [4, 5], [0, 1]]
+
+
+def test_knots_for_breaks_and_the_coefficient_map():
+    from scipy.interpolate import BSpline, make_lsq_spline
+
+    ring = polygon(40)
+    closed, line = make_curve(ring, closed=True), make_curve(ring[:30])
+    breaks = line.params[[0, 5, 11, 17, 23, 29]]
+    # The NURBS Book eq. 9.8 at the breaks, by hand: t_j = (b_j + b_{j+1} + b_{j+2}) / 3
+    assert np.allclose(line.knots_for_breaks(breaks), [breaks[1:4].mean(), breaks[2:5].mean()])
+    assert line.knots_for_breaks(breaks[:4]).size == 0
+    at = closed.params[[0, 7, 19, 30]]
+    assert np.array_equal(closed.knots_for_breaks(at), at[1:])
+    # open: the clamped knot vector scipy's least squares takes, coefficients one to one
+    knots = line.params[[7, 15, 22]]
+    t, spread = line.coefficient_map(knots)
+    assert np.allclose(make_lsq_spline(line.params, line.points, t, k=3)(line.params),
+                       line.fit(knots).spline(line.params))
+    assert np.array_equal(spread.toarray(), np.eye(t.size - 4))
+    # closed: any distinct coefficients spread over the periodic knot vector give a spline
+    # that closes with its derivatives, and the least-squares fit is one of them
+    knots = closed.params[[6, 13, 21, 30]]
+    t, spread = closed.coefficient_map(knots)
+    c = spread @ np.random.default_rng(0).normal(size=(knots.size + 1, 2))
+    spline = BSpline(t, c, 3)
+    for order in range(3):
+        assert np.allclose(spline(0.0, nu=order), spline(1.0, nu=order))
+    fitted = closed.fit(knots).spline
+    assert np.allclose(fitted.t, t)
+    assert np.allclose(spread @ np.asarray(fitted.c)[: knots.size + 1], np.asarray(fitted.c))
+
+
+def test_a_closed_curve_takes_parameters_over_one_period():
+    ring = polygon(12)
+    u = closed_parameterize(ring)
+    with pytest.raises(ValueError, match="start at 0 and stay below 1"):
+        ClosedCurve(u + 0.01, ring, 3)
+    with pytest.raises(ValueError, match="start at 0 and stay below 1"):
+        ClosedCurve(np.linspace(0, 1, 12), ring, 3)

@@ -235,7 +235,7 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
 
 
 def fitpack_front(data: Any, n: int = 40) -> pd.DataFrame:
-    """FITPACK's own smoothing fits (``splprep``) of ``data`` (a run's curve model)
+    """FITPACK's own smoothing fits (``bspline.fitpack``) of ``data`` (a run's curve model)
     over ``n`` smoothing factors: control points and RMSE (one row per control-point count,
     the best RMSE)."""
     from metaknot.bspline import fitpack
@@ -254,7 +254,7 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
     fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
     front = fitpack_front(run_curve(runs.sort_values("seed").iloc[0]))
     ax.plot(front.n_control_points, front.rmse, "-", color="0.3", lw=1.2, marker=".",
-            label="FITPACK (splprep) front")
+            label="FITPACK front")
     has_fronts = "front" in runs and runs["front"].map(lambda v: isinstance(v, str)).any()
     for method in comparison.methods:
         part = runs[runs.method == method]

@@ -29,7 +29,7 @@ def add_fit(sub: Any) -> None:
     parser = sub.add_parser(
         "fit", help="a user's points to the fewest control points within a tolerance",
         description="Fit a clamped B-spline with the fewest control points whose error stays "
-                    "within the tolerance (never more than FITPACK's splprep needs), and write "
+                    "within the tolerance (never more than FITPACK needs), and write "
                     "knots, control points, metrics, a figure and a DXF file.")
     parser.add_argument("points", help="a .csv/.txt table (one point per row, values separated "
                                     "by commas or spaces; a header row and # comments are "

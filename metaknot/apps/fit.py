@@ -1,10 +1,10 @@
 """A user's points to a compact B-spline within a tolerance: :func:`fit` (``metaknot fit``).
 
 Open curves and function data get a clamped spline of degree p; closed outlines a periodic one
-(:mod:`metaknot.bspline.periodic`, FITPACK's ``splprep(per=1)`` as the reference). The search:
+(:mod:`metaknot.bspline.periodic`, FITPACK's periodic spline as the reference). The search:
 
 1. **FITPACK's answer** — the reference everyone knows: FITPACK's smoothing spline
-   (``scipy.interpolate.splprep``) over a scan of its smoothing factor s, refined by bisection
+   (:mod:`metaknot.bspline.fitpack`) over a scan of its smoothing factor s, refined by bisection
    on log s, keeping the fewest control points whose error is within the tolerance.
 2. **Starts** — FITPACK's knots, the averaging knots (NURBS Book) at the fewest knots whose
    least-squares fit is within the tolerance, and the knots of the literature methods in
@@ -283,7 +283,7 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     ----------
     points
         ``(N, d)`` data points; with ``function=True`` the first column is ``x`` and the others
-        are ``f(x)`` (as ``scipy.interpolate.splrep``), and ``x`` is the parameter.
+        are ``f(x)`` (as FITPACK's curves of one coordinate), and ``x`` is the parameter.
     tolerance
         The tolerance on ``metric``; with ``relative=True`` a fraction of the bounding-box
         diagonal of the points.

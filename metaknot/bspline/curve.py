@@ -37,10 +37,10 @@ from .fit import (
 from .knots import averaging_knots, stack_indices
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
-from .periodic import closed_parameterize, evaluate_periodic, fit_periodic
+from .periodic import closed_parameterize, evaluate_periodic, fit_periodic, periodic_knot_vector
 
 __all__ = ["CLOSING_CHORD_SPACINGS", "REPEAT_SPACINGS", "ClosedCurve", "Closure", "Curve",
-           "OpenCurve", "closure", "make_curve"]
+           "OpenCurve", "closure", "curve_model", "make_curve"]
 
 Metric = Literal["max_deviation", "rmse"]
 
@@ -196,6 +196,47 @@ class Curve(ABC):
         """Distance of every point to the spline through all of them: what no fit of this
         curve can beat."""
 
+    # -- the data polygon's topology: what methods that walk the data need --------------------
+
+    @property
+    @abstractmethod
+    def domain_params(self) -> np.ndarray:
+        """The data parameters with the end of the domain: every knot span lies between two
+        consecutive ones (a closed outline's ``1.0``, where the first point comes round
+        again, is appended)."""
+
+    @property
+    @abstractmethod
+    def end_indices(self) -> np.ndarray:
+        """The data indices of the curve's ends (an open curve's first and last point; a
+        closed outline has none)."""
+
+    @abstractmethod
+    def around(self, values: np.ndarray) -> np.ndarray:
+        """Per-point ``values`` in the order the data polygon visits them: a closed outline
+        comes back to its first point (its first value is appended), an open curve does
+        not."""
+
+    @abstractmethod
+    def extend(self, values: np.ndarray, width: int, open_mode: str = "edge") -> np.ndarray:
+        """``values`` along the curve (per point or per span, first axis) with ``width`` more
+        on each side: cyclic on a closed outline, by :func:`numpy.pad`'s ``open_mode`` beyond
+        an open curve's ends."""
+
+    @abstractmethod
+    def knots_for_breaks(self, break_params: np.ndarray) -> np.ndarray:
+        """Interior knots whose spline breaks at (about) these sorted data parameters, the
+        curve's start included: a closed outline's breakpoints are those parameters (0 aside);
+        an open curve's knots are the averages of ``degree`` consecutive ones (its ends
+        aside), as for interpolation at them (The NURBS Book, eq. 9.8)."""
+
+    @abstractmethod
+    def coefficient_map(self, interior_knots: np.ndarray):
+        """The full knot vector of the spline with these interior knots, and the sparse
+        ``(coefficients, distinct coefficients)`` matrix that spreads its distinct
+        coefficients over its coefficients (the identity on an open curve; a closed one's
+        first ``degree`` coefficients come again at the end)."""
+
     def errors(self, knot_sets: list[np.ndarray], metric: Metric) -> np.ndarray:
         """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
         it cannot be fitted."""
@@ -273,6 +314,36 @@ class OpenCurve(Curve):
         fitted = make_interp_spline(self.params, self.points, k=self.degree)(self.params)
         return np.linalg.norm(self.points - fitted, axis=1)
 
+    @property
+    def domain_params(self) -> np.ndarray:
+        return self.params
+
+    @property
+    def end_indices(self) -> np.ndarray:
+        return np.array([0, self.n_points - 1])
+
+    def around(self, values):
+        return np.asarray(values)
+
+    def extend(self, values, width, open_mode="edge"):
+        values = np.asarray(values)
+        return np.pad(values, [(width, width)] + [(0, 0)] * (values.ndim - 1), mode=open_mode)
+
+    def knots_for_breaks(self, break_params):
+        p = self.degree
+        count = break_params.size - p - 1
+        if count <= 0:
+            return np.empty(0)
+        window = np.lib.stride_tricks.sliding_window_view(break_params[1:-1], p)
+        return window.mean(axis=1)[:count]
+
+    def coefficient_map(self, interior_knots):
+        from scipy import sparse
+
+        u, p = self.params, self.degree
+        t = np.concatenate((np.full(p + 1, u[0]), interior_knots, np.full(p + 1, u[-1])))
+        return t, sparse.identity(t.size - p - 1, format="csr")
+
 
 class ClosedCurve(Curve):
     """A closed outline: a periodic spline over one period ``[0, 1)``."""
@@ -280,6 +351,12 @@ class ClosedCurve(Curve):
     closed = True
     kind = "closed (periodic)"
     max_interior_knots_rule = "N - 1, closed"
+
+    def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
+        if params[0] != 0.0 or params[-1] >= 1.0:
+            raise ValueError("a closed outline's params must start at 0 and stay below 1 "
+                             "(metaknot.bspline.periodic.closed_parameterize)")
+        super().__init__(params, points, degree)
 
     @property
     def extra_control_points(self) -> int:
@@ -333,6 +410,42 @@ class ClosedCurve(Curve):
     def interpolation_residuals(self):
         """Against the periodic spline with a breakpoint at every data point."""
         return self.fit(self.candidate_params).residuals
+
+    @property
+    def domain_params(self) -> np.ndarray:
+        return np.append(self.params, 1.0)
+
+    @property
+    def end_indices(self) -> np.ndarray:
+        return np.empty(0, dtype=np.int64)
+
+    def around(self, values):
+        values = np.asarray(values)
+        return np.concatenate((values, values[:1]))
+
+    def extend(self, values, width, open_mode="edge"):
+        values = np.asarray(values)
+        return np.pad(values, [(width, width)] + [(0, 0)] * (values.ndim - 1), mode="wrap")
+
+    def knots_for_breaks(self, break_params):
+        return break_params[break_params > 0]
+
+    def coefficient_map(self, interior_knots):
+        from scipy import sparse
+
+        p = self.degree
+        t = periodic_knot_vector(interior_knots, p)
+        n = t.size - p - 1
+        distinct = interior_knots.size + 1  # breakpoints, 0 included
+        spread = sparse.csr_matrix((np.ones(n), (np.arange(n), np.arange(n) % distinct)),
+                                   shape=(n, distinct))
+        return t, spread
+
+
+def curve_model(closed: bool) -> type[Curve]:
+    """The curve model class: :class:`ClosedCurve` for a closed outline, else
+    :class:`OpenCurve` (the one place the flag picks an implementation)."""
+    return ClosedCurve if closed else OpenCurve
 
 
 def make_curve(points: ArrayLike, *, degree: int = 3, parameterization: str = "centripetal",

@@ -103,7 +103,7 @@ def parameterize(
         consecutive points) or ``"centripetal"`` (steps proportional to its square root), each
         normalised to ``[0, 1]``. Alternatively an array of ``N`` strictly increasing finite
         values, used as given (function data ``y = f(x)``: pass ``x``, as with FITPACK's
-        ``splrep``).
+        ``curfit``).
     degree
         Spline degree the parameters are meant for; only used to check the number of points.
 

@@ -4,14 +4,14 @@ A closed outline Q_0..Q_{N-1} (the last point is *not* a repeat of the first) is
 over one period [0, 1), the closing chord Q_{N-1} -> Q_0 included. A periodic spline of degree p
 with breakpoints 0 = t_0 < t_1 < ... < t_{m-1} < 1 has m control points; its knot vector is the
 breakpoints extended by p periodic copies on each side (``m + 2p + 1`` knots, FITPACK's
-``splprep(per=1)`` layout) and its ``m + p`` coefficients repeat the first p at the end, so the
-curve and its first p - 1 derivatives are continuous across the seam.
+periodic layout) and its ``m + p`` coefficients repeat the first p at the end, so the curve and
+its first p - 1 derivatives are continuous across the seam.
 
 :func:`fit_periodic` fits one knot vector and :func:`evaluate_periodic` a whole batch, both in
 compiled code (Givens rotations on the band-plus-corner structure,
 :mod:`metaknot.bspline._periodic_kernel`); the tests check them against FITPACK's periodic
-least-squares spline (``splprep(per=1, task=-1)``) and against dense least squares on the
-wrapped design matrix.
+least-squares spline (its fixed-knot mode) and against dense least squares on the wrapped design
+matrix.
 """
 
 from __future__ import annotations
