@@ -19,7 +19,22 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
-__all__ = ["OnePlusOneEA", "flip_at_least_one", "step_at_least_one"]
+__all__ = ["OnePlusOneEA", "distinct_positions", "flip_at_least_one", "step_at_least_one"]
+
+
+def distinct_positions(n: int, count: int, rng: np.random.Generator) -> np.ndarray:
+    """``count`` distinct positions of ``range(n)`` in random order: the values and the draws
+    of ``rng.choice(n, size=count, replace=False)``, at a third of its cost for one or two
+    positions (numpy's Floyd sampling and its shuffle, draw by draw; ``choice`` otherwise)."""
+    if count > 2 or n > 10_000:
+        return rng.choice(n, size=count, replace=False)
+    integers, found = rng.integers, []
+    for j in range(n - count, n):  # Floyd: a position drawn before gives way to j
+        drawn = int(integers(j + 1))
+        found.append(j if drawn in found else drawn)
+    if count == 2 and int(integers(2)) == 0:  # the shuffle's one swap
+        found.reverse()
+    return np.array(found, dtype=np.int64)
 
 
 def _at_least_one(n_var: int, rate: float, rows: int, rng: np.random.Generator) -> np.ndarray:
@@ -30,7 +45,7 @@ def _at_least_one(n_var: int, rate: float, rows: int, rng: np.random.Generator) 
         count = 0
         while count == 0:
             count = int(rng.binomial(n_var, rate))
-        row[rng.choice(n_var, size=count, replace=False)] = True
+        row[distinct_positions(n_var, count, rng)] = True
     return hit
 
 

@@ -10,7 +10,11 @@ import pytest
 import metaknot as mk
 from metaknot.algorithms import LocalSearch, OnePlusOneEA
 from metaknot.algorithms.local_search import index_neighbours, mask_neighbours
-from metaknot.algorithms.one_plus_one import flip_at_least_one, step_at_least_one
+from metaknot.algorithms.one_plus_one import (
+    distinct_positions,
+    flip_at_least_one,
+    step_at_least_one,
+)
 from metaknot.problems import KnotIndices, KnotSelection, get_curve
 
 
@@ -51,6 +55,19 @@ def test_bit_flips_are_binomial_conditioned_on_one(n, rate):
     # every position flips alike
     per_bit = (children != parent).mean(axis=0)
     assert per_bit.std() < 0.1 * per_bit.mean() + 0.01
+
+
+def test_distinct_positions_are_numpys_choice_draw_for_draw():
+    """The same positions as ``Generator.choice(n, k, replace=False)`` and the generator left
+    in the same state (so every run of the (1+1) EA is what it was with ``choice``)."""
+    cases = [(n, k) for n in (1, 2, 3, 7, 300, 10_000, 10_001, 40_000) for k in range(4)
+             if k <= n]
+    for seed, (n, k) in itertools.product(range(60), cases):
+        ours, numpys = np.random.default_rng(seed), np.random.default_rng(seed)
+        found = distinct_positions(n, k, ours)
+        assert np.array_equal(found, numpys.choice(n, size=k, replace=False)), (seed, n, k)
+        assert found.dtype == np.int64 and np.unique(found).size == k
+        assert ours.bit_generator.state == numpys.bit_generator.state
 
 
 def test_index_steps_move_at_least_one_knot_within_max_step():
