@@ -22,6 +22,9 @@ from metaknot.registry import register
 __all__ = ["OnePlusOneEA", "distinct_positions", "flip_at_least_one", "step_at_least_one"]
 
 
+_SIGNS = np.array((-1, 1))
+
+
 def distinct_positions(n: int, count: int, rng: np.random.Generator) -> np.ndarray:
     """``count`` distinct positions of ``range(n)`` in random order: the values and the draws
     of ``rng.choice(n, size=count, replace=False)``, at a third of its cost for one or two
@@ -61,7 +64,9 @@ def step_at_least_one(x: np.ndarray, rate: float, rows: int, max_step: int,
     """``rows`` children of the integer vector ``x``: each gene moves with probability
     ``rate`` by ``±1..max_step`` (uniform), at least one per child (not repaired)."""
     hit = _at_least_one(x.size, rate, rows, rng)
-    step = rng.integers(1, max_step + 1, size=hit.shape) * rng.choice((-1, 1), size=hit.shape)
+    size = rng.integers(1, max_step + 1, size=hit.shape)
+    # the signs as Generator.choice((-1, 1), size) draws them, without its conversions
+    step = size * _SIGNS[rng.integers(0, 2, size=hit.shape, dtype=np.int64)]
     return np.where(hit, np.asarray(x)[None, :] + step, x[None, :])
 
 

@@ -39,3 +39,27 @@ def distinct_nearest_rows(X: np.ndarray, rows: np.ndarray, lo: int, hi: int) -> 
             used[c - lo] = True
             row[j] = c
         row.sort()
+
+
+@njit(cache=True)
+def repair_sets(X: np.ndarray, lower: np.ndarray, upper: np.ndarray, lo: int,
+                hi: int) -> np.ndarray:
+    """:meth:`Encoding.repair` of integer sets in one pass: each row of ``X`` (int64)
+    clipped to ``lower..upper`` per column, sorted, and, if a value repeats, made distinct by
+    :func:`distinct_nearest_rows`. Returns a new array."""
+    out = np.empty_like(X)
+    rows = np.empty(X.shape[0], dtype=np.int64)
+    n_rows = 0
+    for r in range(X.shape[0]):
+        row = out[r]
+        for j in range(X.shape[1]):
+            row[j] = min(max(X[r, j], lower[j]), upper[j])
+        row.sort()
+        for j in range(1, row.size):
+            if row[j] == row[j - 1]:
+                rows[n_rows] = r
+                n_rows += 1
+                break
+    if n_rows:
+        distinct_nearest_rows(out, rows[:n_rows], lo, hi)
+    return out

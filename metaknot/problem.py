@@ -136,7 +136,15 @@ class Encoding:
         Optimizers whose operators can leave the encoding (mutation past a bound, crossover of
         two index sets) call this on their offspring.
         """
-        X = np.clip(np.asarray(X), self.lower, self.upper)
+        X = np.asarray(X)
+        if (self.kind == "integer" and self.distinct_sorted and X.ndim == 2
+                and X.dtype == np.int64 and self.lower.dtype == np.int64
+                and self.upper.dtype == np.int64):  # the same steps, compiled
+            lo, hi = int(self._low), int(self._high)
+            if self.n_var > hi - lo + 1:
+                raise ValueError(f"cannot pick {self.n_var} distinct values from {lo}..{hi}")
+            return _kernels().repair_sets(X, self.lower, self.upper, lo, hi)
+        X = np.clip(X, self.lower, self.upper)
         if self.kind != "continuous":
             X = np.rint(X).astype(np.int64)
         if not self.distinct_sorted:

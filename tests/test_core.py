@@ -891,6 +891,11 @@ def test_repair_of_index_sets_against_the_rule(seed):
     for x, y in zip(clipped, Y, strict=True):
         assert y.tolist() == _reference_repair(x.tolist(), lo, hi)
     assert (np.diff(Y, axis=1) > 0).all() and Y.min() >= lo and Y.max() <= hi
+    # integer candidates take the compiled path, others numpy's: the same sets
+    np.testing.assert_array_equal(enc.repair(X.astype(np.float64)), Y)
+    lower, upper = rng.integers(lo, 8, size=k), rng.integers(20, hi + 1, size=k)
+    per_column = mk.Encoding("integer", k, lower, upper, distinct_sorted=True)
+    np.testing.assert_array_equal(per_column.repair(X), per_column.repair(X.astype(float)))
     # rows that were already valid sets come back unchanged
     valid = np.sort(rng.permuted(np.tile(np.arange(lo, hi + 1), (50, 1)), axis=1)[:, :k], axis=1)
     np.testing.assert_array_equal(enc.repair(valid), valid)

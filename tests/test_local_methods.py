@@ -70,6 +70,27 @@ def test_distinct_positions_are_numpys_choice_draw_for_draw():
         assert ours.bit_generator.state == numpys.bit_generator.state
 
 
+def test_index_steps_are_drawn_as_with_numpys_choice():
+    """Step sizes, then signs as ``Generator.choice((-1, 1))`` gives them: the same children."""
+
+    def reference(x, rate, rows, max_step, rng):
+        hit = np.zeros((rows, x.size), dtype=bool)
+        for row in hit:
+            count = 0
+            while count == 0:
+                count = int(rng.binomial(x.size, rate))
+            row[rng.choice(x.size, size=count, replace=False)] = True
+        step = rng.integers(1, max_step + 1, size=hit.shape) * rng.choice((-1, 1), size=hit.shape)
+        return np.where(hit, x[None, :] + step, x[None, :])
+
+    x = np.arange(3, 40, 3)
+    for seed, (rows, max_step) in itertools.product(range(40), [(1, 1), (3, 3), (2, 5)]):
+        ours, numpys = np.random.default_rng(seed), np.random.default_rng(seed)
+        np.testing.assert_array_equal(step_at_least_one(x, 0.1, rows, max_step, ours),
+                                      reference(x, 0.1, rows, max_step, numpys))
+        assert ours.bit_generator.state == numpys.bit_generator.state
+
+
 def test_index_steps_move_at_least_one_knot_within_max_step():
     rng = np.random.default_rng(1)
     parent = np.array([5, 20, 40, 60])
