@@ -25,7 +25,7 @@ from metaknot import problem as problem_module
 from metaknot.bspline import BatchFit, CurveFit
 from metaknot.bspline._moves import mask_replacements
 from metaknot.bspline.curve import Curve, make_curve
-from metaknot.bspline.knots import stack_indices, stack_positions
+from metaknot.bspline.knots import stack_positions
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
@@ -218,7 +218,7 @@ class KnotProblem(Problem):
         return self._moves
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Candidates as flattened interior knots and row offsets."""
+        """Candidates (checked by the encoding) as flattened interior knots and row offsets."""
         raise NotImplementedError
 
     def _evaluate_moves(self, moves: MoveEvaluator, X: np.ndarray, near: np.ndarray
@@ -366,7 +366,10 @@ class KnotIndices(KnotProblem):
         return np.sort(self.params[np.asarray(x, dtype=np.int64)])
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return stack_indices(self.params, X, closed=self.closed)
+        # the encoding has checked X (whole numbers in 1..last_candidate_point): what
+        # stack_indices gives, without checking again
+        idx = np.sort(X, axis=1)
+        return self.params[idx].ravel(), np.arange(0, idx.size + 1, idx.shape[1])
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "n_knots": self.n_knots}
