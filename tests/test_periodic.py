@@ -312,3 +312,42 @@ def test_a_breakpoint_at_every_point_of_a_seed_outline_is_fitted(name) -> None:
     curve = make_curve(get_curve(name).points, closed=True)
     residuals = curve.interpolation_residuals()
     assert residuals.max() < 1e-9 * curve.points.std()
+
+
+def test_the_generated_row_loops_are_current() -> None:
+    """``_periodic_rows.py`` must be what ``python -m metaknot.bspline._periodic_codegen``
+    writes."""
+    from metaknot.bspline import _periodic_codegen
+
+    assert _periodic_codegen.TARGET.read_text() == _periodic_codegen.render(), (
+        "metaknot/bspline/_periodic_rows.py is stale: run "
+        "`python -m metaknot.bspline._periodic_codegen`")
+
+
+def test_the_generated_row_loops_give_the_generic_loop_s_bits() -> None:
+    """Every generated (degree, dimension): the same SSE, reason, coefficients, basis values
+    and spans as the generic loop, to the last bit, on random data and breakpoints (few
+    breakpoints, so that basis functions wrap onto one coefficient, included)."""
+    from metaknot.bspline import _periodic_codegen
+    from metaknot.bspline._periodic_kernel import extended_knots, fit_one
+
+    rng = np.random.default_rng(3)
+    pairs = [(p, d) for p in _periodic_codegen.DEGREES for d in _periodic_codegen.DIMENSIONS]
+    assert pairs
+    for p, d in pairs:
+        for trial in range(40):
+            u = np.unique(np.concatenate(([0.0], rng.random(int(rng.integers(p + 2, 150))))))
+            q = rng.normal(size=(u.size, d))
+            m = int(rng.integers(p, max(p + 1, u.size // 2)))
+            breaks = np.concatenate(([0.0], np.sort(rng.choice(u[1:], m - 1, replace=False))))
+            t = np.empty(m + 2 * p + 1)
+            extended_knots(breaks, p, t)
+            out = []
+            for generated in (True, False):
+                coef = np.zeros((m, d))
+                basis, spans = np.zeros((u.size, p + 1)), np.zeros(u.size, dtype=np.int64)
+                out.append((fit_one(u, q, t, p, coef, basis, spans, generated), coef, basis,
+                            spans))
+            (r1, c1, b1, s1), (r2, c2, b2, s2) = out
+            assert r1 == r2, (p, d, m, trial)
+            assert np.array_equal(c1, c2) and np.array_equal(b1, b2) and np.array_equal(s1, s2)

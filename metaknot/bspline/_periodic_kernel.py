@@ -13,6 +13,7 @@ import math
 import numba
 import numpy as np
 
+from . import _periodic_rows
 from ._kernel import FEASIBLE, SINGULAR, TOO_MANY_CONTROL_POINTS, reciprocals_into
 
 # A pivot of the factor at most this fraction of the largest one makes the system singular.
@@ -79,11 +80,13 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
 
 @numba.njit(cache=True)
 def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray,
-            basis: np.ndarray, spans: np.ndarray) -> tuple:
+            basis: np.ndarray, spans: np.ndarray, generated: bool = True) -> tuple:
     """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots).
     Writes the m distinct coefficients into ``coef[:m]`` and returns (sse, reason); unless
     the workspaces ``basis`` (``(N, p + 1)``) and ``spans`` (``(N,)``) are empty, keeps every
-    row's basis values and span there (for :func:`deviation_from_basis`)."""
+    row's basis values and span there (for :func:`deviation_from_basis`). ``generated``: the
+    row loop generated for the degree and dimension, where there is one (``_periodic_rows``:
+    the same rotations, so the same result, as the loop here, which runs otherwise)."""
     n, d = q.shape
     m = t.size - 2 * p - 1
     if m > n:
@@ -101,9 +104,13 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
     right = np.empty(p + 1)
     iv = np.empty(p * t.size)
     reciprocals_into(t, p, iv)
-    sse = 0.0
+    sse = _periodic_rows.rows(u, q, t, iv, p, m, band, tail, has_tail, rhs, basis, spans,
+                              keep) if generated else -1.0
+    generic = sse < 0.0
+    if generic:
+        sse = 0.0
     j = 0
-    for i in range(n):
+    for i in range(n if generic else 0):
         x = u[i]
         while j < m - 1 and x >= t[p + j + 1]:
             j += 1
@@ -237,9 +244,10 @@ def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis:
 @numba.njit(cache=True, parallel=True)
 def evaluate_batch(u: np.ndarray, q: np.ndarray, p: int, knots: np.ndarray,
                    offsets: np.ndarray, want_max: bool, sse: np.ndarray,
-                   max_dev: np.ndarray, n_control: np.ndarray, reason: np.ndarray) -> None:
+                   max_dev: np.ndarray, n_control: np.ndarray, reason: np.ndarray,
+                   generated: bool = True) -> None:
     """Fit every candidate: ``knots[offsets[b]:offsets[b+1]]`` are candidate b's interior
-    knots in (0, 1), sorted and distinct."""
+    knots in (0, 1), sorted and distinct (``generated``: as :func:`fit_one`)."""
     d = q.shape[1]
     for b in numba.prange(offsets.size - 1):
         interior = knots[offsets[b] : offsets[b + 1]]
@@ -259,7 +267,7 @@ def evaluate_batch(u: np.ndarray, q: np.ndarray, p: int, knots: np.ndarray,
         rows = u.size if want_max else 0
         basis = np.empty((rows, p + 1))
         spans = np.empty(rows, dtype=np.int64)
-        value, code = fit_one(u, q, t, p, coef, basis, spans)
+        value, code = fit_one(u, q, t, p, coef, basis, spans, generated)
         sse[b], reason[b] = value, code
         if want_max:
             max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
