@@ -162,8 +162,11 @@ class LocalSearch(Optimizer):
             self._scanning = False
         empty = np.empty((0, self.problem.encoding.n_var), dtype=np.int64)
         if self.incumbent is None or not np.isfinite(self.incumbent_f):
-            self._stuck = True  # no feasible start: nothing to improve
-            return empty
+            if self._stuck is False and self.kicks:  # a kick landed on an infeasible candidate
+                self._failed_kicks += 1
+            self._stuck = True  # nothing to improve here: kick the best again, if there is one
+            if not (self.iterated and self.best_x is not None and np.isfinite(self.best_f)):
+                return empty
         if self._stuck and self.iterated:
             kicked = self._kicked_best()
             if kicked is None:

@@ -277,3 +277,28 @@ def test_kicks_start_from_the_best_and_grow_while_they_fail():
 def test_bad_local_search_settings_are_named(options, message):
     with pytest.raises(ValueError, match=message):
         LocalSearch(**options)
+
+
+def test_a_kick_onto_an_infeasible_candidate_kicks_again():
+    """On de Boor's titanium data with the seed's guarded objective a kick can land on a mask
+    that cannot be fitted: the search kicks its best solution again and spends its budget (it
+    stopped with "ask() returned no candidates" before)."""
+    from metaknot.algorithms.local_search import LocalSearch
+    from metaknot.suite.tasks import get_task
+
+    class Watched(LocalSearch):
+        infeasible_kicks = 0
+
+        def tell(self, X, F):
+            self.infeasible_kicks += self._kicked and not np.isfinite(F).all()
+            super().tell(X, F)
+
+    problem = get_task("titanium", "seed").problem()
+    infeasible_kicks = 0
+    for seed in range(3):
+        search = Watched()
+        result = mk.minimize(problem, search, budget=3000, seed=seed)
+        assert result.n_evaluations == 3000
+        assert np.isfinite(result.best_f) and search.kicks > 0
+        infeasible_kicks += search.infeasible_kicks
+    assert infeasible_kicks  # the case the test is about did occur
