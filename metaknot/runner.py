@@ -84,6 +84,9 @@ def minimize(
     Exception
         Whatever the optimizer or problem raised; if anything was evaluated, the exception's
         ``partial_result`` holds the best so far (status ``"failed"``).
+    KeyboardInterrupt
+        On Ctrl-C, also when it arrives inside compiled code (which hands it back as the
+        cause of a ``SystemError``), with ``partial_result`` as above.
     """
     _check_seed(seed)
     if isinstance(problem, str):
@@ -118,11 +121,29 @@ def minimize(
             exc.partial_result = result
             exc.add_note(f"metaknot: the run stopped after {evaluator.n_evaluations} "
                          "evaluations; the exception's `partial_result` holds the best so far")
+        interrupt = interrupt_behind(exc)
+        if interrupt is not None:  # Ctrl-C, not a fault of the run
+            if result is not None:
+                interrupt.partial_result = result
+            raise interrupt from None
         raise
     finally:
         for hook in hooks:
             hook.on_end(result)
     return result
+
+
+def interrupt_behind(exc: BaseException) -> KeyboardInterrupt | None:
+    """The :class:`KeyboardInterrupt` behind ``exc`` (its cause or context, however deep), if
+    there is one: Ctrl-C that arrives while compiled code runs comes back as a ``SystemError``
+    ("returned a result with an exception set") whose cause is the interrupt."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 class _Audit:

@@ -868,6 +868,38 @@ def test_a_crashing_optimizer_keeps_what_was_computed():
     assert any("partial_result" in note for note in info.value.__notes__)
 
 
+class _InterruptedInCompiledCode(mk.Optimizer):
+    """Random candidates; in its third step, Ctrl-C as compiled code hands it back: a
+    SystemError caused by the KeyboardInterrupt."""
+
+    def setup(self, problem, rng):
+        super().setup(problem, rng)
+        self.steps = 0
+
+    def ask(self):
+        self.steps += 1
+        if self.steps == 3:
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as interrupt:
+                raise SystemError("<function bind> returned a result with an exception "
+                                  "set") from interrupt
+        return self.problem.sample(self.rng, 10)
+
+    def tell(self, X, F):
+        pass
+
+
+def test_ctrl_c_inside_compiled_code_stops_the_run_as_ctrl_c():
+    """Not a failed run: the KeyboardInterrupt itself, with what was computed (a study's
+    sweep stops on it; it recorded a failed run and went on)."""
+    with pytest.raises(KeyboardInterrupt) as info:
+        mk.minimize(KnotSelection("archimedean"), _InterruptedInCompiledCode(), budget=100,
+                    seed=1)
+    assert info.value.partial_result.n_evaluations == 20
+    assert mk.runner.interrupt_behind(ValueError("plain")) is None
+
+
 def _reference_repair(values, lo, hi):
     """Encoding.repair's rule in plain Python: sorted values, in order, each to the nearest
     value not taken by an earlier one (ties: the lower)."""
