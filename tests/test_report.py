@@ -318,6 +318,29 @@ def test_method_order_is_the_average_rank_of_the_median_objective(three_methods)
     assert prepare(three_methods).methods == expected
 
 
+def test_the_wilcoxon_p_looked_up_by_the_differences_is_scipy_s():
+    """The same p as ``scipy.stats.wilcoxon(x, y)`` to the last bit, with and without ties and
+    zero differences (scipy's permutation test, its exact test and its normal approximation),
+    whatever the order of the pairs; and the same differences are tested once."""
+    from metaknot.experiments.report.tables import _wilcoxon_of_differences, wilcoxon_p
+
+    rng = np.random.default_rng(0)
+    for trial in range(300):
+        n = int(rng.integers(6, 30))
+        if trial % 2:  # counts of control points: ties and zeros
+            x = rng.integers(3, 9, n).astype(float)
+            y = x + rng.integers(-2, 3, n)
+        else:
+            x = rng.random(n)
+            y = x + rng.normal(0, 0.1, n)
+        order = rng.permutation(n)
+        assert wilcoxon_p(x[order], y[order]) == float(stats.wilcoxon(x, y).pvalue)
+    x = np.array([5.0, 5, 6, 7, 5, 6, 8, 5, 5, 7])
+    before = _wilcoxon_of_differences.cache_info().hits
+    assert wilcoxon_p(x, x + 1) == wilcoxon_p(x + 3, x + 4)
+    assert _wilcoxon_of_differences.cache_info().hits == before + 1
+
+
 @pytest.mark.parametrize("metric", ["best_f", "rmse", "n_control_points"])
 def test_pairwise_tests_equal_scipy_and_statsmodels(three_methods, metric):
     comparison = prepare(three_methods)
