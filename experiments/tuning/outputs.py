@@ -137,8 +137,7 @@ def held_out_summary(spec: TuneSpec) -> tuple[list[str], dict[str, float]]:
     the pairs (instance, seed), how often the tuned one is better, the Wilcoxon signed-rank p
     (paired) and Vargha-Delaney A12 within each instance, averaged over the instances.
     Returns the lines and the median objective ratio against each method."""
-    from scipy.stats import wilcoxon
-
+    from ..report.tables import wilcoxon_p
     from ..store import load_study
 
     runs = load_study(spec.results_dir / spec.test_study).runs
@@ -153,7 +152,7 @@ def held_out_summary(spec: TuneSpec) -> tuple[list[str], dict[str, float]]:
             pair = wide[[tuned_label, other]].dropna()
             ratio = pair[tuned_label] / pair[other]
             diff = pair[tuned_label] - pair[other]
-            p = float(wilcoxon(pair[tuned_label], pair[other]).pvalue) \
+            p = wilcoxon_p(pair[tuned_label].to_numpy(), pair[other].to_numpy()) \
                 if (diff != 0).any() else 1.0
             a12 = float(np.mean([_a12(part[tuned_label].to_numpy(), part[other].to_numpy())
                                  for _, part in pair.groupby(level=["data", "noise"])]))
