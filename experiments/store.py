@@ -28,7 +28,7 @@ import re
 import shutil
 import sys
 import uuid
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -318,8 +318,9 @@ def read_record(path: str | os.PathLike) -> dict[str, Any]:
         If the file is not a sound run record (named).
     """
     path = Path(path)
-    try:
-        table = pq.read_table(path)
+    try:  # ParquetFile.read: read_table's table, at half its cost for a one-row file
+        with pq.ParquetFile(path) as file:
+            table = file.read(use_threads=False)
     except Exception as exc:  # pyarrow raises several types for damaged files
         raise StoreError(f"{path}: cannot be read as a Parquet run record ({_short(exc)}); "
                          "move it out of the study or delete it to run that run again") from None
@@ -433,8 +434,9 @@ def load_study(path: str | os.PathLike) -> Study:
             raise StoreError(f"{store.study_dir}: a results folder, not a study; its studies: "
                              f"{names if len(names) <= 80 else names[:77] + '...'}")
     rows, traces = [], []
-    for entry, run_id in _run_files(store.runs_dir):
-        row = read_record(entry)
+    entries = list(_run_files(store.runs_dir))
+    for (entry, run_id), row in zip(entries, _read_records([e for e, _ in entries]),
+                                    strict=True):
         if row.get("run_id") != run_id:
             raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r:.40}, not "
                              f"of {run_id!r}")
@@ -461,6 +463,18 @@ def load_study(path: str | os.PathLike) -> Study:
         columns=["run_id", "evaluations", "best_f", "improvement", "checkpoint"])
     return Study(path=store.study_dir, name=store.study_dir.name, runs=runs, trace=trace,
                  failures=_frame(failures))
+
+
+def _read_records(paths: list[Path]) -> Iterator[dict[str, Any]]:
+    """:func:`read_record` of every path, in order, on a few threads (pyarrow decodes without
+    the GIL); the first file that cannot be read raises, as read one by one."""
+    if len(paths) < 64:
+        yield from map(read_record, paths)
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        yield from pool.map(read_record, paths)
 
 
 def _pop_trace(row: dict[str, Any]) -> pd.DataFrame:

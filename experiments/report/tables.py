@@ -81,6 +81,20 @@ def magnitude(value: float) -> str:
     return "large"
 
 
+def holm(p: list[float] | np.ndarray) -> np.ndarray:
+    """Holm's step-down adjusted p-values, as ``statsmodels.stats.multitest.multipletests(p,
+    method="holm")[1]`` gives them (the same operations; tested equal). statsmodels calls
+    ``gc.collect()`` on every call, which in a report holding a large study took a quarter of
+    its time."""
+    p = np.asarray(p, dtype=np.float64)
+    order = np.argsort(p)
+    adjusted = np.maximum.accumulate(p[order] * np.arange(p.size, 0, -1))
+    adjusted[adjusted > 1] = 1
+    out = np.empty_like(adjusted)
+    out[order] = adjusted
+    return out
+
+
 def wilcoxon_p(x: np.ndarray, y: np.ndarray) -> float:
     """The two-sided Wilcoxon signed-rank p of the pairs ``(x, y)``: ``scipy.stats.wilcoxon``'s
     p to the last bit, faster where scipy is slow.
@@ -120,8 +134,6 @@ def pairwise_tests(comparison: Comparison, metric: str = "best_f",
     ``A12`` (A lower than B), ``effect``, ``wins``/``ties``/``losses`` of A, ``p`` (Wilcoxon),
     ``p_holm`` (Holm over the cell's pairs), ``significant`` and ``note``.
     """
-    from statsmodels.stats.multitest import multipletests
-
     rows = []
     runs = comparison.runs
     wide = (runs.groupby(["instance", "budget", "seed", "method"], sort=False)[metric].first()
@@ -155,7 +167,7 @@ def pairwise_tests(comparison: Comparison, metric: str = "best_f",
             cell_rows.append(row)
         tested = [r for r in cell_rows if np.isfinite(r["p"])]
         if tested:
-            adjusted = multipletests([r["p"] for r in tested], method="holm")[1]
+            adjusted = holm([r["p"] for r in tested])
             for r, p in zip(tested, adjusted, strict=True):
                 r["p_holm"] = float(p)
         rows += cell_rows
