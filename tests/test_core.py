@@ -847,8 +847,11 @@ class _FailsLater(mk.Optimizer):
     def ask(self):
         self.steps += 1
         if self.steps == 3:
-            raise ZeroDivisionError("bug in the optimizer")
+            self.fail()
         return self.problem.sample(self.rng, 10)
+
+    def fail(self):
+        raise ZeroDivisionError("bug in the optimizer")
 
     def tell(self, X, F):
         pass
@@ -868,26 +871,16 @@ def test_a_crashing_optimizer_keeps_what_was_computed():
     assert any("partial_result" in note for note in info.value.__notes__)
 
 
-class _InterruptedInCompiledCode(mk.Optimizer):
+class _InterruptedInCompiledCode(_FailsLater):
     """Random candidates; in its third step, Ctrl-C as compiled code hands it back: a
     SystemError caused by the KeyboardInterrupt."""
 
-    def setup(self, problem, rng):
-        super().setup(problem, rng)
-        self.steps = 0
-
-    def ask(self):
-        self.steps += 1
-        if self.steps == 3:
-            try:
-                raise KeyboardInterrupt
-            except KeyboardInterrupt as interrupt:
-                raise SystemError("<function bind> returned a result with an exception "
-                                  "set") from interrupt
-        return self.problem.sample(self.rng, 10)
-
-    def tell(self, X, F):
-        pass
+    def fail(self):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as interrupt:
+            raise SystemError("<function bind> returned a result with an exception "
+                              "set") from interrupt
 
 
 def test_ctrl_c_inside_compiled_code_stops_the_run_as_ctrl_c():

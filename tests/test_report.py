@@ -318,15 +318,19 @@ def test_method_order_is_the_average_rank_of_the_median_objective(three_methods)
     assert prepare(three_methods).methods == expected
 
 
-def test_holm_is_statsmodels_holm():
+def test_holm_is_statsmodels_holm_and_leaves_the_collector_as_it_was():
+    import gc
+
     from metaknot.experiments.report.tables import holm
 
+    frozen = gc.get_freeze_count()
     rng = np.random.default_rng(2)
     for size in (1, 2, 3, 6, 15, 28):
         for _ in range(20):
             p = rng.choice([rng.random(), 0.01, 0.5, 1.0], size=size) * rng.random(size) ** 2
             p[rng.random(size) < 0.3] = 0.04  # ties
             assert np.array_equal(holm(p), multipletests(p, method="holm")[1])
+    assert gc.get_freeze_count() == frozen
 
 
 def test_the_wilcoxon_p_looked_up_by_the_differences_is_scipy_s():
