@@ -28,6 +28,7 @@ __all__ = [
     "Callback",
     "ProgressBar",
     "RunStart",
+    "StopWhenStalled",
     "TraceRecorder",
     "as_callback",
     "checkpoint_grid",
@@ -237,3 +238,29 @@ class TraceRecorder(Callback):
         elif self._n:
             checkpoint[-1] = True
         return Trace(evals, best, metrics, improved, checkpoint)
+
+
+class StopWhenStalled(Callback):
+    """Stop a run whose best value has not improved over the last ``evaluations``
+    evaluations.
+
+    Parameters
+    ----------
+    evaluations
+        Evaluations without an improvement of the best value that end the run (>= 1).
+    """
+
+    def __init__(self, evaluations: int) -> None:
+        if not is_integer(evaluations) or evaluations < 1:
+            raise ValueError(f"evaluations must be a whole number >= 1; got {evaluations!r}")
+        self.evaluations = int(evaluations)
+        self._best = float("inf")
+        self._since = 0
+
+    def on_start(self, run: RunStart) -> None:
+        self._best, self._since = float("inf"), 0
+
+    def on_batch(self, progress: Progress) -> bool:
+        if progress.best_f < self._best:
+            self._best, self._since = progress.best_f, progress.n_evaluations
+        return progress.n_evaluations - self._since >= self.evaluations

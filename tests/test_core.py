@@ -390,6 +390,29 @@ def test_callback_returning_true_stops_early():
     assert result.trace_evaluations[-1] == 300
 
 
+def test_stop_when_stalled_ends_a_run_that_no_longer_improves():
+    """Random search on a sphere improves ever more rarely: the run ends at the first batch
+    that completes ``evaluations`` evaluations without a new best, and not before."""
+    from metaknot.callbacks import StopWhenStalled
+
+    stall = 2_000
+    result = mk.minimize(Sphere(3), "random_search", budget=1_000_000, seed=0,
+                         callbacks=[StopWhenStalled(stall)],
+                         optimizer_kwargs={"batch_size": 100})
+    assert result.n_evaluations < 1_000_000
+    trace = result.trace.columns()
+    last = int(np.asarray(trace["evaluations"])[np.asarray(trace["improvement"])].max())
+    # the callback sees batches of 100: stopped once `stall` more than the end of the batch of
+    # the last improvement were spent
+    assert result.n_evaluations == -(-last // 100) * 100 + stall
+    again = mk.minimize(Sphere(3), "random_search", budget=1_000_000, seed=0,
+                        callbacks=[StopWhenStalled(stall)],
+                        optimizer_kwargs={"batch_size": 100})
+    assert again.n_evaluations == result.n_evaluations  # the callback starts afresh each run
+    with pytest.raises(ValueError, match="whole number >= 1"):
+        StopWhenStalled(0)
+
+
 def test_callback_returning_none_or_false_does_not_stop():
     problem = Counting(Sphere(3))
     result = mk.minimize(problem, "random_search", budget=500, seed=0,

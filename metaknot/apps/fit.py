@@ -199,6 +199,8 @@ class _Search:
 
 #: The searches tried at each knot count: local search, then a GA (name, options, budget).
 FIXED_COUNT_SEARCHES = (("local_search", {}, 5000), ("ga", {"population": 100}, 20000))
+#: A search at a fixed count stops after this many evaluations without improving its best.
+STALL_EVALUATIONS = 5000
 
 
 def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol: float,
@@ -210,6 +212,7 @@ def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol
     insertion and shifts from the averaging knots), then, if that stays beyond the tolerance,
     by the GA (``FIXED_COUNT_SEARCHES``, seed 0). Returns the knots of the last count found
     within the tolerance (or None) and the fits used."""
+    from metaknot.callbacks import StopWhenStalled
     from metaknot.problems import KnotIndices, PointSet
     from metaknot.runner import minimize
 
@@ -223,7 +226,8 @@ def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol
         for name, options, budget in searches:
             try:
                 result = minimize(problem, name, budget=budget, seed=seed,
-                                  optimizer_kwargs=options, progress=progress)
+                                  optimizer_kwargs=options, progress=progress,
+                                  callbacks=[StopWhenStalled(STALL_EVALUATIONS)])
             except ValueError:  # a search that cannot start here (no averaging knots for k)
                 continue
             fits += result.n_evaluations
