@@ -124,12 +124,20 @@ def test_friedman_over_the_problems_equals_scipy(view, suite_study):
     assert result.blocks == len(medians)
     assert result.statistic == pytest.approx(expected.statistic, rel=1e-12)
     assert result.p == pytest.approx(expected.pvalue, rel=1e-12)
-    # per family: the same test on the family's blocks
+    # per family and per task: the same test on their blocks
     family = runs.groupby([runs["suite.instance"], runs["suite.task"]])["suite.family"].first()
-    for name, r in suite_module.friedman_by_family(view, ALPHA).items():
+    task = pd.Series(medians.index.get_level_values(1), index=medians.index)
+    results = suite_module.friedman_by_family(view, ALPHA)
+    tasks = [n for n in results if n.startswith(suite_module.TASK_SCOPE)]
+    assert len(tasks) == 2  # the study's two tasks
+    for name, r in results.items():
         if name == suite_module.ALL or not np.isfinite(r.statistic):
             continue
-        part = medians[family[medians.index] == name]
+        if name in tasks:
+            part = medians[task.str.startswith(name[len(suite_module.TASK_SCOPE):])]
+        else:
+            part = medians[family[medians.index] == name]
+        assert r.blocks == len(part)
         assert r.statistic == pytest.approx(
             stats.friedmanchisquare(*(part[m].to_numpy() for m in METHODS)).statistic)
 

@@ -14,7 +14,8 @@ largest budget (their traces hold every smaller budget's progress).
 * :func:`gap_table` — the median relative gap to the best-known value per method.
 * :func:`wins_matrix` — wins/ties/losses of each method against each other over the problems.
 * :func:`friedman_by_family` — the Friedman test over the problems (one block per problem, each
-  method's median) with Nemenyi post-hoc (scikit-posthocs), over the suite and per family.
+  method's median) with Nemenyi post-hoc (scikit-posthocs), over the suite, per family and,
+  in a study of several tasks, per task (their objectives differ: a method may lead on one).
 """
 
 from __future__ import annotations
@@ -34,6 +35,8 @@ __all__ = ["LEVELS", "SuiteComparison", "ecdf", "friedman_by_family", "gap_table
 LEVELS = 10.0 ** np.arange(1.0, -4.25, -0.5)
 #: The scope of the whole suite in per-family tables.
 ALL = "all problems"
+#: The prefix of a task's scope in those tables.
+TASK_SCOPE = "task: "
 
 
 @dataclass
@@ -54,6 +57,8 @@ class SuiteComparison:
         order; columns: methods).
     families
         Each problem's family.
+    tasks
+        Each problem's task (``tolerance_1e-3``, ``seed``, ``fixed_k_small.indices``, ...).
     methods
         In display order.
     notes
@@ -65,12 +70,17 @@ class SuiteComparison:
     trace: pd.DataFrame
     medians: pd.DataFrame
     families: pd.Series
+    tasks: pd.Series
     methods: list[str]
     notes: list[str] = field(default_factory=list)
 
     @property
     def family_names(self) -> list[str]:
         return list(dict.fromkeys(self.families))
+
+    @property
+    def task_names(self) -> list[str]:
+        return list(dict.fromkeys(self.tasks))
 
 
 def suite_comparison(comparison: Comparison) -> SuiteComparison | None:
@@ -99,9 +109,10 @@ def suite_comparison(comparison: Comparison) -> SuiteComparison | None:
                .reindex(index=order))
     methods = [m for m in comparison.methods if m in medians]
     families = runs.groupby("problem").family.first().reindex(order)
+    tasks = runs.groupby("problem").task.first().reindex(order)
     trace = comparison.trace[comparison.trace.run_id.isin(runs.run_id)]
     return SuiteComparison(budget, runs.reset_index(drop=True), trace, medians[methods],
-                           families, methods, notes)
+                           families, tasks, methods, notes)
 
 
 def _best_known(runs: pd.DataFrame, notes: list[str]) -> pd.Series:
@@ -254,11 +265,15 @@ def wins_matrix(medians: pd.DataFrame, order: list[str]) -> pd.DataFrame:
 
 def friedman_by_family(suite: SuiteComparison,
                        alpha: float = 0.05) -> dict[str, FriedmanResult]:
-    """The Friedman test (Nemenyi post-hoc) over the problems of the suite and of each family:
-    one block per problem, each method's median final objective."""
+    """The Friedman test (Nemenyi post-hoc) over the problems of the suite, of each family and,
+    with several tasks, of each task (scope ``task: <id>``): one block per problem, each
+    method's median final objective."""
     scopes = {ALL: suite.medians}
     for family in suite.family_names:
         scopes[family] = suite.medians[suite.families == family]
+    if len(suite.task_names) > 1:
+        for task in suite.task_names:
+            scopes[f"{TASK_SCOPE}{task}"] = suite.medians[suite.tasks == task]
     return {scope: friedman_blocks(medians, "best_f", alpha, blocks="problems")
             for scope, medians in scopes.items()}
 
@@ -292,6 +307,15 @@ def suite_summary(suite: SuiteComparison, results: dict[str, FriedmanResult],
         lines.append(f"Over the {overall.blocks} problems of the suite ({len(suite.family_names)}"
                      f" families, budget {suite.budget:,}): {lead} (average ranks, 1 = best: "
                      f"{text}); {verdict}.")
+    by_task = [(scope[len(TASK_SCOPE):], r) for scope, r in results.items()
+               if scope.startswith(TASK_SCOPE) and len(r.ranks)]
+    if by_task:
+        parts = []
+        for task, r in by_task:
+            leaders = r.ranks[r.ranks == r.ranks.min()].index.tolist()
+            parts.append(f"{task}: {' and '.join(leaders)} ({r.ranks.min():.2f}, "
+                         f"{r.blocks} problems)")
+        lines.append("Best average rank by task: " + "; ".join(parts) + ".")
     if len(solved):
         shares = solved[ALL].sort_values(ascending=False, kind="stable")
         text = ", ".join(f"{m} {v:.0%}" for m, v in shares.items())
