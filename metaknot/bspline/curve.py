@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -231,7 +231,7 @@ class Curve(ABC):
         aside), as for interpolation at them (The NURBS Book, eq. 9.8)."""
 
     @abstractmethod
-    def coefficient_map(self, interior_knots: np.ndarray):
+    def coefficient_map(self, interior_knots: np.ndarray) -> tuple[np.ndarray, Any]:
         """The full knot vector of the spline with these interior knots, and the sparse
         ``(coefficients, distinct coefficients)`` matrix that spreads its distinct
         coefficients over its coefficients (the identity on an open curve; a closed one's
