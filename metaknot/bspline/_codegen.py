@@ -323,6 +323,15 @@ def render() -> str:
     return (HEADER.format(constants=constants) + "\n\n" + body + "\n\n" + "\n".join(dispatch)
             + "\n")
 
+def write(target: Path, source: str) -> None:
+    """Write a generated module and drop the package's compiled cache: numba checks only a
+    cached function's own file, so a kernel that calls the generated functions would keep their
+    old code."""
+    target.write_text(source)
+    print(f"wrote {target}")
+    for cached in target.parent.glob("__pycache__/*.nb[ic]"):
+        cached.unlink(missing_ok=True)
+
+
 if __name__ == "__main__":
-    TARGET.write_text(render())
-    print(f"wrote {TARGET}")
+    write(TARGET, render())

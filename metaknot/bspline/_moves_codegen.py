@@ -27,6 +27,7 @@ from pathlib import Path
 from ._codegen import _basis_lines as basis_lines
 from ._codegen import _rotation_lines as rotation_lines
 from ._codegen import _row_rotation_lines as row_rotation_lines
+from ._codegen import write
 
 MAX_DEGREE = 5
 MAX_DIMENSION = 3
@@ -196,4 +197,4 @@ def render() -> str:
 
 
 if __name__ == "__main__":
-    TARGET.write_text(render())
+    write(TARGET, render())

@@ -183,5 +183,6 @@ def render() -> str:
 
 
 if __name__ == "__main__":
-    TARGET.write_text(render())
-    print(f"wrote {TARGET}")
+    from ._codegen import write
+
+    write(TARGET, render())
