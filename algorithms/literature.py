@@ -131,10 +131,6 @@ class Target:
         return self.curve.degree
 
     @property
-    def closed(self) -> bool:
-        return self.curve.closed
-
-    @property
     def bounds(self) -> tuple[float, float]:
         """The open interval interior knots lie in."""
         return self.curve.knot_bounds

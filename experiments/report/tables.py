@@ -16,7 +16,6 @@ in words in the ``note`` column; its p-value is left empty.
 
 from __future__ import annotations
 
-import functools
 import itertools
 from dataclasses import dataclass
 
@@ -106,14 +105,8 @@ def wilcoxon_p(x: np.ndarray, y: np.ndarray) -> float:
     test over the 2^n sign flips whose statistic it computes one flip at a time (about a
     second a test; a suite study has thousands). Here the same ``scipy.stats.permutation_test``
     gets the statistic (the sum of the ranks of the positive differences; flipping signs keeps
-    the ranks) for all flips at once. The p depends on the differences only: looked up by them,
-    sorted."""
-    return _wilcoxon_of_differences(tuple(np.sort(np.asarray(x) - np.asarray(y)).tolist()))
-
-
-@functools.lru_cache(maxsize=65536)
-def _wilcoxon_of_differences(differences: tuple[float, ...]) -> float:
-    d = np.array(differences)
+    the ranks) for all flips at once."""
+    d = np.asarray(x, dtype=np.float64) - np.asarray(y, dtype=np.float64)
     nonzero = d[d != 0]
     ties = nonzero.size < d.size or np.unique(np.abs(nonzero)).size < nonzero.size
     if not ties or d.size > 13:  # scipy's exact or normal test: fast
