@@ -50,6 +50,20 @@ PROBLEMS = {
 }
 
 
+def assert_near_equals_full(problem, x, rng):
+    """The neighbours of ``x`` scored by ``evaluate_near`` as the full evaluation scores them
+    (values and metrics, to 1e-9), most by the delta path; returns them and the full values."""
+    X = neighbours_of(problem, x, rng)
+    values, metrics, n_delta = problem.evaluate_near(X, x)
+    full, full_metrics = problem.evaluate_with_metrics(X)
+    np.testing.assert_allclose(values, full, rtol=1e-9)
+    assert metrics.keys() == full_metrics.keys()
+    for key in metrics:
+        np.testing.assert_allclose(metrics[key], full_metrics[key], rtol=1e-9)
+    assert n_delta > len(X) // 2
+    return X, full
+
+
 @pytest.mark.parametrize("name", PROBLEMS)
 def test_evaluate_near_equals_the_full_evaluation(name):
     problem = PROBLEMS[name]()
@@ -62,14 +76,7 @@ def test_evaluate_near_equals_the_full_evaluation(name):
         x = np.sort(rng.uniform(0.05, 0.95, problem.n_knots))
         if getattr(problem, "variable_count", False):
             x[-3:] = np.nan
-    X = neighbours_of(problem, x, rng)
-    values, metrics, n_delta = problem.evaluate_near(X, x)
-    full, full_metrics = problem.evaluate_with_metrics(X)
-    np.testing.assert_allclose(values, full, rtol=1e-9)
-    assert metrics.keys() == full_metrics.keys()
-    for key in metrics:
-        np.testing.assert_allclose(metrics[key], full_metrics[key], rtol=1e-9)
-    assert n_delta > len(X) // 2
+    X, full = assert_near_equals_full(problem, x, rng)
     problem.delta_evaluation = False
     assert problem.evaluate_near(X, x)[2] == 0
     np.testing.assert_array_equal(problem.evaluate_near(X, x)[0], full)

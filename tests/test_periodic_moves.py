@@ -318,7 +318,7 @@ PROBLEMS = {
 
 @pytest.mark.parametrize("name", PROBLEMS)
 def test_closed_problems_evaluate_moves_as_the_full_evaluation(name):
-    from tests.test_delta_runs import neighbours_of
+    from tests.test_delta_runs import assert_near_equals_full
 
     problem = PROBLEMS[name]()
     rng = np.random.default_rng(1)
@@ -331,14 +331,7 @@ def test_closed_problems_evaluate_moves_as_the_full_evaluation(name):
     else:
         x = np.sort(rng.uniform(0.02, 0.98, problem.n_knots))
         x[-3:] = np.nan
-    X = neighbours_of(problem, x, rng)
-    values, metrics, n_delta = problem.evaluate_near(X, x)
-    full, full_metrics = problem.evaluate_with_metrics(X)
-    np.testing.assert_allclose(values, full, rtol=1e-9)
-    assert metrics.keys() == full_metrics.keys()
-    for key in metrics:
-        np.testing.assert_allclose(metrics[key], full_metrics[key], rtol=1e-9)
-    assert n_delta > len(X) // 2
+    assert_near_equals_full(problem, x, rng)
 
 
 @pytest.mark.parametrize("optimizer,budget", [("one_plus_one", 1500), ("local_search", 3000)])
