@@ -22,7 +22,7 @@ import itertools
 import json
 import math
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +38,7 @@ __all__ = [
     "KINDS_WITH_BEST",
     "PORTFOLIO",
     "BestKnown",
+    "absorb",
     "front_candidates",
     "improve",
     "load_best_known",
@@ -58,6 +59,9 @@ PORTFOLIO: dict[str, tuple[tuple[str, dict[str, Any]], ...]] = {
 EXHAUSTIVE_LIMIT = 300_000
 #: A new value replaces a stored one only if lower by more than this relative margin.
 IMPROVEMENT = 1e-12
+#: A run's candidate, evaluated again, must give its recorded value within this relative
+#: difference (a delta move's value and the full fit's agree to rounding) to be absorbed.
+RECHECK = 1e-8
 _FORMAT_VERSION = 1
 
 
@@ -330,3 +334,90 @@ def improve(instance_ids: Iterable[str], *, budget: int, seeds: Sequence[int] = 
         save_best_known(entries, path)
     return counts
 
+
+def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_FILE,
+           report: Callable[[str], None] = print) -> dict[str, int]:
+    """Store the best run of each suite task among ``runs`` where it improves the best-known
+    value (``metaknot suite best --from-study``).
+
+    Parameters
+    ----------
+    runs
+        Run records of a study (rows of ``metaknot.experiments.load_study(...).runs``):
+        ``suite.instance``, ``suite.task``, ``status``, ``best_f``, ``best_x`` and who found
+        it (``label``, else ``optimizer``; ``budget``, ``seed``). Runs that did not finish
+        (``status`` other than ``ok``), runs outside the suite and runs of tasks without a
+        single best candidate (``front``) are passed over.
+    path
+        The best-known file to update (written once, at the end, if anything changed).
+    report
+        Receives one line per improvement and per refused run.
+
+    Returns
+    -------
+    dict
+        Counts of tasks: ``tasks`` (with a usable run), ``improved``, ``new``, ``kept``,
+        ``refused``.
+
+    Notes
+    -----
+    Per (instance, task) the run with the lowest ``best_f`` is taken. Its candidate is
+    evaluated again on the task's problem (:meth:`metaknot.suite.tasks.Task.problem`); if that
+    does not give the recorded value within a relative :data:`RECHECK`, the run was made on other
+    data or settings than the suite's task and is refused (named in the report). Otherwise the
+    value evaluated again is stored when it is lower than the stored one by more than a relative
+    ``1e-12``; a proven value is never replaced.
+    """
+    from .tasks import get_task
+
+    best_runs: dict[tuple[str, str], Mapping[str, Any]] = {}
+    for run in runs:
+        instance, task_id = run.get("suite.instance"), run.get("suite.task")
+        value = run.get("best_f")
+        if (run.get("status") != "ok" or not isinstance(instance, str)
+                or not isinstance(task_id, str) or value is None
+                or not np.isfinite(value) or run.get("best_x") is None):
+            continue
+        key = (instance, task_id)
+        if key not in best_runs or value < best_runs[key]["best_f"]:
+            best_runs[key] = run
+    entries = load_best_known(path)
+    counts = {"tasks": 0, "improved": 0, "new": 0, "kept": 0, "refused": 0}
+    for key in sorted(best_runs):
+        run = best_runs[key]
+        task = get_task(*key)
+        if task.kind not in KINDS_WITH_BEST or task.kind == "front":
+            continue
+        counts["tasks"] += 1
+        old = entries.get(key)
+        if old is not None and old.proven:
+            counts["kept"] += 1
+            continue
+        problem = task.problem()
+        x = np.asarray(run["best_x"], dtype=problem.encoding.dtype)
+        value = float(problem.evaluate(x[None, :])[0])
+        recorded = float(run["best_f"])
+        if not abs(value - recorded) <= RECHECK * abs(recorded):
+            counts["refused"] += 1
+            report(f"{key[0]} {key[1]}: run {run.get('run_id')} recorded {recorded:.10g} but its "
+                   f"candidate gives {value:.10g} on the suite's task (other data or settings?)"
+                   ": not stored")
+            continue
+        if old is not None and not value < old.value - IMPROVEMENT * abs(old.value):
+            counts["kept"] += 1
+            continue
+        method = next((m for m in (run.get("label"), run.get("optimizer"))
+                       if isinstance(m, str) and m), "unknown")
+        seed = run.get("seed")
+        seed = None if seed is None or (isinstance(seed, float) and math.isnan(seed)) else seed
+        entries[key] = _entry(task, problem, x, value, method, int(run["budget"]),
+                              None if seed is None else int(seed))
+        if old is None:
+            counts["new"] += 1
+        else:
+            counts["improved"] += 1
+            report(f"{key[0]} {key[1]}: {old.value:.10g} -> {value:.10g} ({method}, "
+                   f"run {run.get('run_id')})")
+    if counts["improved"] or counts["new"]:
+        save_best_known(entries, path)
+    return counts

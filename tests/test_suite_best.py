@@ -17,6 +17,7 @@ from metaknot.suite import instances
 from metaknot.suite.best import (
     KINDS_WITH_BEST,
     BestKnown,
+    absorb,
     candidate_of,
     front_candidates,
     improve,
@@ -167,6 +168,65 @@ def test_a_value_is_never_replaced_by_a_worse_one(tmp_path) -> None:
     assert load_best_known(path)[("titanium", "front")] == front
     with pytest.raises(ValueError, match="got nope"):
         improve(["titanium"], budget=1, path=path, kinds=("nope",))
+
+
+def _study_row(task_id: str, optimizer: str, seed: int, budget: int = 300) -> dict:
+    """A run of the titanium task as ``load_study(...).runs`` gives it (the fields absorb
+    reads)."""
+    from metaknot import minimize
+
+    result = minimize(get_task("titanium", task_id).problem(), optimizer, budget=budget,
+                      seed=seed)
+    return {"run_id": f"{optimizer}-{seed}", "suite.instance": "titanium",
+            "suite.task": task_id, "status": "ok", "best_f": result.best_f,
+            "best_x": list(result.best_x), "label": optimizer, "optimizer": optimizer,
+            "budget": budget, "seed": seed}
+
+
+def test_a_study_run_is_absorbed_only_where_it_improves(tmp_path) -> None:
+    path = tmp_path / "best.json"
+    stored = ENTRIES[("titanium", "seed")]
+    rows = [_study_row("seed", name, seed) for name in ("ga", "one_plus_one") for seed in (1, 2)]
+    best = min(rows, key=lambda r: r["best_f"])
+    lines: list[str] = []
+    # a stored value better than every run (made up here) is kept, and the file not written
+    claimed = dataclasses.replace(stored, value=best["best_f"] / 2, method="made-up")
+    save_best_known({("titanium", "seed"): claimed}, path)
+    before = path.read_text()
+    assert absorb(rows, path=path, report=lines.append) == {
+        "tasks": 1, "improved": 0, "new": 0, "kept": 1, "refused": 0}
+    assert path.read_text() == before and lines == []
+    # a worse stored value is replaced by the lowest run, its value evaluated again, which an
+    # independent fit by scipy confirms
+    worse = dataclasses.replace(stored, value=best["best_f"] * 2, method="made-up")
+    save_best_known({("titanium", "seed"): worse}, path)
+    assert absorb(rows, path=path, report=lines.append)["improved"] == 1
+    entry = load_best_known(path)[("titanium", "seed")]
+    assert (entry.method, entry.budget, entry.seed) == (best["label"], 300, best["seed"])
+    assert entry.value == pytest.approx(best["best_f"], rel=1e-12)
+    task = get_task("titanium", "seed")
+    assert reference_value(task, task.problem(), np.asarray(entry.knots)) == pytest.approx(
+        entry.value, rel=1e-9)
+    assert lines and best["run_id"] in lines[0]
+    # no stored value: the run's is new
+    assert absorb(rows, path=tmp_path / "new.json", report=lines.append)["new"] == 1
+    # a run whose candidate does not give its recorded value is refused and named
+    tampered = dict(best, best_f=best["best_f"] / 3, run_id="tampered")
+    save_best_known({("titanium", "seed"): worse}, path)
+    lines.clear()
+    assert absorb([tampered], path=path, report=lines.append)["refused"] == 1
+    assert load_best_known(path)[("titanium", "seed")] == worse
+    assert "tampered" in lines[0] and "not stored" in lines[0]
+    # failed runs and runs outside the suite are passed over; a proven value is kept
+    failed = dict(best, status="failed")
+    outside = {k: v for k, v in best.items() if not k.startswith("suite.")}
+    assert absorb([failed, outside], path=path, report=lines.append)["tasks"] == 0
+    proven_key = ("titanium", "fixed_k_small.indices")
+    save_best_known({proven_key: ENTRIES[proven_key]}, path)
+    row = _study_row("fixed_k_small.indices", "ga", 1)
+    assert absorb([dict(row, best_f=row["best_f"] / 2)], path=path,
+                  report=lines.append)["kept"] == 1
+    assert load_best_known(path)[proven_key] == ENTRIES[proven_key]
 
 
 def test_the_file_round_trips_and_refuses_other_formats(tmp_path) -> None:

@@ -166,6 +166,36 @@ def test_gap_and_wins_recomputed(view, suite_study, suite_report):
     assert wins.loc[a, b] == f"{(x < y).sum()}/{(x == y).sum()}/{(x > y).sum()}"
 
 
+def test_suite_best_from_study_stores_each_tasks_best_run(suite_study, tmp_path):
+    """`metaknot suite best --from-study`: against a file whose values are all worse than the
+    study's runs, each task's value becomes its lowest run's, evaluated again."""
+    import dataclasses
+
+    from metaknot.suite.best import save_best_known
+
+    runs = load_study(suite_study).runs
+    runs = runs.assign(task=[get_task(i, t).id for i, t in
+                             zip(runs["suite.instance"], runs["suite.task"], strict=True)])
+    lowest = runs.groupby(["suite.instance", "task"]).best_f.min()
+    known = load_best_known()
+    path = tmp_path / "best.json"
+    save_best_known({key: dataclasses.replace(known[key], value=value * 10, proven=False)
+                     for key, value in lowest.items()}, path)
+    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "suite", "best",
+                           "--from-study", str(suite_study), "--file", str(path)],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert f"{len(lowest)} tasks with runs: {len(lowest)} improved" in done.stdout
+    stored = load_best_known(path)
+    for key, value in lowest.items():
+        assert stored[key].value == pytest.approx(value, rel=1e-12)
+        assert stored[key].budget == 60
+    refused = subprocess.run([sys.executable, "-m", "metaknot.cli", "suite", "best",
+                              "--from-study", str(suite_study), "--family", "aspline"],
+                             capture_output=True, text=True, timeout=600)
+    assert refused.returncode != 0 and "--family" in refused.stderr
+
+
 # --------------------------------------------------------------------------------------------
 # statistical honesty
 

@@ -141,8 +141,8 @@ def _best_known(runs: pd.DataFrame, notes: list[str]) -> pd.Series:
     beaten = (runs.best_f < values).groupby(runs.problem).any()
     if beaten.any():
         notes.append(f"On {int(beaten.sum())} problem(s) a run of this study beat the "
-                     "best-known value (`metaknot suite best` can record it); such runs reach "
-                     "every target.")
+                     "best-known value (`metaknot suite best --from-study` records it); such "
+                     "runs reach every target.")
     return values
 
 

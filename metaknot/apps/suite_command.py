@@ -25,10 +25,13 @@ def add_suite(sub: Any) -> None:
     show.add_argument("instance")
     show.set_defaults(func=_tasks)
     best = actions.add_parser(
-        "best", help="search the tasks again and store every value that improves",
+        "best", help="search the tasks again (or read a study's runs) and store every value "
+                     "that improves",
         description="Run the portfolio of metaknot.suite.best (exhaustive search where the "
                     "space is small) on every task with a best-known value and store what "
-                    "improves; a stored value is never replaced by a worse one.")
+                    "improves; with --from-study, take each task's best run of the studies "
+                    "instead (its candidate evaluated again). A stored value is never "
+                    "replaced by a worse one.")
     best.add_argument("--budget", type=int, default=2000, help="evaluations per method run")
     best.add_argument("--seeds", type=int, default=1, help="seeds per method (0, 1, ...)")
     best.add_argument("--kind", nargs="+", default=None,
@@ -38,6 +41,9 @@ def add_suite(sub: Any) -> None:
     best.add_argument("--instance", nargs="+", default=None, help="only these instances")
     best.add_argument("--file", default=None,
                       help="the best-known file (default: the one the package ships)")
+    best.add_argument("--from-study", nargs="+", default=None, metavar="STUDY_DIR",
+                      help="search nothing: store each suite task's best run of these studies "
+                           "(results/<study>) where it improves the stored value")
     best.set_defaults(func=_best)
 
 
@@ -75,6 +81,8 @@ def _best(args: argparse.Namespace) -> int:
     from metaknot.suite import instances
     from metaknot.suite.best import BEST_KNOWN_FILE, KINDS_WITH_BEST, improve
 
+    if args.from_study:
+        return _absorb(args)
     if args.budget < 1 or args.seeds < 1:
         raise ValueError("--budget and --seeds must be at least 1")
     ids = args.instance or [i.id for i in instances(family=args.family)]
@@ -83,3 +91,23 @@ def _best(args: argparse.Namespace) -> int:
     print(f"{counts['searched']} tasks searched: {counts['improved']} improved, "
           f"{counts['new']} new, {counts['kept']} kept")
     return 0
+
+
+def _absorb(args: argparse.Namespace) -> int:
+    from metaknot.experiments import load_study
+    from metaknot.suite.best import BEST_KNOWN_FILE, absorb
+
+    chosen = [f"--{name}" for name in ("kind", "family", "instance") if getattr(args, name)]
+    if chosen:
+        raise ValueError(f"--from-study stores the studies' runs of every task; "
+                         f"{', '.join(chosen)} only choose what a search covers")
+    rows: list[dict[str, Any]] = []
+    for folder in args.from_study:
+        runs = load_study(folder).runs
+        if "suite.instance" not in runs:
+            raise ValueError(f"{folder}: no run of this study is on a suite task")
+        rows += runs.to_dict("records")
+    counts = absorb(rows, path=args.file or BEST_KNOWN_FILE)
+    print(f"{counts['tasks']} tasks with runs: {counts['improved']} improved, {counts['new']} "
+          f"new, {counts['kept']} kept, {counts['refused']} refused")
+    return 1 if counts["refused"] else 0
