@@ -158,8 +158,21 @@ def test_gap_and_wins_recomputed(view, suite_study, suite_report):
     table = suite_report.tables["suite_gap"].set_index("method")
     for method in METHODS:
         assert table.loc[method, "median gap"] == pytest.approx(gaps[method].median())
-    assert table["median gap"].is_monotonic_increasing
+    # and per task (the study has two): the median over that task's problems
+    task_of = pd.Series([get_task(i, t).id for i, t in gaps.index], index=gaps.index)
+    assert task_of.nunique() == 2
     medians = view.medians
+    best_on = suite_report.tables["suite_best"].set_index("method")
+    for task, part in gaps.groupby(task_of):
+        for method in METHODS:
+            assert table.loc[method, f"median gap: task: {task}"] == pytest.approx(
+                part[method].median())
+        # the share of the task's problems each method is best on (ties count for each)
+        rows = medians[view.tasks == task]
+        share = rows.eq(rows.min(axis=1), axis=0).mean()
+        for method in METHODS:
+            assert best_on.loc[method, f"task: {task}"] == pytest.approx(share[method])
+    assert table["median gap"].is_monotonic_increasing
     wins = suite_report.tables["suite_wins"].set_index("method")
     a, b = METHODS[0], METHODS[1]
     x, y = medians[a].to_numpy(), medians[b].to_numpy()

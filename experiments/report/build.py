@@ -168,6 +168,10 @@ def _suite_tables(comparison: Comparison, tables: dict[str, pd.DataFrame],
     order = list(results[s.ALL].ranks.index) or view.methods
     profile, left_out = s.performance_profile(view.medians, np.array([1.0]))
     best = profile.T.rename(columns={1.0: "best on (share of problems)"})
+    if len(view.task_names) > 1:  # and per task: the shares of its problems
+        for task in view.task_names:
+            part, _ = s.performance_profile(view.medians[view.tasks == task], np.array([1.0]))
+            best[f"{s.TASK_SCOPE}{task}"] = part.T.iloc[:, 0]
     best.index.name, best.columns.name = "method", None
     tables["suite_solved"] = solved.reset_index()
     tables["suite_gap"] = s.gap_table(view)

@@ -221,11 +221,14 @@ def profile_taus(medians: pd.DataFrame, points: int = 200) -> np.ndarray:
 def gap_table(suite: SuiteComparison) -> pd.DataFrame:
     """Per method, over the problems with a best-known value: the median over problems of
     the median relative gap ``(f - f*) / |f*|`` over seeds, its worst, and the shares of
-    problems within 1 % and at (or below) the best-known value; per family the median gap.
-    Sorted by the median gap."""
+    problems within 1 % and at (or below) the best-known value; per family and, in a study of
+    several tasks, per task (``median gap: task: <id>``) the median gap. Sorted by the median
+    gap."""
     runs = suite.runs[suite.runs.best_known.notna()]
     gaps = runs.groupby(["problem", "method"]).gap.median().unstack("method")
     families = suite.families.reindex(gaps.index)
+    tasks = suite.tasks.reindex(gaps.index)
+    several_tasks = len(suite.task_names) > 1
     rows = []
     for method in [m for m in suite.methods if m in gaps]:
         values = gaps[method].dropna()
@@ -234,11 +237,16 @@ def gap_table(suite: SuiteComparison) -> pd.DataFrame:
                "within 1%": (values <= 1e-2).mean(), "at best-known": (values <= 0).mean()}
         for family, part in values.groupby(families[values.index]):
             row[f"median gap: {family}"] = part.median()
+        if several_tasks:
+            for task, part in values.groupby(tasks[values.index]):
+                row[f"median gap: {TASK_SCOPE}{task}"] = part.median()
         rows.append(row)
     table = pd.DataFrame(rows)
     if table.empty:
         return table
     ordered = [f"median gap: {f}" for f in suite.family_names if f"median gap: {f}" in table]
+    ordered += [f"median gap: {TASK_SCOPE}{t}" for t in suite.task_names
+                if f"median gap: {TASK_SCOPE}{t}" in table]
     table = table[["method", "problems", "median gap", "worst gap", "within 1%",
                    "at best-known", *ordered]]
     return table.sort_values(["median gap", "method"], kind="stable").reset_index(drop=True)
