@@ -21,6 +21,7 @@ from metaknot.experiments.report import figures as figures_module
 from metaknot.experiments.report import suite as suite_module
 from metaknot.experiments.report.tables import (
     design_power_note,
+    friedman_blocks,
     friedman_test,
     pairwise_tests,
     plain_summary,
@@ -207,6 +208,35 @@ def test_suite_best_from_study_stores_each_tasks_best_run(suite_study, tmp_path)
                               "--from-study", str(suite_study), "--family", "aspline"],
                              capture_output=True, text=True, timeout=600)
     assert refused.returncode != 0 and "--family" in refused.stderr
+
+
+def test_methods_of_different_tasks_are_ranked_with_their_own():
+    """A study whose methods ran on different tasks (BOBYQA on free knots, the rest on masks)
+    has no problem where all ran: each scope ranks the methods that ran on at least half its
+    problems, where all of them ran (a partial study keeps its methods)."""
+    rng = np.random.default_rng(3)
+    mask_rows, free_rows = [f"i{k} mask" for k in range(12)], [f"i{k} free" for k in range(8)]
+    medians = pd.DataFrame(np.nan, index=mask_rows + free_rows,
+                           columns=["ga", "one_plus_one", "local_search", "bobyqa"])
+    medians.loc[mask_rows, ["ga", "one_plus_one", "local_search"]] = rng.random((12, 3)) + 0.5
+    medians.loc[free_rows, "bobyqa"] = rng.random(8) + 0.5
+    medians.loc["i0 mask", "local_search"] = np.nan  # not finished there yet
+    kept = suite_module.comparable(medians)
+    assert list(kept.columns) == ["ga", "one_plus_one", "local_search"]
+    assert list(kept.index) == mask_rows[1:]
+    result = friedman_blocks(kept, blocks="problems")
+    expected = stats.friedmanchisquare(*kept.to_numpy().T)
+    assert result.blocks == 11
+    assert result.p == pytest.approx(expected.pvalue) and result.statistic == pytest.approx(
+        expected.statistic)
+    # the profile at τ = 1 over the same problems: the share each method is best on
+    profile, left_out = suite_module.performance_profile(medians, np.array([1.0]))
+    assert list(profile.columns) == list(kept.columns) and left_out == len(medians) - 11
+    best = kept.eq(kept.min(axis=1), axis=0).mean()
+    assert profile.iloc[0].to_dict() == pytest.approx(best.to_dict())
+    # within the free task BOBYQA is the only method: nothing to rank it against
+    alone = suite_module.comparable(medians.loc[free_rows])
+    assert list(alone.columns) == ["bobyqa"] and len(alone) == 8
 
 
 # --------------------------------------------------------------------------------------------

@@ -165,9 +165,10 @@ def _suite_tables(comparison: Comparison, tables: dict[str, pd.DataFrame],
     results = s.friedman_by_family(view, alpha)
     ranks, tests = s.ranks_by_family(results)
     solved = s.solved_table(view, hits)
-    order = list(results[s.ALL].ranks.index) or view.methods
+    ranked = list(results[s.ALL].ranks.index)
+    order = ranked + [m for m in view.methods if m not in ranked]
     profile, left_out = s.performance_profile(view.medians, np.array([1.0]))
-    best = profile.T.rename(columns={1.0: "best on (share of problems)"})
+    best = profile.T.reindex(view.methods).rename(columns={1.0: "best on (share of problems)"})
     if len(view.task_names) > 1:  # and per task: the shares of its problems
         for task in view.task_names:
             part, _ = s.performance_profile(view.medians[view.tasks == task], np.array([1.0]))
@@ -181,8 +182,9 @@ def _suite_tables(comparison: Comparison, tables: dict[str, pd.DataFrame],
     tables["suite_best"] = best.reindex(order).reset_index()
     tables["suite_medians"] = view.medians.reset_index()
     if left_out:
-        view.notes.append(f"{left_out} problem(s) are left out of the performance profiles "
-                          "(a method without runs, or a best median not above 0).")
+        view.notes.append(f"{left_out} problem(s) are left out of the suite-wide performance "
+                          "profile (a compared method without runs there, or a best median "
+                          "not above 0).")
     return _Suite(view, hits, results, s.suite_summary(view, results, solved, alpha))
 
 

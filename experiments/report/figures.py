@@ -387,6 +387,8 @@ def profile_figure(comparison: Comparison, suite: Any) -> plt.Figure:
         taus = profile_taus(medians)
         profile, _ = performance_profile(medians, taus)
         for k, method in enumerate(suite.methods):
+            if method not in profile:  # not compared in this scope (s.comparable)
+                continue
             ax.step(taus, profile[method], where="post", label=method, ms=4,
                     markevery=_markevery(k, taus, profile[method]), **look[method])
         ax.set_xscale("log")

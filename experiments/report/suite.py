@@ -111,6 +111,18 @@ def suite_comparison(comparison: Comparison) -> SuiteComparison | None:
     families = runs.groupby("problem").family.first().reindex(order)
     tasks = runs.groupby("problem").task.first().reindex(order)
     trace = comparison.trace[comparison.trace.run_id.isin(runs.run_id)]
+    ran = medians[methods].notna()
+    if not ran.to_numpy().all():
+        groups: dict[tuple[int, tuple[str, ...]], list[str]] = {}
+        for method in methods:
+            key = (int(ran[method].sum()), tuple(sorted(set(tasks[ran[method]]))))
+            groups.setdefault(key, []).append(method)
+        parts = [f"{', '.join(names)} on {count} (tasks {', '.join(on)})"
+                 for (count, on), names in groups.items()]
+        notes.append(f"Not every method ran on all {len(ran)} problems: {'; '.join(parts)}. "
+                     "Ranks and profiles compare a method only in the scopes where it ran on "
+                     f"at least {COVERAGE:.0%} of the problems, with the methods that did, on "
+                     "the problems where all of them ran.")
     return SuiteComparison(budget, runs.reset_index(drop=True), trace, medians[methods],
                            families, tasks, methods, notes)
 
@@ -192,12 +204,34 @@ def solved_table(suite: SuiteComparison, hits: pd.DataFrame,
     return table[[ALL, *families]].reindex([m for m in suite.methods if m in table.index])
 
 
+#: A method enters a scope's rank-based comparison (Friedman ranks, profiles) if it ran on at
+#: least this share of the scope's problems.
+COVERAGE = 0.5
+
+
+def comparable(medians: pd.DataFrame) -> pd.DataFrame:
+    """The part of a scope's medians that rank-based comparisons use: the methods with a median
+    on at least :data:`COVERAGE` of the scope's problems, on the problems where each of them
+    has one.
+
+    A study whose methods ran on different tasks (BOBYQA on free knots only, the mask methods
+    on masks) has no problem where every method ran: each method is then compared with the
+    methods of its own tasks, and a partial study keeps its methods and compares them where
+    all have finished.
+    """
+    if medians.empty:
+        return medians
+    coverage = medians.notna().mean()
+    return medians[[m for m in medians.columns if coverage[m] >= COVERAGE]].dropna()
+
+
 def performance_profile(medians: pd.DataFrame, taus: np.ndarray) -> tuple[pd.DataFrame, int]:
     """Dolan–Moré performance profile of the median final values: for each τ, the share of
-    problems on which a method's median is within a factor τ of the best method's. Problems
-    where a method has no value, or the best median is not above 0 (no ratio), are left out;
-    returns the profile (rows τ, columns methods) and the number of problems left out."""
-    complete = medians.dropna()
+    problems on which a method's median is within a factor τ of the best method's. Compared
+    are :func:`comparable`'s methods and problems; problems where the best median is not above
+    0 (no ratio) are left out too. Returns the profile (rows τ, columns the methods compared)
+    and the number of problems left out."""
+    complete = comparable(medians)
     best = complete.min(axis=1)
     usable = np.isfinite(best) & (best > 0)
     ratios = complete[usable].to_numpy() / best[usable].to_numpy()[:, None]
@@ -209,7 +243,7 @@ def performance_profile(medians: pd.DataFrame, taus: np.ndarray) -> tuple[pd.Dat
 
 def profile_taus(medians: pd.DataFrame, points: int = 200) -> np.ndarray:
     """τ from 1 to a little beyond the largest finite ratio of the medians (at least 2)."""
-    complete = medians.dropna()
+    complete = comparable(medians)
     best = complete.min(axis=1)
     ratios = complete[(best > 0) & np.isfinite(best)].div(best[(best > 0)
                                                                 & np.isfinite(best)], axis=0)
@@ -275,14 +309,14 @@ def friedman_by_family(suite: SuiteComparison,
                        alpha: float = 0.05) -> dict[str, FriedmanResult]:
     """The Friedman test (Nemenyi post-hoc) over the problems of the suite, of each family and,
     with several tasks, of each task (scope ``task: <id>``): one block per problem, each
-    method's median final objective."""
+    method's median final objective (:func:`comparable`'s methods and problems)."""
     scopes = {ALL: suite.medians}
     for family in suite.family_names:
         scopes[family] = suite.medians[suite.families == family]
     if len(suite.task_names) > 1:
         for task in suite.task_names:
             scopes[f"{TASK_SCOPE}{task}"] = suite.medians[suite.tasks == task]
-    return {scope: friedman_blocks(medians, "best_f", alpha, blocks="problems")
+    return {scope: friedman_blocks(comparable(medians), "best_f", alpha, blocks="problems")
             for scope, medians in scopes.items()}
 
 
@@ -316,7 +350,7 @@ def suite_summary(suite: SuiteComparison, results: dict[str, FriedmanResult],
                      f" families, budget {suite.budget:,}): {lead} (average ranks, 1 = best: "
                      f"{text}); {verdict}.")
     by_task = [(scope[len(TASK_SCOPE):], r) for scope, r in results.items()
-               if scope.startswith(TASK_SCOPE) and len(r.ranks)]
+               if scope.startswith(TASK_SCOPE) and len(r.ranks) > 1]
     if by_task:
         parts = []
         for task, r in by_task:
