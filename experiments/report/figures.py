@@ -385,7 +385,7 @@ def profile_figure(comparison: Comparison, suite: Any) -> plt.Figure:
     for ax, scope in zip(axes, [ALL, *suite.family_names], strict=True):
         medians = suite.medians if scope == ALL else suite.medians[suite.families == scope]
         taus = profile_taus(medians)
-        profile, _ = performance_profile(medians, taus)
+        profile, left_out = performance_profile(medians, taus)
         for k, method in enumerate(suite.methods):
             if method not in profile:  # not compared in this scope (s.comparable)
                 continue
@@ -393,7 +393,7 @@ def profile_figure(comparison: Comparison, suite: Any) -> plt.Figure:
                     markevery=_markevery(k, taus, profile[method]), **look[method])
         ax.set_xscale("log")
         ax.set_ylim(-0.02, 1.02)
-        ax.set_title(f"{scope} ({len(medians)} problems)", fontsize=9)
+        ax.set_title(f"{scope} ({len(medians) - left_out} problems)", fontsize=9)
         ax.set_xlabel("τ (ratio to the best median)")
     axes[0].set_ylabel("share of problems within τ")
     axes[0].legend(fontsize=7)
