@@ -38,7 +38,7 @@ lint: $(STAMP)
 bench: $(STAMP)  ## kernel speed against scipy; see benchmarks/ for runs, sweeps and quality
 	$(BIN)/python benchmarks/bench_evaluate.py
 
-seed-paper: $(STAMP)  ## the seed paper's study over 30 seeds (about 6 minutes on 2 cores), and its report
+seed-paper: $(STAMP)  ## the seed paper's study over 30 seeds (about 6 minutes on 2 cores: 5 min 37 s measured), and its report
 	$(BIN)/metaknot run -m experiment=seed_paper launcher=joblib
 	$(BIN)/metaknot report results/seed_paper
 
