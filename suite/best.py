@@ -370,7 +370,8 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
     """
     from .tasks import get_task
 
-    best_runs: dict[tuple[str, str], Mapping[str, Any]] = {}
+    suite_tasks: dict[tuple[str, str], Task] = {}  # by the name a record gives (an alias too)
+    best_runs: dict[tuple[str, str], tuple[Task, Mapping[str, Any]]] = {}
     for run in runs:
         instance, task_id = run.get("suite.instance"), run.get("suite.task")
         value = run.get("best_f")
@@ -378,15 +379,17 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
                 or not isinstance(task_id, str) or value is None
                 or not np.isfinite(value) or run.get("best_x") is None):
             continue
-        key = (instance, task_id)
-        if key not in best_runs or value < best_runs[key]["best_f"]:
-            best_runs[key] = run
+        if (instance, task_id) not in suite_tasks:
+            suite_tasks[instance, task_id] = get_task(instance, task_id)
+        task = suite_tasks[instance, task_id]
+        key = (instance, task.id)  # ``tolerance`` stored as the task it names
+        if key not in best_runs or value < best_runs[key][1]["best_f"]:
+            best_runs[key] = (task, run)
     entries = load_best_known(path)
     counts = {"tasks": 0, "improved": 0, "new": 0, "kept": 0, "refused": 0}
     for key in sorted(best_runs):
-        run = best_runs[key]
-        task = get_task(*key)
-        if task.kind not in KINDS_WITH_BEST or task.kind == "front":
+        task, run = best_runs[key]
+        if task.kind == "front" or task.kind not in KINDS_WITH_BEST:
             continue
         counts["tasks"] += 1
         old = entries.get(key)
@@ -408,10 +411,9 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
             continue
         method = next((m for m in (run.get("label"), run.get("optimizer"))
                        if isinstance(m, str) and m), "unknown")
-        seed = run.get("seed")
-        seed = None if seed is None or (isinstance(seed, float) and math.isnan(seed)) else seed
+        seed = run.get("seed")  # NaN in a table of runs where some have none
         entries[key] = _entry(task, problem, x, value, method, int(run["budget"]),
-                              None if seed is None else int(seed))
+                              int(seed) if seed is not None and seed == seed else None)
         if old is None:
             counts["new"] += 1
         else:

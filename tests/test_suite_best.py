@@ -208,8 +208,13 @@ def test_a_study_run_is_absorbed_only_where_it_improves(tmp_path) -> None:
     assert reference_value(task, task.problem(), np.asarray(entry.knots)) == pytest.approx(
         entry.value, rel=1e-9)
     assert lines and best["run_id"] in lines[0]
-    # no stored value: the run's is new
+    # no stored value: the run's is new; a record naming the task by its alias counts for
+    # the task it names
     assert absorb(rows, path=tmp_path / "new.json", report=lines.append)["new"] == 1
+    alias = _study_row("tolerance", "ga", 1)
+    assert absorb([alias], path=tmp_path / "new.json", report=lines.append)["new"] == 1
+    assert set(load_best_known(tmp_path / "new.json")) == {("titanium", "seed"),
+                                                          ("titanium", "tolerance_1e-3")}
     # a run whose candidate does not give its recorded value is refused and named
     tampered = dict(best, best_f=best["best_f"] / 3, run_id="tampered")
     save_best_known({("titanium", "seed"): worse}, path)
