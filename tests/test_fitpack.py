@@ -80,6 +80,42 @@ def test_fewest_within_is_within_and_no_front_member_with_fewer_is(metric, close
     assert answer["n_control_points"] <= within.min()
 
 
+@pytest.mark.parametrize("closed", [False, True])
+def test_fewest_within_leaves_out_only_the_near_interpolating_factors(monkeypatch, closed):
+    """The scan runs down from the largest factor and stops at the first spline with far more
+    control points than the fewest within the tolerance so far; the answer is the one the whole
+    scan of 60 factors (then the same bisection) finds."""
+    points = OUTLINE if closed else SPIRAL
+    u = closed_parameterize(points) if closed else parameterize(points, "centripetal")
+    tol = 1e-3 * float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    fitted = []  # (s, control points, within the tolerance) of each spline, in order
+    smoothing_spline = fitpack.smoothing_spline
+
+    def recording(*args, **kwargs):
+        spline = smoothing_spline(*args, **kwargs)
+        within = spline.distances(u, points).max() <= tol
+        fitted.append((args[3], spline.n_control_points, within))
+        return spline
+
+    monkeypatch.setattr(fitpack, "smoothing_spline", recording)
+    answer = fitpack.fewest_within(u, points, 3, tol, "max_deviation", closed=closed)
+    smallest = min(s for s, _, _ in fitted)
+    scan = fitted[: [s for s, _, _ in fitted].index(smallest) + 1]  # then the bisection
+    assert [s for s, _, _ in scan] == sorted((s for s, _, _ in scan), reverse=True)
+    fewest = np.inf
+    for i, (_, n, within) in enumerate(scan):
+        far = n > max(fitpack.SCAN_STOP_FACTOR * fewest, fewest + fitpack.SCAN_STOP_MARGIN)
+        assert far == (i == len(scan) - 1)  # the first spline far beyond ends the scan
+        fewest = min(fewest, n) if within else fewest
+    assert answer["n_control_points"] <= fewest
+    total = float(((points - points.mean(axis=0)) ** 2).sum())
+    grid = np.exp(np.linspace(np.log(total * 1e-14), np.log(total), 60))
+    assert np.count_nonzero(grid < smallest * (1 - 1e-9)) > 10  # near-interpolating: left out
+    monkeypatch.setattr(fitpack, "SCAN_STOP_FACTOR", np.inf)  # the whole scan
+    whole = fitpack.fewest_within(u, points, 3, tol, "max_deviation", closed=closed)
+    assert (whole["n_control_points"], whole["s"]) == (answer["n_control_points"], answer["s"])
+
+
 def test_fewest_within_refuses_an_impossible_tolerance():
     u = parameterize(SPIRAL, "centripetal")
     noisy = SPIRAL + np.random.default_rng(0).normal(0, 1e-2, SPIRAL.shape)

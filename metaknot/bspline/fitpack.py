@@ -161,13 +161,26 @@ def front(u: ArrayLike, points: ArrayLike, degree: int, n_smoothing: int = 200, 
             "max_deviation": np.array([best[c][1] for c in counts])}
 
 
+#: The scan of :func:`fewest_within` runs from the largest smoothing factor down and stops
+#: once FITPACK's spline has more than this many times the control points of the fewest found
+#: within the tolerance (and at least ``SCAN_STOP_MARGIN`` more): below there FITPACK only adds
+#: knots, and its fits near interpolation cost the most (tens of milliseconds each, against
+#: about one near the answer).
+SCAN_STOP_FACTOR = 2.0
+SCAN_STOP_MARGIN = 10
+
+
 @renamed_parameters("fewest_within", KEYWORDS)
 def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tolerance: float,
                   metric: Literal["max_deviation", "rmse"], *, closed: bool = False
                   ) -> dict[str, Any]:
     """The fewest control points FITPACK's smoothing spline needs to stay within ``tolerance``: a
-    scan of 60 smoothing factors over log s, then bisection on log s between the last fit
-    within and the first beyond.
+    scan of 60 smoothing factors over log s (1e-14 to 1 times the data's total sum of squares),
+    then bisection on log s between the fewest within and the nearest larger factor beyond.
+
+    The scan runs from the largest factor down and stops where FITPACK's splines have far more
+    control points than the fewest found within (``SCAN_STOP_FACTOR``): the near-interpolating
+    splines it leaves out are the costly ones and have no chance of being the answer.
 
     Returns
     -------
@@ -194,16 +207,20 @@ def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tolerance: float
 
     index = 1 if metric == "max_deviation" else 2
     best = None
-    within, beyond = None, None
-    for x in np.linspace(np.log(total * 1e-14), np.log(total), 60):
+    within, beyond = None, None  # log s of the answer, of the nearest larger factor beyond
+    last_beyond = None
+    for x in np.linspace(np.log(total * 1e-14), np.log(total), 60)[::-1]:
         found = errors(float(np.exp(x)))
         if found is None:
             continue
-        if found[index] <= tolerance:
-            if best is None or found[0].knots.size <= best[0].knots.size:
-                best, within = found, x
-        elif within is not None and beyond is None:
-            beyond = x
+        count = found[0].n_control_points
+        if found[index] > tolerance:
+            last_beyond = x
+        elif best is None or count < best[0].n_control_points:
+            best, within, beyond = found, x, last_beyond
+        if best is not None and count > max(SCAN_STOP_FACTOR * best[0].n_control_points,
+                                            best[0].n_control_points + SCAN_STOP_MARGIN):
+            break
     if best is None:  # interpolation (s = 0)
         best, within = errors(0.0), None
         if best is None or best[index] > tolerance:
