@@ -9,6 +9,13 @@ equal its parent is drawn again (the number of flips is conditioned on being at 
 evaluation is spent on a copy. On ordered indices (``KnotIndices``) every knot moves with
 probability ``rate`` by a step of ``±1..max_step`` along the data (at least one knot moves),
 and the set is repaired as the GA does.
+
+With one child per step, the children of the next steps are asked for ahead, as many as were
+rejected in a row (at most :attr:`OnePlusOneEA.lookahead`): the mutations do not depend on the
+parent's fate, so each step's draws are made in the same order as one step per call. The
+evaluator counts them up to the first child taken (:meth:`~metaknot.Optimizer.acceptance`);
+the children scored after it are dropped unseen and accounted as fits. The run is that of one
+step per call (same candidates, values and trace), at a fraction of the calls.
 """
 
 from __future__ import annotations
@@ -56,18 +63,41 @@ def flip_at_least_one(x: np.ndarray, rate: float, rows: int,
                       rng: np.random.Generator) -> np.ndarray:
     """``rows`` children of the 0/1 vector ``x``: bit flips with probability ``rate`` each, at
     least one per child."""
-    return np.asarray(x)[None, :] ^ _at_least_one(x.size, rate, rows, rng)
+    x = np.asarray(x)
+    if rows != 1:
+        return x[None, :] ^ _at_least_one(x.size, rate, rows, rng)
+    # one child (the (1+1) EA's every step): the same draws, flipped in place of a copy
+    child = x[None, :].copy()
+    child[0, _flip_draw(x.size, rate, rng)] ^= True
+    return child
+
+
+def _flip_draw(n_var: int, rate: float, rng: np.random.Generator) -> int | np.ndarray:
+    """The positions one child of :func:`flip_at_least_one` flips, with its draws."""
+    count = 0
+    while count == 0:
+        count = int(rng.binomial(n_var, rate))
+    if count == 1:  # Floyd's sampling of one position is one draw
+        return int(rng.integers(n_var))
+    return distinct_positions(n_var, count, rng)
 
 
 def step_at_least_one(x: np.ndarray, rate: float, rows: int, max_step: int,
                       rng: np.random.Generator) -> np.ndarray:
     """``rows`` children of the integer vector ``x``: each gene moves with probability
     ``rate`` by ``±1..max_step`` (uniform), at least one per child (not repaired)."""
-    hit = _at_least_one(x.size, rate, rows, rng)
+    hit, step = _step_draw(x.size, rate, rows, max_step, rng)
+    return np.where(hit, np.asarray(x)[None, :] + step, x[None, :])
+
+
+def _step_draw(n_var: int, rate: float, rows: int, max_step: int, rng: np.random.Generator
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Which genes ``rows`` children of :func:`step_at_least_one` move and by how much, with
+    its draws: boolean and integer arrays of shape ``(rows, n_var)``."""
+    hit = _at_least_one(n_var, rate, rows, rng)
     size = rng.integers(1, max_step + 1, size=hit.shape)
     # the signs as Generator.choice((-1, 1), size) draws them, without its conversions
-    step = size * _SIGNS[rng.integers(0, 2, size=hit.shape, dtype=np.int64)]
-    return np.where(hit, np.asarray(x)[None, :] + step, x[None, :])
+    return hit, size * _SIGNS[rng.integers(0, 2, size=hit.shape, dtype=np.int64)]
 
 
 @register("one_plus_one")
@@ -92,23 +122,56 @@ class OnePlusOneEA(Optimizer):
         self.offspring = check_param("offspring", offspring, low=1, integer=True)
         self.max_step = check_param("max_step", max_step, low=1, integer=True)
 
+    #: Steps of the (1+1) EA asked for ahead, at most: as many as were rejected in a row since
+    #: the parent last changed. They are children of the current parent, scored in one call
+    #: and counted up to the first one taken (:meth:`acceptance`), so the run is the same as
+    #: with one step per call: same draws, children, values and trace.
+    lookahead = 64
+
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         n_var = problem.encoding.n_var
         self._rate = 1.0 / n_var if self.rate is None else self.rate
         self.parent: np.ndarray | None = None
         self.parent_f = np.inf
+        self._draws: list = []  # the next steps' mutations, drawn in order, kept until used
+        self._asked = 0  # children in the last batch asked ahead
+        self._rejected = 0  # children rejected since the parent last changed
 
     def ask(self) -> np.ndarray:
-        """The first parent (a sample of the problem), then ``offspring`` children."""
+        """The first parent (a sample of the problem), then ``offspring`` children; with one
+        child per step, the children of the next steps (see :attr:`lookahead`)."""
         if self.parent is None:
             return self.problem.sample(self.rng, 1)
         encoding = self.problem.encoding
-        if encoding.kind == "binary":
-            return flip_at_least_one(self.parent, self._rate, self.offspring, self.rng)
-        children = step_at_least_one(self.parent, self._rate, self.offspring, self.max_step,
-                                     self.rng)
-        return encoding.repair(children)
+        binary = encoding.kind == "binary"
+        if self.offspring > 1:
+            if binary:
+                return flip_at_least_one(self.parent, self._rate, self.offspring, self.rng)
+            children = step_at_least_one(self.parent, self._rate, self.offspring,
+                                         self.max_step, self.rng)
+            return encoding.repair(children)
+        ahead = min(self.lookahead, max(1, self._rejected), self.problem.remaining)
+        while len(self._draws) < ahead:
+            self._draws.append(_flip_draw(self.parent.size, self._rate, self.rng) if binary
+                               else _step_draw(self.parent.size, self._rate, 1, self.max_step,
+                                               self.rng))
+        draws = self._draws[:ahead]
+        self._asked = ahead
+        if binary:
+            children = np.repeat(self.parent[None, :], ahead, axis=0)
+            for row, flips in zip(children, draws, strict=True):
+                row[flips] ^= True
+            return children
+        hit = np.vstack([h for h, _ in draws])
+        step = np.vstack([s for _, s in draws])
+        return encoding.repair(np.where(hit, self.parent[None, :] + step, self.parent[None, :]))
+
+    def acceptance(self) -> np.ndarray | None:
+        """With steps asked ahead: the parent's value for each (a child no worse is taken)."""
+        if self.parent is None or self.offspring > 1 or self._asked < 2:
+            return None
+        return np.full(self._asked, self.parent_f)
 
     def move_origin(self) -> np.ndarray | None:
         """The parent: children differ from it by a few flips or steps (delta evaluation)."""
@@ -116,7 +179,12 @@ class OnePlusOneEA(Optimizer):
 
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         """Keep the best child if it is no worse than the parent."""
+        if self.parent is not None and self.offspring == 1:
+            del self._draws[: len(F)]  # the steps these children took
         best = int(np.argmin(F))
         if self.parent is None or F[best] <= self.parent_f:
             self.parent = np.array(X[best], copy=True)
             self.parent_f = float(F[best])
+            self._rejected = 0
+        else:
+            self._rejected += len(F)

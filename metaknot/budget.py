@@ -158,7 +158,8 @@ class Evaluator:
             raise ValueError(f"count_fits takes a whole number of fits >= 0; got {n!r}")
         self._external_fits += int(n)
 
-    def __call__(self, X: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
+    def __call__(self, X: np.ndarray, near: np.ndarray | None = None,
+                 accept: np.ndarray | None = None) -> np.ndarray:
         """Evaluate ``X`` (shape ``(B, n_var)``) or the leading part that fits the budget.
 
         Returns the objective values of the evaluated rows: possibly fewer than ``B``. Only the
@@ -170,25 +171,38 @@ class Evaluator:
         :meth:`Problem.evaluate_near` (the knot problems use exact delta evaluation where they
         can): the values are the same, each row still counts as one evaluation.
 
+        ``accept`` (one value per row) makes ``X`` a sequential optimizer's next steps asked
+        ahead (:meth:`~metaknot.Optimizer.acceptance`): the rows count up to the first whose
+        value is at most its ``accept`` entry, that one included; the rest were scored in the
+        same call but are dropped unseen (their fits are accounted as fits made inside
+        evaluations), as if the rows had been asked for one at a time.
+
         Raises
         ------
         BudgetExhausted
             If the budget is already spent or a stop was requested.
+        ValueError
+            If ``accept`` does not have one value per row, or the problem has two objectives.
         """
         if self.done:
             raise BudgetExhausted(f"evaluation budget of {self._budget} spent")
         problem = self._problem
         X = problem.encoding.check(X)
+        if accept is not None:
+            accept = np.asarray(accept, dtype=np.float64)
+            if accept.shape != (X.shape[0],):
+                raise ValueError(f"accept must have one value per candidate, shape "
+                                 f"({X.shape[0]},); got {accept.shape}")
+            if self._front is not None:
+                raise ValueError("accept applies to one objective; this problem has two")
         X = X[: self.remaining]
         if X.shape[0] == 0:
             return np.empty(0)
         fits_before = audit.fits()
         if near is not None:
-            F, metrics, n_delta = problem.evaluate_near(X, np.asarray(near))
-            self._delta_evaluations += int(n_delta)
+            F, metrics, delta = problem.evaluate_near(X, np.asarray(near))
         else:
-            F, metrics = problem.evaluate_with_metrics(X)
-        self._extra_fits += max(0, audit.fits() - fits_before - X.shape[0])
+            F, metrics, delta = (*problem.evaluate_with_metrics(X), 0)
         F = np.asarray(F, dtype=np.float64)
         expected = (X.shape[0],) if self._front is None else (X.shape[0], 2)
         if F.shape != expected:
@@ -196,6 +210,16 @@ class Evaluator:
                 f"{type(problem).__name__}.evaluate returned shape {F.shape}; "
                 f"expected {expected}"
             )
+        if accept is not None and F.size > 1:
+            taken = np.flatnonzero(F <= accept[: F.size])  # NaN is never taken
+            if taken.size and taken[0] + 1 < F.size:
+                kept = int(taken[0]) + 1
+                X, F = X[:kept], F[:kept]
+                metrics = {name: values[:kept] for name, values in metrics.items()}
+                delta = np.asarray(delta)[:kept] if np.ndim(delta) else min(int(delta), kept)
+        self._delta_evaluations += int(np.count_nonzero(delta)) if np.ndim(delta) \
+            else int(delta)
+        self._extra_fits += max(0, audit.fits() - fits_before - X.shape[0])
         front = self._front
         if front is None and F.size == 1 and problem_module.SINGLE_CANDIDATE_PATH:
             # one candidate: the same steps on a float

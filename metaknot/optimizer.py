@@ -113,6 +113,21 @@ class Optimizer(ABC):
         """
         return None
 
+    def acceptance(self) -> np.ndarray | None:
+        """For a sequential optimizer that asks for its next steps ahead: per row of the last
+        :meth:`ask`, the value at or below which it takes that row, or ``None`` (the default:
+        every row counts).
+
+        A (1+1) EA that knows its next mutations, but not whether the parent changes, asks for
+        them all as children of the current parent and returns the parent's value for each.
+        The evaluator scores the batch in one call and counts its rows up to the first one
+        taken; :meth:`tell` gets just those. The rows after it are dropped unseen, so the run
+        is the one of asking one row at a time (same candidates, values and trace), at the
+        cost of one call per batch. A stop a callback asks for takes effect after the rows
+        counted, as for any batch.
+        """
+        return None
+
     def count_fits(self, n: int = 1) -> None:
         """Report ``n`` fits made outside the evaluator (recorded as ``external_fits``)."""
         count = getattr(self.problem, "count_fits", None)
@@ -139,7 +154,7 @@ class Optimizer(ABC):
                     "left to try"
                 )
             try:
-                F = evaluator(X, near=self.move_origin())
+                F = evaluator(X, near=self.move_origin(), accept=self.acceptance())
             except BudgetExhausted:
                 return
             self.tell(X[: F.size], F)

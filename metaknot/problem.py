@@ -200,9 +200,11 @@ class Problem(ABC):
         return self.evaluate(X), {}
 
     def evaluate_near(self, X: np.ndarray, near: np.ndarray
-                      ) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
+                      ) -> tuple[np.ndarray, dict[str, np.ndarray], int | np.ndarray]:
         """:meth:`evaluate_with_metrics` for candidates made from ``near`` by local moves, plus
-        how many of them were decided by a cheaper path than a full evaluation.
+        which of them were decided by a cheaper path than a full evaluation: how many (an
+        int), or a boolean per candidate (then an evaluator that drops the rows after an
+        accepted one, :meth:`~metaknot.Optimizer.acceptance`, counts exactly the rows kept).
 
         The evaluator calls this when an optimizer names the origin of its batch
         (:meth:`~metaknot.Optimizer.move_origin`). The default evaluates in full (and returns

@@ -194,8 +194,8 @@ class KnotProblem(Problem):
         The candidates are scored by a :class:`MoveEvaluator` (on closed curves its periodic
         counterpart) bound to ``near`` (kept between calls, moved when ``near`` changes): the
         same values as a full evaluation, each candidate decided by delta evaluation where it
-        can be. Returns the values, the metrics and how many candidates the delta path
-        decided.
+        can be. Returns the values, the metrics and which candidates the delta path decided
+        (a boolean per candidate; for a single candidate, 1 or 0).
         """
         moves = self._move_evaluator(near) if self.delta_evaluation \
             and type(self).evaluate is KnotProblem.evaluate else None
@@ -203,8 +203,8 @@ class KnotProblem(Problem):
             return (*self.evaluate_with_metrics(X), 0)
         X = self.encoding.check(X)
         fit, path = self._evaluate_moves(moves, X, near)
-        return self._values(fit), self._metrics(fit), \
-            int(np.count_nonzero(path == PATH_DELTA))
+        delta = int(path[0] == PATH_DELTA) if path.size == 1 else path == PATH_DELTA
+        return self._values(fit), self._metrics(fit), delta
 
     def _move_evaluator(self, near: np.ndarray) -> MoveEvaluator | None:
         """The move evaluator bound to ``near`` (None if ``near`` cannot be fitted)."""
@@ -324,8 +324,8 @@ class KnotSelection(KnotProblem):
         no whole knot vectors to compare."""
         starts, stops, inserted, offsets = mask_replacements(
             self.params, np.asarray(near, dtype=np.int64), X)
-        return moves.evaluate(inserted, offsets, max_deviation=self.objective.needs_max_deviation,
-                              _replacing=(starts, stops))
+        return moves._evaluate(inserted, offsets, self.objective.needs_max_deviation, starts,
+                               stops)
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "density": self.density}

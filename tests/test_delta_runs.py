@@ -60,7 +60,7 @@ def assert_near_equals_full(problem, x, rng):
     assert metrics.keys() == full_metrics.keys()
     for key in metrics:
         np.testing.assert_allclose(metrics[key], full_metrics[key], rtol=1e-9)
-    assert n_delta > len(X) // 2
+    assert np.count_nonzero(n_delta) > len(X) // 2
     return X, full
 
 
@@ -78,7 +78,7 @@ def test_evaluate_near_equals_the_full_evaluation(name):
             x[-3:] = np.nan
     X, full = assert_near_equals_full(problem, x, rng)
     problem.delta_evaluation = False
-    assert problem.evaluate_near(X, x)[2] == 0
+    assert np.count_nonzero(problem.evaluate_near(X, x)[2]) == 0
     np.testing.assert_array_equal(problem.evaluate_near(X, x)[0], full)
 
 
@@ -88,13 +88,13 @@ def test_closed_curves_use_delta_evaluation_and_infeasible_origins_are_evaluated
     x = (rng.random(closed.encoding.n_var) < 0.3).astype(np.int64)
     X = neighbours_of(closed, x, rng, 10)
     values, _, n_delta = closed.evaluate_near(X, x)
-    assert n_delta > 5
+    assert np.count_nonzero(n_delta) > 5
     np.testing.assert_allclose(values, closed.evaluate(X), rtol=1e-9)
     problem = KnotIndices(POINTS, n_knots=5)
     x = np.array([3, 3, 10, 20, 30])  # coincident knots: the origin cannot be fitted
     X = np.array([[3, 4, 10, 20, 30], [2, 3, 10, 20, 30]])
     values, _, n_delta = problem.evaluate_near(X, x)
-    assert n_delta == 0
+    assert np.count_nonzero(n_delta) == 0
     np.testing.assert_array_equal(values, problem.evaluate(X))
 
 
@@ -183,4 +183,4 @@ def test_mask_rows_far_from_the_origin_still_score_as_the_full_evaluation():
     np.testing.assert_allclose(values, full, rtol=1e-9)
     for key in metrics:
         np.testing.assert_allclose(metrics[key], full_metrics[key], rtol=1e-9)
-    assert n_delta >= 1  # the origin itself at least
+    assert np.count_nonzero(n_delta) >= 1  # the origin itself at least

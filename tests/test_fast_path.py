@@ -46,7 +46,8 @@ def make(kind: str, closed: bool, **options) -> mk.Problem:
     return FreeKnots(data, n_knots=6, closed=closed, **options)
 
 
-def assert_same_run(fast: mk.RunResult, general: mk.RunResult) -> None:
+def assert_same_run(fast: mk.RunResult, general: mk.RunResult, *, same_fits: bool = True
+                    ) -> None:
     assert fast.n_evaluations == general.n_evaluations
     assert fast.best_f == general.best_f
     np.testing.assert_array_equal(fast.best_x, general.best_x)
@@ -56,8 +57,9 @@ def assert_same_run(fast: mk.RunResult, general: mk.RunResult) -> None:
     for name in a:
         np.testing.assert_array_equal(a[name], b[name], err_msg=name)  # NaN equals NaN
     assert fast.delta_evaluations == general.delta_evaluations
-    assert (fast.audited_fits, fast.accounted_fits) == \
-        (general.audited_fits, general.accounted_fits)
+    if same_fits:
+        assert (fast.audited_fits, fast.accounted_fits) == \
+            (general.audited_fits, general.accounted_fits)
 
 
 @pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])

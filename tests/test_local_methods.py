@@ -57,6 +57,20 @@ def test_bit_flips_are_binomial_conditioned_on_one(n, rate):
     assert per_bit.std() < 0.1 * per_bit.mean() + 0.01
 
 
+@pytest.mark.parametrize(("n", "rate"), [(359, 1 / 359), (30, 0.2), (5, 0.9)])
+def test_one_child_is_the_batch_path_draw_for_draw(n, rate):
+    """The (1+1) EA's one-child path (flips in place, one draw for one position) gives each
+    child the batch path gives, with the same draws: children one at a time equal the rows
+    of one batch from the same seed."""
+    parent = np.random.default_rng(1).integers(0, 2, n)
+    one_at_a_time = np.random.default_rng(2)
+    children = np.vstack([flip_at_least_one(parent, rate, 1, one_at_a_time)
+                          for _ in range(300)])
+    np.testing.assert_array_equal(children, flip_at_least_one(parent, rate, 300,
+                                                              np.random.default_rng(2)))
+    assert children.dtype == parent.dtype
+
+
 def test_distinct_positions_are_numpys_choice_draw_for_draw():
     """The same positions as ``Generator.choice(n, k, replace=False)`` and the generator left
     in the same state (so every run of the (1+1) EA is what it was with ``choice``)."""

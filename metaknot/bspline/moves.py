@@ -171,8 +171,7 @@ class MoveEvaluator:
         self._col_before = np.concatenate(([0.0], np.maximum.accumulate(column_sums)))
         self._col_from = np.concatenate((np.maximum.accumulate(column_sums[::-1])[::-1], [0.0]))
 
-    def evaluate(self, knots: np.ndarray, offsets: np.ndarray, *, max_deviation: bool = False,
-                 _replacing: tuple[np.ndarray, np.ndarray] | None = None
+    def evaluate(self, knots: np.ndarray, offsets: np.ndarray, *, max_deviation: bool = False
                  ) -> tuple[BatchFit, np.ndarray]:
         """Score candidates ``knots[offsets[b]:offsets[b + 1]]`` (sorted interior knots).
 
@@ -194,6 +193,13 @@ class MoveEvaluator:
             knots = np.ascontiguousarray(knots, dtype=np.float64)
         if offsets.dtype != np.int64 or not offsets.flags.c_contiguous:
             offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+        return self._evaluate(knots, offsets, max_deviation, *_NO_MOVES)
+
+    def _evaluate(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool,
+                  starts: np.ndarray, stops: np.ndarray) -> tuple[BatchFit, np.ndarray]:
+        """:meth:`evaluate` (``starts`` empty) or :meth:`evaluate_replacements` of arrays
+        already of the compiled code's types (float64 knots, int64 offsets, starts and stops,
+        contiguous; their values are checked there)."""
         b = offsets.size - 1
         audit.add_fits(b)
         sse = np.empty(b)
@@ -201,7 +207,6 @@ class MoveEvaluator:
         n_ctrl = np.empty(b, dtype=np.int64)
         reason = np.empty(b, dtype=np.int8)
         path = np.empty(b, dtype=np.int8)
-        starts, stops = _NO_MOVES if _replacing is None else _replacing
         self._score(knots, offsets, starts, stops, max_deviation, sse, max_dev, n_ctrl, reason,
                     path)
         return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason), path
@@ -241,13 +246,17 @@ class MoveEvaluator:
             raise ValueError("starts and stops must be 1-D arrays of the same length")
         if starts.size == 0:
             raise ValueError("no moves given")
-        if np.asarray(offsets).size != starts.size + 1:
+        offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+        if offsets.ndim != 1 or offsets.size != starts.size + 1:
             raise ValueError("offsets must have one entry more than there are moves")
         if (starts < 0).any() or (stops > k).any() or (starts > stops).any():
             raise ValueError(f"each move must replace knots start:stop with "
                              f"0 <= start <= stop <= {k}")
-        return self.evaluate(inserted, offsets, max_deviation=max_deviation,
-                             _replacing=(starts, stops))
+        inserted = np.asarray(inserted)
+        if inserted.ndim != 1:
+            raise ValueError(f"inserted must be a 1-D array; got shape {inserted.shape}")
+        return self._evaluate(np.ascontiguousarray(inserted, dtype=np.float64), offsets,
+                              max_deviation, starts, stops)
 
 
 #: The most cuts a periodic incumbent is swept from (few breakpoints of a high degree).
