@@ -82,6 +82,28 @@ def _flip_draw(n_var: int, rate: float, rng: np.random.Generator) -> int | np.nd
     return distinct_positions(n_var, count, rng)
 
 
+def _flip_draws(n_var: int, rate: float, steps: int, rng: np.random.Generator
+                ) -> list[int | np.ndarray]:
+    """:func:`_flip_draw` of ``steps`` consecutive steps, the same draws in the same order:
+    compiled, but for the steps with more than two flips (and masks over 10,000 bits), which
+    ``Generator.choice`` draws."""
+    if n_var > 10_000:
+        return [_flip_draw(n_var, rate, rng) for _ in range(steps)]
+    from ._mutation_kernels import flip_draws
+
+    out: list[int | np.ndarray] = []
+    counts = np.empty(steps, dtype=np.int64)
+    positions = np.empty((steps, 2), dtype=np.int64)
+    while len(out) < steps:
+        left = steps - len(out)
+        done = flip_draws(rng, n_var, rate, counts[:left], positions[:left])
+        out += [int(positions[i, 0]) if counts[i] == 1 else positions[i].copy()
+                for i in range(done)]
+        if done < left:  # a step of more flips: its count is drawn, numpy draws the places
+            out.append(rng.choice(n_var, size=int(counts[done]), replace=False))
+    return out
+
+
 def step_at_least_one(x: np.ndarray, rate: float, rows: int, max_step: int,
                       rng: np.random.Generator) -> np.ndarray:
     """``rows`` children of the integer vector ``x``: each gene moves with probability
@@ -152,10 +174,12 @@ class OnePlusOneEA(Optimizer):
                                          self.max_step, self.rng)
             return encoding.repair(children)
         ahead = min(self.lookahead, max(1, self._rejected), self.problem.remaining)
+        if binary and len(self._draws) < ahead:
+            self._draws += _flip_draws(self.parent.size, self._rate,
+                                       max(ahead - len(self._draws), self.lookahead), self.rng)
         while len(self._draws) < ahead:
-            self._draws.append(_flip_draw(self.parent.size, self._rate, self.rng) if binary
-                               else _step_draw(self.parent.size, self._rate, 1, self.max_step,
-                                               self.rng))
+            self._draws.append(_step_draw(self.parent.size, self._rate, 1, self.max_step,
+                                          self.rng))
         draws = self._draws[:ahead]
         self._asked = ahead
         if binary:

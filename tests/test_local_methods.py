@@ -71,6 +71,22 @@ def test_one_child_is_the_batch_path_draw_for_draw(n, rate):
     assert children.dtype == parent.dtype
 
 
+@pytest.mark.parametrize(("n", "rate"), [(359, 1 / 359), (60, 0.05), (9, 0.5), (2, 0.9),
+                                       (12_000, 1 / 12_000)])
+def test_compiled_flip_draws_are_numpys_draw_for_draw(n, rate):
+    """The (1+1) EA's steps drawn ahead in compiled code (numba's Generator methods): the
+    positions and the generator state of one numpy draw at a time."""
+    from metaknot.algorithms.one_plus_one import _flip_draw, _flip_draws
+
+    compiled, python = np.random.default_rng(3), np.random.default_rng(3)
+    ahead = _flip_draws(n, rate, 500, compiled)
+    one_at_a_time = [_flip_draw(n, rate, python) for _ in range(500)]
+    for a, b in zip(ahead, one_at_a_time, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert compiled.random() == python.random()
+    assert any(np.size(a) > 2 for a in ahead) == (n > 2)  # numpy's choice draws those
+
+
 def test_distinct_positions_are_numpys_choice_draw_for_draw():
     """The same positions as ``Generator.choice(n, k, replace=False)`` and the generator left
     in the same state (so every run of the (1+1) EA is what it was with ``choice``)."""
