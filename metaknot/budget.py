@@ -202,7 +202,7 @@ class Evaluator:
         if near is not None:
             F, metrics, delta = problem.evaluate_near(X, np.asarray(near))
         else:
-            F, metrics, delta = (*problem.evaluate_with_metrics(X), 0)
+            (F, metrics), delta = problem.evaluate_with_metrics(X), 0
         F = np.asarray(F, dtype=np.float64)
         expected = (X.shape[0],) if self._front is None else (X.shape[0], 2)
         if F.shape != expected:
@@ -216,9 +216,9 @@ class Evaluator:
                 kept = int(taken[0]) + 1
                 X, F = X[:kept], F[:kept]
                 metrics = {name: values[:kept] for name, values in metrics.items()}
-                delta = np.asarray(delta)[:kept] if np.ndim(delta) else min(int(delta), kept)
-        self._delta_evaluations += int(np.count_nonzero(delta)) if np.ndim(delta) \
-            else int(delta)
+                delta = delta[:kept] if isinstance(delta, np.ndarray) else min(delta, kept)
+        self._delta_evaluations += int(np.count_nonzero(delta)) \
+            if isinstance(delta, np.ndarray) else int(delta)
         self._extra_fits += max(0, audit.fits() - fits_before - X.shape[0])
         front = self._front
         if front is None and F.size == 1 and problem_module.SINGLE_CANDIDATE_PATH:
