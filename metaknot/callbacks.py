@@ -9,6 +9,7 @@ callbacks like any other.
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -160,7 +161,8 @@ class TraceRecorder(Callback):
 
     def _set_grid(self, budget: int) -> None:
         self._grid = checkpoint_grid(budget, self.per_decade)
-        self._grid_set = frozenset(self._grid.tolist())
+        self._grid_list = self._grid.tolist()
+        self._grid_set = frozenset(self._grid_list)
 
     def on_batch(self, progress: Progress) -> None:
         if self._grid is None:  # used without on_start (directly on an Evaluator)
@@ -172,6 +174,11 @@ class TraceRecorder(Callback):
         if F.size == 1:
             self._one(float(F[0]), progress)
             return
+        if F.min() >= self._best_f:  # no improvement: rows only if a checkpoint is in it
+            at = bisect_left(self._grid_list, first + 1)
+            if at == len(self._grid_list) or self._grid_list[at] > progress.n_evaluations:
+                self._n = progress.n_evaluations
+                return
         running = np.minimum.accumulate(np.concatenate(([self._best_f], F)))
         improved = running[1:] < running[:-1]
         at = np.arange(F.size)
