@@ -208,6 +208,10 @@ def test_suite_best_from_study_stores_each_tasks_best_run(suite_study, tmp_path)
                               "--from-study", str(suite_study), "--family", "aspline"],
                              capture_output=True, text=True, timeout=600)
     assert refused.returncode != 0 and "--family" in refused.stderr
+    refused = subprocess.run([sys.executable, "-m", "metaknot.cli", "suite", "best",
+                              "--from-study", str(suite_study), "--budget", "500"],
+                             capture_output=True, text=True, timeout=600)
+    assert refused.returncode != 0 and "--budget" in refused.stderr  # not silently ignored
 
 
 def test_methods_of_different_tasks_are_ranked_with_their_own():

@@ -32,8 +32,10 @@ def add_suite(sub: Any) -> None:
                     "improves; with --from-study, take each task's best run of the studies "
                     "instead (its candidate evaluated again). A stored value is never "
                     "replaced by a worse one.")
-    best.add_argument("--budget", type=int, default=2000, help="evaluations per method run")
-    best.add_argument("--seeds", type=int, default=1, help="seeds per method (0, 1, ...)")
+    best.add_argument("--budget", type=int, default=None,
+                      help=f"evaluations per method run (default {SEARCH_BUDGET})")
+    best.add_argument("--seeds", type=int, default=None,
+                      help="seeds per method (0, 1, ...; default 1)")
     best.add_argument("--kind", nargs="+", default=None,
                       choices=("fixed_k", "tolerance", "seed", "front"),
                       help="only tasks of these kinds")
@@ -45,6 +47,10 @@ def add_suite(sub: Any) -> None:
                       help="search nothing: store each suite task's best run of these studies "
                            "(results/<study>) where it improves the stored value")
     best.set_defaults(func=_best)
+
+
+#: Evaluations per method run of ``metaknot suite best`` (without ``--from-study``).
+SEARCH_BUDGET = 2000
 
 
 def _list(args: argparse.Namespace) -> int:
@@ -83,10 +89,12 @@ def _best(args: argparse.Namespace) -> int:
 
     if args.from_study:
         return _absorb(args)
-    if args.budget < 1 or args.seeds < 1:
+    budget = SEARCH_BUDGET if args.budget is None else args.budget
+    seeds = 1 if args.seeds is None else args.seeds
+    if budget < 1 or seeds < 1:
         raise ValueError("--budget and --seeds must be at least 1")
     ids = args.instance or [i.id for i in instances(family=args.family)]
-    counts = improve(ids, budget=args.budget, seeds=range(args.seeds),
+    counts = improve(ids, budget=budget, seeds=range(seeds),
                      path=args.file or BEST_KNOWN_FILE, kinds=args.kind or KINDS_WITH_BEST)
     print(f"{counts['searched']} tasks searched: {counts['improved']} improved, "
           f"{counts['new']} new, {counts['kept']} kept")
@@ -97,10 +105,11 @@ def _absorb(args: argparse.Namespace) -> int:
     from metaknot.experiments import load_study
     from metaknot.suite.best import BEST_KNOWN_FILE, absorb
 
-    chosen = [f"--{name}" for name in ("kind", "family", "instance") if getattr(args, name)]
+    chosen = [f"--{name}" for name in ("kind", "family", "instance", "budget", "seeds")
+              if getattr(args, name) is not None]
     if chosen:
-        raise ValueError(f"--from-study stores the studies' runs of every task; "
-                         f"{', '.join(chosen)} only choose what a search covers")
+        raise ValueError(f"--from-study stores the studies' runs of every task, searching "
+                         f"nothing; {', '.join(chosen)} only set what a search covers")
     rows: list[dict[str, Any]] = []
     for folder in args.from_study:
         runs = load_study(folder).runs
