@@ -12,7 +12,11 @@
    delta evaluation): its whole-run time per evaluation against the time of one delta move
    (every one-bit flip of the run's best mask, scored by a ``MoveEvaluator`` in one call,
    repeated until as many moves as the run made are timed: on a shared machine a short
-   timing would catch a quiet moment that the whole run does not).
+   timing would catch a quiet moment that the whole run does not). And the floors of both:
+   random search's draw plus one bare kernel call per candidate (no evaluator, objective or
+   trace), and the EA's batches of moves (it asks for its next steps ahead) scored again by
+   the problem alone (``evaluate_near``: the moves, often of several flips, the incumbent's
+   rebinds and the problem's work per batch), each over the same reference as its ratio.
 
 3. Sweep scaling. 40 runs as a ``metaknot run -m`` sweep with the joblib launcher, once with one
    worker and once with two (each worker runs the kernel on one thread), each into a fresh
@@ -33,8 +37,12 @@ The last lines are::
     run_overhead_ratio: <the worst optimizer's kernel time / run time>       (target >= 0.5)
     sequential_overhead_ratio: <random search batch 1, run time per evaluation / kernel time
                                 per candidate in a batch>                  (target <= 1.5)
+    sequential_floor_ratio: <random search's draw and one bare kernel call per candidate /
+                             kernel time per candidate in a batch>   (what no framework beats)
     one_plus_one_move_ratio: <(1+1) EA, run time per evaluation / delta-move time per move>
                                                                            (target <= 4)
+    one_plus_one_problem_ratio: <the EA's batches scored again by the problem alone, per
+                                 evaluation / delta-move time per move>  (its moves' own cost)
     store_write_ms: <one synced record write, in milliseconds>
     store_write_share: <that write / the fastest run of part 1>
     sweep_scaling_2_workers: <one-worker time / two-worker time>             (target >= 1.7)
@@ -58,6 +66,7 @@ import numpy as np
 
 import metaknot as mk
 from metaknot.bspline import evaluate_masks
+from metaknot.bspline.fit import _evaluate_masks
 from metaknot.bspline.moves import MoveEvaluator, bit_flips
 from metaknot.experiments.store import Store
 from metaknot.problems import KnotSelection, get_curve
@@ -68,11 +77,16 @@ OPTIONS = {"random_search": {"batch_size": 50}, "ga": {"population": 50},
 
 
 class Recording(KnotSelection):
-    """The epitrochoid mask problem, keeping a copy of every evaluated batch."""
+    """The epitrochoid mask problem, keeping a copy of every evaluated batch (and, for batches
+    of moves, the candidate they were made from)."""
 
     def evaluate_with_metrics(self, X):
         self.batches.append(np.array(X, copy=True))
         return super().evaluate_with_metrics(X)
+
+    def evaluate_near(self, X, near):
+        self.near_batches.append((np.array(X, copy=True), np.array(near, copy=True)))
+        return super().evaluate_near(X, near)
 
 
 def kernel_seconds(problem: KnotSelection, batches: list[np.ndarray], repeats: int) -> float:
@@ -115,9 +129,11 @@ def run_overhead(evaluations: int, repeats: int) -> tuple[float, dict[str, float
     return min(ratios.values()), runs
 
 
-def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float]:
+def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float, float, float]:
     """Random search with batches of one against the kernel on its candidates, and the (1+1)
-    EA against one delta move: the two ratios (run time per evaluation / kernel time)."""
+    EA against one delta move: the two ratios (run time per evaluation / kernel time); and
+    their floors: random search's draw plus one bare kernel call per candidate, and the EA's
+    batches scored again by the problem alone, over the same references."""
     numba.set_num_threads(1)
     data = get_curve("epitrochoid")
     problem = KnotSelection(data)
@@ -134,12 +150,32 @@ def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float]:
 
     per_random = best_run("random_search", single)
     recording = Recording(data)
-    recording.batches = []
+    recording.batches, recording.near_batches = [], []
     mk.minimize(recording, "random_search", budget=evaluations, seed=1, optimizer_kwargs=single)
     candidates = np.concatenate(recording.batches)
     batches = np.array_split(candidates, max(1, len(candidates) // 50))
     per_kernel = kernel_seconds(problem, batches, repeats) / len(candidates)
+    # the floor: the sampler's draw and one bare kernel call per candidate, no framework
+    u, q, rng = problem.curve._u, problem.curve._q, np.random.default_rng(1)
+    one_by_one = [c[None, :] for c in candidates]
+    per_floor = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for c in one_by_one:
+            problem.sample(rng, 1)
+            _evaluate_masks(u, q, c, problem.degree, False)
+        per_floor = min(per_floor, (time.perf_counter() - start) / len(candidates))
     per_ea = best_run("one_plus_one", {})
+    recording = Recording(data)
+    recording.batches, recording.near_batches = [], []
+    mk.minimize(recording, "one_plus_one", budget=evaluations, seed=1)
+    per_problem = np.inf  # the EA's batches scored again by the problem alone
+    for _ in range(repeats):
+        again = KnotSelection(data)
+        start = time.perf_counter()
+        for X, near in recording.near_batches:
+            again.evaluate_near(X, near)
+        per_problem = min(per_problem, (time.perf_counter() - start) / evaluations)
     best = mk.minimize(problem, "one_plus_one", budget=evaluations, seed=1).best_x.astype(bool)
     moves = MoveEvaluator(problem.params, problem.points, problem.params[1:-1][best])
     flips = bit_flips(problem.params, best, np.arange(best.size))
@@ -157,7 +193,11 @@ def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float]:
           f"candidates in batches of 50: {1e6 * per_kernel:6.2f} us/candidate")
     print(f"(1+1) EA:                {1e6 * per_ea:7.2f} us/evaluation; one delta move "
           f"(every one-bit flip of its best mask): {1e6 * per_move:6.2f} us/move", flush=True)
-    return per_random / per_kernel, per_ea / per_move
+    print(f"floors: random search's draw and a bare kernel call per candidate "
+          f"{1e6 * per_floor:6.2f} us; the EA's {len(recording.near_batches)} batches scored "
+          f"again by the problem alone {1e6 * per_problem:6.2f} us/evaluation", flush=True)
+    return (per_random / per_kernel, per_ea / per_move, per_floor / per_kernel,
+            per_problem / per_move)
 
 
 def store_write_seconds(evaluations: int, records: int) -> tuple[float, float, int]:
@@ -218,7 +258,8 @@ def main() -> None:
     args = parser.parse_args()
 
     worst, runs = run_overhead(args.evaluations, args.repeats)
-    sequential, one_plus_one = sequential_overhead(args.evaluations, args.repeats)
+    sequential, one_plus_one, sequential_floor, one_plus_one_floor = sequential_overhead(
+        args.evaluations, args.repeats)
     synced, unsynced, size = store_write_seconds(args.evaluations, args.store_records)
     fastest = min(runs.values())
     print(f"\nstore writes ({args.store_records} records of {size / 1000:.0f} KB into "
@@ -241,7 +282,9 @@ def main() -> None:
         scaling = min(times[1]) / min(times[2])
     print(f"\nrun_overhead_ratio: {worst:.2f}")
     print(f"sequential_overhead_ratio: {sequential:.2f}")
+    print(f"sequential_floor_ratio: {sequential_floor:.2f}")
     print(f"one_plus_one_move_ratio: {one_plus_one:.1f}")
+    print(f"one_plus_one_problem_ratio: {one_plus_one_floor:.1f}")
     print(f"store_write_ms: {1e3 * synced:.2f}")
     print(f"store_write_share: {synced / fastest:.3f}")
     if scaling is not None:
