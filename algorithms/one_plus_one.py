@@ -104,6 +104,38 @@ def _flip_draws(n_var: int, rate: float, steps: int, rng: np.random.Generator
     return out
 
 
+def _step_draws(n_var: int, rate: float, max_step: int, steps: int, rng: np.random.Generator
+                ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`_step_draw` of ``steps`` consecutive one-child steps, the same draws in the same
+    order: compiled, but for the steps that move more than two genes (and sets of over 10,000
+    genes), whose places ``Generator.choice`` draws."""
+    if n_var > 10_000:
+        return [_step_draw(n_var, rate, 1, max_step, rng) for _ in range(steps)]
+    from ._mutation_kernels import step_draws
+
+    out: list[tuple[np.ndarray, np.ndarray]] = []
+    counts = np.empty(steps, dtype=np.int64)
+    positions = np.empty((steps, 2), dtype=np.int64)
+    sizes = np.empty((steps, n_var), dtype=np.int64)
+    signs = np.empty((steps, n_var), dtype=np.int64)
+    while len(out) < steps:
+        left = steps - len(out)
+        done = step_draws(rng, n_var, rate, max_step, counts[:left], positions[:left],
+                          sizes[:left], signs[:left])
+        hit = np.zeros((done, n_var), dtype=bool)
+        for i in range(done):
+            hit[i, positions[i, : counts[i]]] = True
+        step = sizes[:done] * _SIGNS[signs[:done]]
+        out += [(hit[i : i + 1], step[i : i + 1]) for i in range(done)]
+        if done < left:  # a step of more moves: its count is drawn, numpy draws the rest
+            row = np.zeros((1, n_var), dtype=bool)
+            row[0, rng.choice(n_var, size=int(counts[done]), replace=False)] = True
+            size = rng.integers(1, max_step + 1, size=row.shape)
+            out.append((row, size * _SIGNS[rng.integers(0, 2, size=row.shape,
+                                                        dtype=np.int64)]))
+    return out
+
+
 def step_at_least_one(x: np.ndarray, rate: float, rows: int, max_step: int,
                       rng: np.random.Generator) -> np.ndarray:
     """``rows`` children of the integer vector ``x``: each gene moves with probability
@@ -174,12 +206,10 @@ class OnePlusOneEA(Optimizer):
                                          self.max_step, self.rng)
             return encoding.repair(children)
         ahead = min(self.lookahead, max(1, self._rejected), self.problem.remaining)
-        if binary and len(self._draws) < ahead:
-            self._draws += _flip_draws(self.parent.size, self._rate,
-                                       max(ahead - len(self._draws), self.lookahead), self.rng)
-        while len(self._draws) < ahead:
-            self._draws.append(_step_draw(self.parent.size, self._rate, 1, self.max_step,
-                                          self.rng))
+        if len(self._draws) < ahead:  # the next steps' draws, a lookahead at a time
+            more, n_var = max(ahead - len(self._draws), self.lookahead), self.parent.size
+            self._draws += _flip_draws(n_var, self._rate, more, self.rng) if binary else \
+                _step_draws(n_var, self._rate, self.max_step, more, self.rng)
         draws = self._draws[:ahead]
         self._asked = ahead
         if binary:

@@ -87,6 +87,24 @@ def test_compiled_flip_draws_are_numpys_draw_for_draw(n, rate):
     assert any(np.size(a) > 2 for a in ahead) == (n > 2)  # numpy's choice draws those
 
 
+@pytest.mark.parametrize(("n", "rate", "max_step"), [(30, 1 / 30, 1), (12, 0.2, 3),
+                                                   (5, 0.6, 2), (12_000, 1 / 12_000, 2)])
+def test_compiled_step_draws_are_numpys_draw_for_draw(n, rate, max_step):
+    """The (1+1) EA's index steps drawn ahead in compiled code: which genes move and by how
+    much, and the generator state, as one numpy draw at a time gives them."""
+    from metaknot.algorithms.one_plus_one import _step_draw, _step_draws
+
+    compiled, python = np.random.default_rng(4), np.random.default_rng(4)
+    ahead = _step_draws(n, rate, max_step, 300, compiled)
+    for hit, step in ahead:
+        expected_hit, expected_step = _step_draw(n, rate, 1, max_step, python)
+        np.testing.assert_array_equal(hit, expected_hit)
+        np.testing.assert_array_equal(step, expected_step)
+        assert step.dtype == expected_step.dtype and hit.shape == (1, n)
+    assert compiled.random() == python.random()
+    assert any(h.sum() > 2 for h, _ in ahead)  # numpy's choice draws those places
+
+
 def test_distinct_positions_are_numpys_choice_draw_for_draw():
     """The same positions as ``Generator.choice(n, k, replace=False)`` and the generator left
     in the same state (so every run of the (1+1) EA is what it was with ``choice``)."""
