@@ -79,6 +79,67 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
 
 
 @numba.njit(cache=True)
+def rotate_row(band: np.ndarray, tail: np.ndarray, rhs: np.ndarray, nb: int, p: int, d: int,
+               row: np.ndarray, row_rhs: np.ndarray, first: int, row_tail: bool,
+               has_tail: np.ndarray) -> None:
+    """Rotate a data row into the factor by Givens rotations: ``band[nb, p + 1]``,
+    ``tail[nb + p, p]`` (the last ``p`` rows: the triangle of the wrap-around columns) and
+    ``rhs[nb + p, d]``. ``row[:nb]`` holds the row's band entries (nonzero from ``first`` for
+    at most ``p + 1`` columns: the data are sorted, so what the rotations fill in stays there),
+    ``row[nb:]`` its wrap-around entries (``row_tail``: some are nonzero), ``row_rhs`` its
+    point. Band columns first, left to right, then the wrap-around triangle. ``has_tail[r]``
+    says row r of R has a nonzero wrap-around entry (zeros rotated into zeros stay zero, and
+    are skipped; empty: not kept). Leaves ``row`` zero and the row's residual in
+    ``row_rhs``."""
+    for col in range(first, min(first + p + 1, nb)):
+        w = row[col]
+        if w == 0.0:
+            continue
+        r0 = band[col, 0]
+        h = givens_norm(r0, w)
+        inv = 1.0 / h
+        cs, sn = r0 * inv, w * inv
+        band[col, 0] = h
+        row[col] = 0.0
+        for k in range(1, p + 1):
+            if col + k < nb:
+                a, b = band[col, k], row[col + k]
+                band[col, k] = cs * a + sn * b
+                row[col + k] = -sn * a + cs * b
+        if row_tail or has_tail[col]:  # both tails zero stay zero
+            for k in range(p):
+                a, b = tail[col, k], row[nb + k]
+                tail[col, k] = cs * a + sn * b
+                row[nb + k] = -sn * a + cs * b
+            if has_tail.size:
+                has_tail[col] = True
+            row_tail = True
+        for c in range(d):
+            a, b = rhs[col, c], row_rhs[c]
+            rhs[col, c] = cs * a + sn * b
+            row_rhs[c] = -sn * a + cs * b
+    for k in range(p if row_tail else 0):
+        w = row[nb + k]
+        if w == 0.0:
+            continue
+        r = nb + k
+        r0 = tail[r, k]
+        h = givens_norm(r0, w)
+        inv = 1.0 / h
+        cs, sn = r0 * inv, w * inv
+        tail[r, k] = h
+        row[nb + k] = 0.0
+        for kk in range(k + 1, p):
+            a, b = tail[r, kk], row[nb + kk]
+            tail[r, kk] = cs * a + sn * b
+            row[nb + kk] = -sn * a + cs * b
+        for c in range(d):
+            a, b = rhs[r, c], row_rhs[c]
+            rhs[r, c] = cs * a + sn * b
+            row_rhs[c] = -sn * a + cs * b
+
+
+@numba.njit(cache=True)
 def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray,
             basis: np.ndarray, spans: np.ndarray, generated: bool = True) -> tuple:
     """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots).
@@ -132,54 +193,7 @@ def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarra
             row_tail |= col >= nb
         for c in range(d):
             row_rhs[c] = q[i, c]
-        # eliminate the band columns, left to right: the data are sorted, so the row's band
-        # entries (and what the rotations fill in) stay within first .. first + p
-        for col in range(first, min(first + p + 1, nb)):
-            w = row[col]
-            if w == 0.0:
-                continue
-            r0 = band[col, 0]
-            h = givens_norm(r0, w)
-            inv = 1.0 / h
-            cs, sn = r0 * inv, w * inv
-            band[col, 0] = h
-            row[col] = 0.0
-            for k in range(1, p + 1):
-                if col + k < nb:
-                    a, b = band[col, k], row[col + k]
-                    band[col, k] = cs * a + sn * b
-                    row[col + k] = -sn * a + cs * b
-            if row_tail or has_tail[col]:  # both tails zero stay zero
-                for k in range(p):
-                    a, b = tail[col, k], row[nb + k]
-                    tail[col, k] = cs * a + sn * b
-                    row[nb + k] = -sn * a + cs * b
-                has_tail[col] = True
-                row_tail = True
-            for c in range(d):
-                a, b = rhs[col, c], row_rhs[c]
-                rhs[col, c] = cs * a + sn * b
-                row_rhs[c] = -sn * a + cs * b
-        # then the last p columns against the final triangle
-        for k in range(p if row_tail else 0):
-            w = row[nb + k]
-            if w == 0.0:
-                continue
-            r = nb + k
-            r0 = tail[r, k]
-            h = givens_norm(r0, w)
-            inv = 1.0 / h
-            cs, sn = r0 * inv, w * inv
-            tail[r, k] = h
-            row[nb + k] = 0.0
-            for kk in range(k + 1, p):
-                a, b = tail[r, kk], row[nb + kk]
-                tail[r, kk] = cs * a + sn * b
-                row[nb + kk] = -sn * a + cs * b
-            for c in range(d):
-                a, b = rhs[r, c], row_rhs[c]
-                rhs[r, c] = cs * a + sn * b
-                row_rhs[c] = -sn * a + cs * b
+        rotate_row(band, tail, rhs, nb, p, d, row, row_rhs, first, row_tail, has_tail)
         for c in range(d):
             sse += row_rhs[c] * row_rhs[c]
     # conditioning: a pivot far below the largest one means a rank-deficient system

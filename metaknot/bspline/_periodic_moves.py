@@ -66,7 +66,7 @@ from ._periodic_kernel import (
     deviation_from_basis,
     extended_knots,
     fit_one,
-    givens_norm,
+    rotate_row,
 )
 
 # _candidate's verdict on knots given out of order (and sorted there) but feasible so far.
@@ -76,50 +76,12 @@ UNSORTED = -1
 @njit(cache=True)
 def rotate_in(band, wrap, rhs, nbx, p, d, row, row_rhs, first):
     """Rotate a row into the factor (``band[nbx, p + 1]``, ``wrap[nbx + p, p]`` whose last
-    ``p`` rows are the wrap triangle, ``rhs[nbx + p, d]``) by Givens rotations, as the periodic
-    kernel does: ``row[:nbx]`` are its band entries (nonzero from ``first`` for at most ``p +
-    1`` columns), ``row[nbx:]`` its wrap entries. Leaves ``row`` zero; returns the squared
+    ``p`` rows are the wrap triangle, ``rhs[nbx + p, d]``) by the periodic kernel's rotations
+    (``rotate_row``): ``row[:nbx]`` are its band entries (nonzero from ``first`` for at most
+    ``p + 1`` columns), ``row[nbx:]`` its wrap entries. Leaves ``row`` zero; returns the squared
     residual the rotations leave of the row."""
-    for col in range(first, min(first + p + 1, nbx)):
-        w = row[col]
-        if w == 0.0:
-            continue
-        r0 = band[col, 0]
-        h = givens_norm(r0, w)
-        cs, sn = r0 / h, w / h
-        band[col, 0] = h
-        row[col] = 0.0
-        for k in range(1, p + 1):
-            if col + k < nbx:
-                a, b = band[col, k], row[col + k]
-                band[col, k] = cs * a + sn * b
-                row[col + k] = -sn * a + cs * b
-        for k in range(p):
-            a, b = wrap[col, k], row[nbx + k]
-            wrap[col, k] = cs * a + sn * b
-            row[nbx + k] = -sn * a + cs * b
-        for c in range(d):
-            a, b = rhs[col, c], row_rhs[c]
-            rhs[col, c] = cs * a + sn * b
-            row_rhs[c] = -sn * a + cs * b
-    for k in range(p):
-        w = row[nbx + k]
-        if w == 0.0:
-            continue
-        r = nbx + k
-        r0 = wrap[r, k]
-        h = givens_norm(r0, w)
-        cs, sn = r0 / h, w / h
-        wrap[r, k] = h
-        row[nbx + k] = 0.0
-        for kk in range(k + 1, p):
-            a, b = wrap[r, kk], row[nbx + kk]
-            wrap[r, kk] = cs * a + sn * b
-            row[nbx + kk] = -sn * a + cs * b
-        for c in range(d):
-            a, b = rhs[r, c], row_rhs[c]
-            rhs[r, c] = cs * a + sn * b
-            row_rhs[c] = -sn * a + cs * b
+    rotate_row(band, wrap, rhs, nbx, p, d, row, row_rhs, first, True,
+               np.empty(0, dtype=np.bool_))
     residual = 0.0
     for c in range(d):
         residual += row_rhs[c] * row_rhs[c]
