@@ -63,17 +63,12 @@ def flip_at_least_one(x: np.ndarray, rate: float, rows: int,
                       rng: np.random.Generator) -> np.ndarray:
     """``rows`` children of the 0/1 vector ``x``: bit flips with probability ``rate`` each, at
     least one per child."""
-    x = np.asarray(x)
-    if rows != 1:
-        return x[None, :] ^ _at_least_one(x.size, rate, rows, rng)
-    # one child (the (1+1) EA's every step): the same draws, flipped in place of a copy
-    child = x[None, :].copy()
-    child[0, _flip_draw(x.size, rate, rng)] ^= True
-    return child
+    return np.asarray(x)[None, :] ^ _at_least_one(x.size, rate, rows, rng)
 
 
 def _flip_draw(n_var: int, rate: float, rng: np.random.Generator) -> int | np.ndarray:
-    """The positions one child of :func:`flip_at_least_one` flips, with its draws."""
+    """The positions one child of :func:`flip_at_least_one` flips, with its draws (those of
+    ``_at_least_one`` for one row)."""
     count = 0
     while count == 0:
         count = int(rng.binomial(n_var, rate))
@@ -130,9 +125,7 @@ def _step_draws(n_var: int, rate: float, max_step: int, steps: int, rng: np.rand
         if done < left:  # a step of more moves: its count is drawn, numpy draws the rest
             row = np.zeros((1, n_var), dtype=bool)
             row[0, rng.choice(n_var, size=int(counts[done]), replace=False)] = True
-            size = rng.integers(1, max_step + 1, size=row.shape)
-            out.append((row, size * _SIGNS[rng.integers(0, 2, size=row.shape,
-                                                        dtype=np.int64)]))
+            out.append((row, _steps(row.shape, max_step, rng)))
     return out
 
 
@@ -149,9 +142,14 @@ def _step_draw(n_var: int, rate: float, rows: int, max_step: int, rng: np.random
     """Which genes ``rows`` children of :func:`step_at_least_one` move and by how much, with
     its draws: boolean and integer arrays of shape ``(rows, n_var)``."""
     hit = _at_least_one(n_var, rate, rows, rng)
-    size = rng.integers(1, max_step + 1, size=hit.shape)
+    return hit, _steps(hit.shape, max_step, rng)
+
+
+def _steps(shape: tuple[int, int], max_step: int, rng: np.random.Generator) -> np.ndarray:
+    """A step of ``±1..max_step`` (uniform) for every gene, drawn as step sizes then signs."""
+    size = rng.integers(1, max_step + 1, size=shape)
     # the signs as Generator.choice((-1, 1), size) draws them, without its conversions
-    return hit, size * _SIGNS[rng.integers(0, 2, size=hit.shape, dtype=np.int64)]
+    return size * _SIGNS[rng.integers(0, 2, size=shape, dtype=np.int64)]
 
 
 @register("one_plus_one")

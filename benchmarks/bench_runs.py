@@ -66,7 +66,6 @@ import numpy as np
 
 import metaknot as mk
 from metaknot.bspline import evaluate_masks
-from metaknot.bspline.fit import _evaluate_masks
 from metaknot.bspline.moves import MoveEvaluator, bit_flips
 from metaknot.experiments.store import Store
 from metaknot.problems import KnotSelection, get_curve
@@ -156,14 +155,14 @@ def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float, f
     batches = np.array_split(candidates, max(1, len(candidates) // 50))
     per_kernel = kernel_seconds(problem, batches, repeats) / len(candidates)
     # the floor: the sampler's draw and one bare kernel call per candidate, no framework
-    u, q, rng = problem.curve._u, problem.curve._q, np.random.default_rng(1)
+    rng, curve = np.random.default_rng(1), problem.curve
     one_by_one = [c[None, :] for c in candidates]
     per_floor = np.inf
     for _ in range(repeats):
         start = time.perf_counter()
         for c in one_by_one:
             problem.sample(rng, 1)
-            _evaluate_masks(u, q, c, problem.degree, False)
+            curve.evaluate_masks(c, max_deviation=False)
         per_floor = min(per_floor, (time.perf_counter() - start) / len(candidates))
     per_ea = best_run("one_plus_one", {})
     recording = Recording(data)

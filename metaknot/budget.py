@@ -216,9 +216,9 @@ class Evaluator:
                 kept = int(taken[0]) + 1
                 X, F = X[:kept], F[:kept]
                 metrics = {name: values[:kept] for name, values in metrics.items()}
-                delta = delta[:kept] if isinstance(delta, np.ndarray) else min(delta, kept)
-        self._delta_evaluations += int(np.count_nonzero(delta)) \
-            if isinstance(delta, np.ndarray) else int(delta)
+        # delta: which rows the delta path decided (an array), or how many (at most the kept)
+        self._delta_evaluations += int(np.count_nonzero(delta[: F.size])) \
+            if isinstance(delta, np.ndarray) else min(int(delta), F.size)
         self._extra_fits += max(0, audit.fits() - fits_before - X.shape[0])
         front = self._front
         if front is None and F.size == 1 and problem_module.SINGLE_CANDIDATE_PATH:

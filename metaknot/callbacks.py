@@ -175,8 +175,9 @@ class TraceRecorder(Callback):
             self._one(float(F[0]), progress)
             return
         if F.min() >= self._best_f:  # no improvement: rows only if a checkpoint is in it
-            at = bisect_left(self._grid_list, first + 1)
-            if at == len(self._grid_list) or self._grid_list[at] > progress.n_evaluations:
+            checkpoint = bisect_left(self._grid_list, first + 1)  # the next one
+            if checkpoint == len(self._grid_list) or \
+                    self._grid_list[checkpoint] > progress.n_evaluations:
                 self._n = progress.n_evaluations
                 return
         running = np.minimum.accumulate(np.concatenate(([self._best_f], F)))

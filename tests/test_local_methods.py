@@ -58,17 +58,20 @@ def test_bit_flips_are_binomial_conditioned_on_one(n, rate):
 
 
 @pytest.mark.parametrize(("n", "rate"), [(359, 1 / 359), (30, 0.2), (5, 0.9)])
-def test_one_child_is_the_batch_path_draw_for_draw(n, rate):
-    """The (1+1) EA's one-child path (flips in place, one draw for one position) gives each
-    child the batch path gives, with the same draws: children one at a time equal the rows
-    of one batch from the same seed."""
+def test_one_step_draws_the_places_of_one_row_of_flips(n, rate):
+    """The (1+1) EA's draw of one step (the reference of its compiled draws) takes the places
+    one row of ``flip_at_least_one`` flips, with the same draws: steps one at a time equal the
+    rows of one batch from the same seed."""
+    from metaknot.algorithms.one_plus_one import _flip_draw
+
     parent = np.random.default_rng(1).integers(0, 2, n)
     one_at_a_time = np.random.default_rng(2)
-    children = np.vstack([flip_at_least_one(parent, rate, 1, one_at_a_time)
-                          for _ in range(300)])
-    np.testing.assert_array_equal(children, flip_at_least_one(parent, rate, 300,
-                                                              np.random.default_rng(2)))
-    assert children.dtype == parent.dtype
+    children = np.repeat(parent[None, :], 300, axis=0)
+    for child in children:
+        child[_flip_draw(n, rate, one_at_a_time)] ^= 1
+    batch = np.random.default_rng(2)
+    np.testing.assert_array_equal(children, flip_at_least_one(parent, rate, 300, batch))
+    assert one_at_a_time.random() == batch.random()
 
 
 @pytest.mark.parametrize(("n", "rate"), [(359, 1 / 359), (60, 0.05), (9, 0.5), (2, 0.9),

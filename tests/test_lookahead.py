@@ -17,10 +17,6 @@ SPIRAL = get_curve("archimedean", n_points=60)
 OUTLINE = get_curve("epitrochoid", n_points=80)
 
 
-def one_step_per_call(monkeypatch):
-    monkeypatch.setattr(OnePlusOneEA, "lookahead", 1)
-
-
 @pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
 @pytest.mark.parametrize(("problem", "options"), [
     (lambda closed: KnotSelection(OUTLINE if closed else SPIRAL, closed=closed), {}),
@@ -44,7 +40,7 @@ def test_the_one_plus_one_ea_asking_ahead_runs_as_one_step_per_call(monkeypatch,
     asked_ahead = list(calls)
     calls.clear()
     with monkeypatch.context() as m:
-        one_step_per_call(m)
+        m.setattr(OnePlusOneEA, "lookahead", 1)  # one step per call
         single = mk.minimize(problem(closed), "one_plus_one", budget=1500, seed=5,
                              optimizer_kwargs=options)
     assert ahead.status == single.status == "ok"

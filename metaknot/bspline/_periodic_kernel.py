@@ -81,7 +81,7 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
 @numba.njit(cache=True)
 def rotate_row(band: np.ndarray, tail: np.ndarray, rhs: np.ndarray, nb: int, p: int, d: int,
                row: np.ndarray, row_rhs: np.ndarray, first: int, row_tail: bool,
-               has_tail: np.ndarray) -> None:
+               has_tail: np.ndarray | None) -> None:
     """Rotate a data row into the factor by Givens rotations: ``band[nb, p + 1]``,
     ``tail[nb + p, p]`` (the last ``p`` rows: the triangle of the wrap-around columns) and
     ``rhs[nb + p, d]``. ``row[:nb]`` holds the row's band entries (nonzero from ``first`` for
@@ -89,8 +89,8 @@ def rotate_row(band: np.ndarray, tail: np.ndarray, rhs: np.ndarray, nb: int, p: 
     ``row[nb:]`` its wrap-around entries (``row_tail``: some are nonzero), ``row_rhs`` its
     point. Band columns first, left to right, then the wrap-around triangle. ``has_tail[r]``
     says row r of R has a nonzero wrap-around entry (zeros rotated into zeros stay zero, and
-    are skipped; empty: not kept). Leaves ``row`` zero and the row's residual in
-    ``row_rhs``."""
+    are skipped; ``None``: not kept, every row rotated in full). Leaves ``row`` zero and the
+    row's residual in ``row_rhs``."""
     for col in range(first, min(first + p + 1, nb)):
         w = row[col]
         if w == 0.0:
@@ -106,14 +106,14 @@ def rotate_row(band: np.ndarray, tail: np.ndarray, rhs: np.ndarray, nb: int, p: 
                 a, b = band[col, k], row[col + k]
                 band[col, k] = cs * a + sn * b
                 row[col + k] = -sn * a + cs * b
-        if row_tail or has_tail[col]:  # both tails zero stay zero
+        if has_tail is not None:  # both tails zero stay zero: skipped
+            row_tail = row_tail or has_tail[col]
+            has_tail[col] = row_tail
+        if row_tail:
             for k in range(p):
                 a, b = tail[col, k], row[nb + k]
                 tail[col, k] = cs * a + sn * b
                 row[nb + k] = -sn * a + cs * b
-            if has_tail.size:
-                has_tail[col] = True
-            row_tail = True
         for c in range(d):
             a, b = rhs[col, c], row_rhs[c]
             rhs[col, c] = cs * a + sn * b

@@ -80,8 +80,7 @@ def rotate_in(band, wrap, rhs, nbx, p, d, row, row_rhs, first):
     (``rotate_row``): ``row[:nbx]`` are its band entries (nonzero from ``first`` for at most
     ``p + 1`` columns), ``row[nbx:]`` its wrap entries. Leaves ``row`` zero; returns the squared
     residual the rotations leave of the row."""
-    rotate_row(band, wrap, rhs, nbx, p, d, row, row_rhs, first, True,
-               np.empty(0, dtype=np.bool_))
+    rotate_row(band, wrap, rhs, nbx, p, d, row, row_rhs, first, True, None)
     residual = 0.0
     for c in range(d):
         residual += row_rhs[c] * row_rhs[c]
