@@ -78,55 +78,48 @@ def _flip_draw(n_var: int, rate: float, rng: np.random.Generator) -> int | np.nd
 
 
 def _flip_draws(n_var: int, rate: float, steps: int, rng: np.random.Generator
-                ) -> list[int | np.ndarray]:
-    """:func:`_flip_draw` of ``steps`` consecutive steps, the same draws in the same order:
-    compiled, but for the steps with more than two flips (and masks over 10,000 bits), which
-    ``Generator.choice`` draws."""
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_flip_draw` of ``steps`` consecutive steps, the same draws in the same order, in
+    compiled code (but for masks over 10,000 bits, whose places ``Generator.choice`` may draw
+    by another algorithm): how many bits each step flips, and which (all steps' in one flat
+    array)."""
     if n_var > 10_000:
-        return [_flip_draw(n_var, rate, rng) for _ in range(steps)]
+        draws = [np.atleast_1d(_flip_draw(n_var, rate, rng)) for _ in range(steps)]
+        return np.array([d.size for d in draws]), np.concatenate(draws)
     from ._mutation_kernels import flip_draws
 
-    out: list[int | np.ndarray] = []
-    counts = np.empty(steps, dtype=np.int64)
-    positions = np.empty((steps, 2), dtype=np.int64)
-    while len(out) < steps:
-        left = steps - len(out)
-        done = flip_draws(rng, n_var, rate, counts[:left], positions[:left])
-        out += [int(positions[i, 0]) if counts[i] == 1 else positions[i].copy()
-                for i in range(done)]
-        if done < left:  # a step of more flips: its count is drawn, numpy draws the places
-            out.append(rng.choice(n_var, size=int(counts[done]), replace=False))
-    return out
+    return flip_draws(rng, n_var, rate, steps)
 
 
 def _step_draws(n_var: int, rate: float, max_step: int, steps: int, rng: np.random.Generator
-                ) -> list[tuple[np.ndarray, np.ndarray]]:
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_step_draw` of ``steps`` consecutive one-child steps, the same draws in the same
-    order: compiled, but for the steps that move more than two genes (and sets of over 10,000
-    genes), whose places ``Generator.choice`` draws."""
+    order, in compiled code (but for sets of over 10,000 genes): how many genes each step moves
+    and which (flat, as :func:`_flip_draws`), every gene's step size and sign draw (0 for -1)
+    per step."""
     if n_var > 10_000:
-        return [_step_draw(n_var, rate, 1, max_step, rng) for _ in range(steps)]
+        counts, places, sizes, signs = [], [], [], []
+        for _ in range(steps):
+            counts.append(0)
+            while counts[-1] == 0:
+                counts[-1] = int(rng.binomial(n_var, rate))
+            places.append(distinct_positions(n_var, counts[-1], rng))
+            sizes.append(rng.integers(1, max_step + 1, size=n_var))
+            signs.append(rng.integers(0, 2, size=n_var, dtype=np.int64))
+        return np.array(counts), np.concatenate(places), np.array(sizes), np.array(signs)
     from ._mutation_kernels import step_draws
 
-    out: list[tuple[np.ndarray, np.ndarray]] = []
-    counts = np.empty(steps, dtype=np.int64)
-    positions = np.empty((steps, 2), dtype=np.int64)
-    sizes = np.empty((steps, n_var), dtype=np.int64)
-    signs = np.empty((steps, n_var), dtype=np.int64)
-    while len(out) < steps:
-        left = steps - len(out)
-        done = step_draws(rng, n_var, rate, max_step, counts[:left], positions[:left],
-                          sizes[:left], signs[:left])
-        hit = np.zeros((done, n_var), dtype=bool)
-        for i in range(done):
-            hit[i, positions[i, : counts[i]]] = True
-        step = sizes[:done] * _SIGNS[signs[:done]]
-        out += [(hit[i : i + 1], step[i : i + 1]) for i in range(done)]
-        if done < left:  # a step of more moves: its count is drawn, numpy draws the rest
-            row = np.zeros((1, n_var), dtype=bool)
-            row[0, rng.choice(n_var, size=int(counts[done]), replace=False)] = True
-            out.append((row, _steps(row.shape, max_step, rng)))
-    return out
+    return step_draws(rng, n_var, rate, max_step, steps)
+
+
+def _split_steps(draws: tuple[np.ndarray, ...], k: int
+                 ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+    """The draws of :func:`_flip_draws` or :func:`_step_draws` of the first ``k`` steps, and
+    those of the rest."""
+    counts, places, *per_gene = draws
+    used = int(counts[:k].sum())
+    return ((counts[:k], places[:used], *(a[:k] for a in per_gene)),
+            (counts[k:], places[used:], *(a[k:] for a in per_gene)))
 
 
 def step_at_least_one(x: np.ndarray, rate: float, rows: int, max_step: int,
@@ -186,7 +179,8 @@ class OnePlusOneEA(Optimizer):
         self._rate = 1.0 / n_var if self.rate is None else self.rate
         self.parent: np.ndarray | None = None
         self.parent_f = np.inf
-        self._draws: list = []  # the next steps' mutations, drawn in order, kept until used
+        # the next steps' mutations, drawn in order, kept until used (see _split_steps)
+        self._draws: tuple[np.ndarray, ...] = (np.empty(0, np.int64),) * 2
         self._asked = 0  # children in the last batch asked ahead
         self._rejected = 0  # children rejected since the parent last changed
 
@@ -204,20 +198,24 @@ class OnePlusOneEA(Optimizer):
                                          self.max_step, self.rng)
             return encoding.repair(children)
         ahead = min(self.lookahead, max(1, self._rejected), self.problem.remaining)
-        if len(self._draws) < ahead:  # the next steps' draws, a lookahead at a time
-            more, n_var = max(ahead - len(self._draws), self.lookahead), self.parent.size
-            self._draws += _flip_draws(n_var, self._rate, more, self.rng) if binary else \
+        if self._draws[0].size < ahead:  # the next steps' draws, a lookahead at a time
+            more, n_var = max(ahead - self._draws[0].size, self.lookahead), self.parent.size
+            drawn = _flip_draws(n_var, self._rate, more, self.rng) if binary else \
                 _step_draws(n_var, self._rate, self.max_step, more, self.rng)
-        draws = self._draws[:ahead]
+            self._draws = drawn if not self._draws[0].size else \
+                tuple(np.concatenate(pair) for pair in zip(self._draws, drawn, strict=True))
+        (counts, places, *per_gene), _ = _split_steps(self._draws, ahead)
         self._asked = ahead
+        rows = np.repeat(np.arange(ahead), counts)
+        parent = self.parent[None, :]
         if binary:
-            children = np.repeat(self.parent[None, :], ahead, axis=0)
-            for row, flips in zip(children, draws, strict=True):
-                row[flips] ^= True
+            children = np.repeat(parent, ahead, axis=0)
+            children[rows, places] ^= True
             return children
-        hit = np.vstack([h for h, _ in draws])
-        step = np.vstack([s for _, s in draws])
-        return encoding.repair(np.where(hit, self.parent[None, :] + step, self.parent[None, :]))
+        hit = np.zeros((ahead, parent.size), dtype=bool)
+        hit[rows, places] = True
+        sizes, signs = per_gene
+        return encoding.repair(np.where(hit, parent + sizes * _SIGNS[signs], parent))
 
     def acceptance(self) -> np.ndarray | None:
         """With steps asked ahead: the parent's value for each (a child no worse is taken)."""
@@ -232,7 +230,7 @@ class OnePlusOneEA(Optimizer):
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         """Keep the best child if it is no worse than the parent."""
         if self.parent is not None and self.offspring == 1:
-            del self._draws[: len(F)]  # the steps these children took
+            self._draws = _split_steps(self._draws, len(F))[1]  # steps taken
         best = int(np.argmin(F))
         if self.parent is None or F[best] <= self.parent_f:
             self.parent = np.array(X[best], copy=True)
