@@ -112,6 +112,24 @@ def test_compiled_step_draws_are_numpys_draw_for_draw(n, rate, max_step):
     assert (counts > 2).any()  # steps of three moves and more drawn too
 
 
+def test_compiled_places_are_numpys_choice_for_every_count():
+    """The compiled places of a step (Floyd's sampling and its shuffle) are
+    ``Generator.choice(n, count, replace=False)``'s values, leaving the generator where
+    ``choice`` does, for every count up to n (n = count draws nothing at its first place)."""
+    from metaknot.algorithms._mutation_kernels import _floyd
+
+    for n in (1, 2, 3, 17, 359, 10_000):
+        taken = np.zeros(n, dtype=bool)
+        for count in sorted({c for c in (1, 2, 3, 4, 7, n // 3, n // 2, n - 1, n) if 0 < c <= n}):
+            for seed in range(3):
+                ours, numpys = np.random.default_rng(seed), np.random.default_rng(seed)
+                out = np.empty(count, dtype=np.int64)
+                _floyd(ours, n, count, out, taken)
+                np.testing.assert_array_equal(out, numpys.choice(n, size=count, replace=False))
+                assert ours.bit_generator.state == numpys.bit_generator.state
+                assert not taken.any()
+
+
 def test_distinct_positions_are_numpys_choice_draw_for_draw():
     """The same positions as ``Generator.choice(n, k, replace=False)`` and the generator left
     in the same state (so every run of the (1+1) EA is what it was with ``choice``)."""
