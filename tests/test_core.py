@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import textwrap
 
@@ -334,6 +335,35 @@ def test_trace_on_knot_problem(spiral_problem):
     np.testing.assert_array_equal(result.trace_best, ref_best)
     assert result.trace_evaluations[-1] == 450
     assert result.trace_best[-1] == result.best_f
+
+
+def test_trace_metrics_keep_the_problems_order_in_every_process():
+    """The trace's metric columns come in the order the problem gives them, whatever the
+    interpreter's string hashing (a set of names would order them differently from one
+    process to the next)."""
+    import subprocess
+
+    code = textwrap.dedent("""
+        import metaknot as mk
+        from metaknot.problems import KnotSelection, get_curve
+        problem = KnotSelection(get_curve("archimedean", n_points=30), objective="error_bounded")
+        for batch in (1, 7):
+            result = mk.minimize(problem, "random_search", budget=20, seed=0,
+                                 optimizer_kwargs={"batch_size": batch})
+            print(*result.trace.metrics)
+        print(*problem.evaluate_with_metrics(problem.sample(__import__("numpy").random
+                                                              .default_rng(0), 2))[1])
+    """)
+    outputs = set()
+    for hash_seed in range(6):
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              env={**os.environ, "PYTHONHASHSEED": str(hash_seed)},
+                              timeout=120)
+        assert done.returncode == 0, done.stderr
+        lines = done.stdout.split("\n")
+        assert lines[0] == lines[1] == lines[2], lines
+        outputs.add(lines[0])
+    assert len(outputs) == 1
 
 
 def test_trace_when_nothing_is_feasible():
