@@ -122,7 +122,8 @@ class ParetoArchive:
         self.F = np.insert(F[keep], at, f, axis=0)
         x = np.asarray(x)[None, :]
         self.X = x.copy() if self.X is None else np.insert(self.X[keep], at, x, axis=0)
-        names = set(self.metrics) | set(row)
+        # in a fixed order (a set's would change with the interpreter's string hashing)
+        names = [*self.metrics, *(name for name in row if name not in self.metrics)]
         self.metrics = {
             name: np.insert(self.metrics.get(name, np.full(keep.size, np.nan))[keep], at,
                             row.get(name, np.nan))
