@@ -486,12 +486,10 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
             pass  # the most the data allow (N - degree - 1; N - 1 closed), set when built
         elif isinstance(n_knots, str):
             match = FITPACK_COUNT.match(n_knots)
-            factor = None
-            if match:
-                try:
-                    factor = float(match.group(1))
-                except ValueError:
-                    factor = None
+            try:
+                factor = float(match.group(1)) if match else None
+            except ValueError:
+                factor = None
             if factor is None or not np.isfinite(factor) or factor <= 0:
                 raise ConfigError(f"encoding.n_knots: an integer, 'max' or 'fitpack:<factor>' "
                                   f"with a factor > 0, got {n_knots!r}")
