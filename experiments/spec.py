@@ -27,6 +27,7 @@ import numpy as np
 from hydra.errors import CompactHydraException
 
 from metaknot.compat import legacy_config, new_config
+from metaknot.validate import is_integer, is_real
 
 __all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "plain_config",
            "run_spec"]
@@ -54,7 +55,7 @@ def _int(key: str, value: Any, *, low: int | None = None, high: int | None = Non
          optional: bool = False) -> int | None:
     if value is None and optional:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+    if not is_integer(value):
         raise ConfigError(f"{key}: expected an integer, got {value!r}")
     if low is not None and value < low:
         raise ConfigError(f"{key}: must be >= {low}, got {value!r}")
@@ -67,7 +68,7 @@ def _float(key: str, value: Any, *, low: float | None = None, high: float | None
            optional: bool = False) -> float | None:
     if value is None and optional:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+    if not is_real(value):
         raise ConfigError(f"{key}: expected a number, got {value!r}")
     value = float(value)
     if not np.isfinite(value):
@@ -83,6 +84,12 @@ def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
     if value not in choices:
         raise ConfigError(f"{key}: must be one of {', '.join(choices)}; got {value!r}")
     return str(value)
+
+
+def _bool(key: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise ConfigError(f"{key}: true or false, got {value!r}")
+    return value
 
 
 def _section(cfg: Mapping[str, Any], key: str) -> dict[str, Any]:
@@ -457,9 +464,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
                                     problem.get("parameterization", "centripetal"),
                                     PARAMETERIZATIONS),
     }
-    closed = problem.get("closed", False)
-    if not isinstance(closed, bool):
-        raise ConfigError(f"problem.closed: true or false, got {closed!r}")
+    closed = _bool("problem.closed", problem.get("closed", False))
     if instance is not None:  # only when set, as closed: run ids of other problems stay
         problem_out["instance"] = instance.id
         closed = instance.closed
@@ -481,12 +486,10 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
             pass  # the most the data allow (N - degree - 1; N - 1 closed), set when built
         elif isinstance(n_knots, str):
             match = FITPACK_COUNT.match(n_knots)
-            factor = None
-            if match:
-                try:
-                    factor = float(match.group(1))
-                except ValueError:
-                    factor = None
+            try:
+                factor = float(match.group(1)) if match else None
+            except ValueError:
+                factor = None
             if factor is None or not np.isfinite(factor) or factor <= 0:
                 raise ConfigError(f"encoding.n_knots: an integer, 'max' or 'fitpack:<factor>' "
                                   f"with a factor > 0, got {n_knots!r}")
@@ -495,10 +498,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
             n_knots = _int("encoding.n_knots", n_knots, low=1)
         encoding_out = {"kind": kind, "n_knots": n_knots}
         if kind == "free":
-            variable = encoding.get("variable_count", False)
-            if not isinstance(variable, bool):
-                raise ConfigError(f"encoding.variable_count: true or false, got {variable!r}")
-            encoding_out["variable_count"] = variable
+            encoding_out["variable_count"] = _bool("encoding.variable_count",
+                                                   encoding.get("variable_count", False))
 
     objective = _section(cfg, "objective")
     from metaknot.problems import OBJECTIVES

@@ -433,7 +433,7 @@ def load_study(path: str | os.PathLike) -> Study:
             names = ", ".join(studies)
             raise StoreError(f"{store.study_dir}: a results folder, not a study; its studies: "
                              f"{names if len(names) <= 80 else names[:77] + '...'}")
-    rows, traces = [], []
+    rows = []
     entries = list(_run_files(store.runs_dir))
     for (entry, run_id), row in zip(entries, _read_records([e for e, _ in entries]),
                                     strict=True):
@@ -448,13 +448,10 @@ def load_study(path: str | os.PathLike) -> Study:
                              "study")
         failures.append(read_record(entry))
     ok_ids = {r["run_id"] for r in rows}
-    latest: dict[str, dict[str, Any]] = {}
-    for row in sorted(failures, key=lambda r: r.get("timestamp") or ""):
-        if row["run_id"] not in ok_ids:
-            latest[row["run_id"]] = row
+    latest = {row["run_id"]: row for row in sorted(failures, key=lambda r: r.get("timestamp") or "")
+              if row["run_id"] not in ok_ids}
     all_rows = rows + list(latest.values())
-    for row in all_rows:
-        traces.append(_pop_trace(row))
+    traces = [_pop_trace(row) for row in all_rows]
     for row in failures:
         _pop_trace(row)
     runs = _frame(all_rows)
@@ -484,8 +481,7 @@ def _pop_trace(row: dict[str, Any]) -> pd.DataFrame:
                k.startswith(TRACE_PREFIX)}
     columns = {k: v for k, v in columns.items() if v is not None}
     n = len(columns.get("evaluations", []))
-    frame = pd.DataFrame({"run_id": [row["run_id"]] * n, **columns})
-    return frame
+    return pd.DataFrame({"run_id": [row["run_id"]] * n, **columns})
 
 
 def _frame(rows: list[dict[str, Any]]) -> pd.DataFrame:

@@ -62,8 +62,8 @@ class Plan:
         if skipped:
             parts.append(f"{skipped} skipped")
         lines = [f"study {study_dir}: " + ", ".join(parts)]
-        for reason, count in sorted(self.incompatible.items()):
-            lines.append(f"  skipped {count} job(s): {reason}")
+        lines += [f"  skipped {count} job(s): {reason}"
+                  for reason, count in sorted(self.incompatible.items())]
         return "\n".join(lines)
 
 
@@ -301,8 +301,7 @@ def summary(study_dir: Path, outcomes: list[dict[str, Any]], crashes: Counter[st
             lines.append(f"  {len(members)} computed but not stored ({error}): their records "
                          f"are kept in {kept}: move them into "
                          f"{study_dir / Path(kept).name}/ once there is space")
-    for error, n in sorted(crashes.items()):
-        lines.append(f"  {n} job(s) ended with an error: {error}")
+    lines += [f"  {n} job(s) ended with an error: {error}" for error, n in sorted(crashes.items())]
     if len(lines) > 1:
         lines.append("  run the same command to compute the missing runs once the cause is "
                      "fixed")
@@ -380,8 +379,8 @@ def _warm_joblib_workers(config: Any) -> threading.Thread | None:
     reuses them for the jobs, which then start at once instead of after a second of imports.
     Uses the launcher's own joblib settings, or joblib would start a new set."""
     launcher = OmegaConf.select(config, "hydra.launcher")
-    if launcher is None or "Joblib" not in str(launcher.get("_target_", "")) \
-            or launcher_workers(config) < 2:
+    workers = launcher_workers(config)
+    if launcher is None or "Joblib" not in str(launcher.get("_target_", "")) or workers < 2:
         return None
     from joblib import Parallel, delayed
 
@@ -392,7 +391,6 @@ def _warm_joblib_workers(config: Any) -> threading.Thread | None:
         value = settings.get(key)                                # launcher reads it
         if isinstance(value, str) and value.isdigit():
             settings[key] = int(value)
-    workers = launcher_workers(config)
 
     def warm() -> None:
         try:

@@ -174,13 +174,11 @@ def _suite_tables(comparison: Comparison, tables: dict[str, pd.DataFrame],
             part, _ = s.performance_profile(view.medians[view.tasks == task], np.array([1.0]))
             best[f"{s.TASK_SCOPE}{task}"] = part.T.iloc[:, 0]
     best.index.name, best.columns.name = "method", None
-    tables["suite_solved"] = solved.reset_index()
-    tables["suite_gap"] = s.gap_table(view)
-    tables["suite_ranks"] = ranks
-    tables["suite_friedman"] = tests
-    tables["suite_wins"] = s.wins_matrix(view.medians, order)
-    tables["suite_best"] = best.reindex(order).reset_index()
-    tables["suite_medians"] = view.medians.reset_index()
+    tables.update(suite_solved=solved.reset_index(), suite_gap=s.gap_table(view),
+                  suite_ranks=ranks, suite_friedman=tests,
+                  suite_wins=s.wins_matrix(view.medians, order),
+                  suite_best=best.reindex(order).reset_index(),
+                  suite_medians=view.medians.reset_index())
     if left_out:
         view.notes.append(f"{left_out} problem(s) are left out of the suite-wide performance "
                           "profile (a compared method without runs there, or a best median "
@@ -346,12 +344,9 @@ def _pairwise_display(pairwise: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFram
 
 
 def _ranks_table(result: FriedmanResult) -> pd.DataFrame:
-    table = pd.DataFrame({"method": result.ranks.index, "average rank": result.ranks.values})
-    table["metric"] = result.metric
-    table["blocks"] = result.blocks
-    table["p"] = result.p
-    table["note"] = result.note
-    return table
+    return pd.DataFrame({"method": result.ranks.index, "average rank": result.ranks.values,
+                         "metric": result.metric, "blocks": result.blocks, "p": result.p,
+                         "note": result.note})
 
 
 def _write_latex(comparison: Comparison, tables: dict[str, pd.DataFrame],
@@ -444,9 +439,8 @@ def _sections(comparison: Comparison, tables: dict[str, pd.DataFrame],
             "of each budget in bold (lower is better for every column)."])
         section.table = _summary_display(tables["summary"], instance)
         section.figures = [by_name[n] for n in (
-            f"budget-{_slug(instance)}", f"convergence-{_slug(instance)}",
-            f"ecdf-{_slug(instance)}", f"front-{_slug(instance)}",
-            f"curves-{_slug(instance)}") if n in by_name]
+            f"{kind}-{_slug(instance)}" for kind in ("budget", "convergence", "ecdf", "front",
+                                                      "curves")) if n in by_name]
         sections.append(section)
     for metric in metrics:
         text, best = _pairwise_display(tables[f"pairwise_{metric}"])
@@ -459,8 +453,7 @@ def _sections(comparison: Comparison, tables: dict[str, pd.DataFrame],
                         "W/T/L: paired wins, ties and losses of A."],
             table=(text, best)))
         result = friedman[metric]
-        ranks = tables[f"ranks_{metric}"][["method", "average rank"]].copy()
-        ranks["average rank"] = ranks["average rank"].map(lambda v: _num(v, 3))
+        ranks = tables[f"ranks_{metric}"][["method", "average rank"]]
         verdict = (f"{result.note}; p = {_p(result.p)}" if np.isfinite(result.p)
                    else result.note)
         figs = [by_name[n] for n in (f"cd-{metric}",) if n in by_name]
@@ -469,14 +462,13 @@ def _sections(comparison: Comparison, tables: dict[str, pd.DataFrame],
             paragraphs=[f"Average rank (1 = best) of each method's median over the "
                         f"{result.blocks} instance–budget cells where every method ran: "
                         f"{verdict}."],
-            table=(ranks, pd.DataFrame(False, index=ranks.index, columns=ranks.columns)),
+            table=_plain(ranks, {"average rank": lambda v: _num(v, 3)}),
             figures=figs))
     if "ecdf-all" in by_name:
         sections.append(_Section("All instances", figures=[by_name["ecdf-all"]]))
-    means = _mean_display(tables["summary"])
     sections.append(_Section("Appendix: mean ± standard deviation", paragraphs=[
         "The summary tables' cells as mean ± standard deviation over replicate seeds."],
-        table=(means, pd.DataFrame(False, index=means.index, columns=means.columns))))
+        table=_plain(_mean_display(tables["summary"]))))
     sections.append(_Section("Files", paragraphs=[
         "Every table as CSV in `tables/`, the main tables as LaTeX (booktabs) in `tables/`, "
         "every figure as PNG and SVG in `figures/`. Each number comes from the stored runs of "

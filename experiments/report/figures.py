@@ -180,9 +180,7 @@ def run_fit(run: pd.Series, curve: Any) -> Any:
     from metaknot.experiments.store import stored_fit
 
     fit = stored_fit(run, curve.params, curve.points)
-    if fit is None:
-        fit = rebuild_problem(run).decode(np.asarray(run["best_x"])).fit
-    return fit
+    return fit if fit is not None else rebuild_problem(run).decode(np.asarray(run["best_x"])).fit
 
 
 def _median_run(runs: pd.DataFrame) -> pd.Series:

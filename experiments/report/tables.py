@@ -390,16 +390,12 @@ def _range(values: list[float]) -> str:
 
 
 def _ordered(table: pd.DataFrame, comparison: Comparison) -> pd.DataFrame:
-    order = {"instance": comparison.instances, "budget": comparison.budgets}
+    order = {"instance": comparison.instances, "budget": comparison.budgets,
+             **dict.fromkeys(("method", "A", "B"), comparison.methods)}
     keys = []
     for column, values in order.items():
         if column in table:
             rank = {v: i for i, v in enumerate(values)}
-            table[f"_{column}"] = table[column].map(rank)
-            keys.append(f"_{column}")
-    for column in ("method", "A", "B"):
-        if column in table:
-            rank = {v: i for i, v in enumerate(comparison.methods)}
             table[f"_{column}"] = table[column].map(rank)
             keys.append(f"_{column}")
     table = table.sort_values(keys, kind="stable").drop(columns=keys)

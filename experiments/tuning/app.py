@@ -102,12 +102,9 @@ def main(argv: list[str] | None = None) -> int:
             with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
                 cfg = compose("tuning", overrides=args)
             spec = tune_spec(cfg)
-        except HydraException as exc:
+        except HydraException as exc:  # a ConfigError too (a CompactHydraException)
             lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
             print(f"metaknot tune: error: {' '.join(lines[:2])}", file=sys.stderr)
-            return 2
-        except ConfigError as exc:
-            print(f"metaknot tune: error: {exc}", file=sys.stderr)
             return 2
         try:
             tune(spec)

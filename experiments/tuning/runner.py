@@ -66,10 +66,8 @@ def open_storage(spec: TuneSpec) -> Any:
 
     spec.study_dir.mkdir(parents=True, exist_ok=True)
     url = spec.storage
-    if url is None and spec.workers > 1:
-        url = "journal"
     if url is None:
-        url = f"sqlite:///{spec.study_dir / 'optuna.db'}"
+        url = "journal" if spec.workers > 1 else f"sqlite:///{spec.study_dir / 'optuna.db'}"
     if url == "journal" or url.startswith("journal:"):
         path = url.partition(":")[2] or str(spec.study_dir / "optuna.journal")
         try:

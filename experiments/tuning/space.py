@@ -21,7 +21,7 @@ from typing import Any
 
 from metaknot.validate import is_real
 
-from ..spec import ConfigError
+from ..spec import ConfigError, _bool
 
 __all__ = ["PROBLEM_PARAMETERS", "Parameter", "SearchSpace"]
 
@@ -98,9 +98,7 @@ def _parameter(name: str, entry: Any, earlier: dict[str, Parameter]) -> Paramete
     if not low < high:
         raise ConfigError(f"{key}: low must be below high, got low={low}, high={high} "
                           "(an empty range)")
-    log = entry.get("log", False)
-    if not isinstance(log, bool):
-        raise ConfigError(f"{key}.log: true or false, got {log!r}")
+    log = _bool(f"{key}.log", entry.get("log", False))
     if log and low <= 0:
         raise ConfigError(f"{key}: a log scale needs low > 0, got {low}")
     step = entry.get("step")

@@ -12,6 +12,7 @@ from metaknot.compat import OPTIMIZER_KEY, new_config, new_hyperparameters, note
 
 from ..spec import (
     ConfigError,
+    _bool,
     _choice,
     _float,
     _int,
@@ -274,12 +275,8 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     if storage is not None and (not isinstance(storage, str) or not storage):
         raise ConfigError(f"storage: null, journal, journal:<file> or an Optuna storage URL, "
                           f"got {storage!r}")
-    timeout = raw.get("timeout")
-    if timeout is not None:
-        timeout = _float("timeout", timeout, low=0.0)
-    evaluate = raw.get("evaluate", True)
-    if not isinstance(evaluate, bool):
-        raise ConfigError(f"evaluate: true or false, got {evaluate!r}")
+    timeout = _float("timeout", raw.get("timeout"), low=0.0, optional=True)
+    evaluate = _bool("evaluate", raw.get("evaluate", True))
     spec = TuneSpec(
         study=study, results_dir=Path(results_dir), optimizer=optimizer, space=space,
         fixed=dict(fixed), encoding=encoding, objective=objective,
