@@ -46,7 +46,7 @@ from metaknot.registry import register
 from ._adapters import FinitePenalty
 from .knot_map import KnotMap
 from .literature import equidistribute, knot_density
-from .nlopt_knots import LOCAL_ALGORITHMS, NLOPT_STOPS, check_free_knots
+from .nlopt_knots import LOCAL_ALGORITHMS, NloptObjective, check_free_knots
 
 __all__ = ["FreeKnotFront"]
 
@@ -182,27 +182,16 @@ class FreeKnotFront(Optimizer):
     def _local(self, evaluator: Evaluator, k: int, budget: int, y0: np.ndarray) -> None:
         """One local run on ``k`` knots from the unit-box point ``y0``, at most ``budget``
         evaluations; exceptions of the objective (the budget's) are raised after nlopt
-        returns."""
-        caught: list[BaseException] = []
-        cache: dict[bytes, float] = {}
+        returns (:class:`~metaknot.algorithms.nlopt_knots.NloptObjective`)."""
+
+        def evaluate(y: np.ndarray) -> float:
+            knots = self.box.knots(y)
+            value = float(self.score(evaluator(self.candidate(knots)[None, :]))[0])
+            self._offer(k, value, knots)
+            return value
+
         opt = nlopt.opt(getattr(nlopt, self.local_variant), k)
-
-        def objective(y: np.ndarray, grad: np.ndarray) -> float:
-            if caught:
-                return self.penalty.value
-            key = y.tobytes()
-            if key not in cache:
-                knots = self.box.knots(y)
-                try:
-                    value = float(self.score(evaluator(self.candidate(knots)[None, :]))[0])
-                except Exception as exc:  # handed back after nlopt returns
-                    caught.append(exc)
-                    opt.force_stop()
-                    return self.penalty.value
-                self._offer(k, value, knots)
-                cache[key] = value
-            return float(self.penalty(np.array([cache[key]]))[0])
-
+        objective = NloptObjective(evaluate, self.penalty)
         nlopt.srand(int(self.rng.integers(2**31)))
         opt.set_min_objective(objective)
         opt.set_lower_bounds(np.zeros(k))
@@ -210,9 +199,4 @@ class FreeKnotFront(Optimizer):
         opt.set_initial_step(min(self.initial_step / (k + 1), 0.5))
         opt.set_xtol_abs(1e-9)
         opt.set_maxeval(int(max(1, budget)))
-        try:
-            opt.optimize(np.clip(np.asarray(y0, dtype=np.float64), 0.0, 1.0))
-        except NLOPT_STOPS:
-            pass
-        if caught:
-            raise caught[0]
+        objective.optimize(opt, np.clip(np.asarray(y0, dtype=np.float64), 0.0, 1.0))
