@@ -43,7 +43,7 @@ from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty
+from ._adapters import FinitePenalty, check_choice
 from .knot_map import KnotMap
 from .literature import equidistribute, knot_density
 from .nlopt_knots import LOCAL_ALGORITHMS, NloptObjective, check_free_knots
@@ -80,10 +80,7 @@ class FreeKnotFront(Optimizer):
     def __init__(self, local_variant: str = "LN_BOBYQA", initial_step: float = 0.5,
                  perturbation: float = 0.1, min_gap: float = 1e-4,
                  density_exponent: float = 0.3, batch_size: int = 64) -> None:
-        if local_variant not in LOCAL_ALGORITHMS:
-            raise ValueError(f"local_variant must be one of {', '.join(LOCAL_ALGORITHMS)}; "
-                             f"got {local_variant!r}")
-        self.local_variant = local_variant
+        self.local_variant = check_choice("local_variant", local_variant, LOCAL_ALGORITHMS)
         self.initial_step = check_param("initial_step", initial_step, low=0, low_open=True)
         self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
         self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)

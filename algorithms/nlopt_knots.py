@@ -34,7 +34,7 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problems import FreeKnots, FreeKnotSpace
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty
+from ._adapters import FinitePenalty, check_choice
 from .knot_map import KnotMap
 
 LOCAL_ALGORITHMS = ("LN_BOBYQA", "LN_SBPLX", "LN_COBYLA", "LN_NELDERMEAD")
@@ -44,12 +44,6 @@ ALGORITHMS = LOCAL_ALGORITHMS + GLOBAL_ALGORITHMS
 #: nlopt's generic failure. An exception raised by the objective (the problem, the budget) is
 #: never one of these: it is caught in the objective and raised again after nlopt returns.
 NLOPT_STOPS = (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError)
-
-
-def _check_name(name: str, value: object, valid: tuple[str, ...]) -> str:
-    if value not in valid:
-        raise ValueError(f"{name} must be one of {', '.join(valid)}; got {value!r}")
-    return str(value)
 
 
 def check_free_knots(name: str, problem: FreeKnots, min_gap: float) -> None:
@@ -149,12 +143,12 @@ class NloptKnots(Optimizer):
                  restarts: int = 0, min_gap: float = 1e-4, data_gap: float | None = None,
                  box_map: str = "auto", span_range: float = 4.0, initial_step: float = 0.1,
                  perturbation: float = 0.05, k_grid: int = 5) -> None:
-        self.variant = _check_name("variant", variant, ALGORITHMS)
-        self.local_variant = _check_name("local_variant", local_variant, LOCAL_ALGORITHMS)
+        self.variant = check_choice("variant", variant, ALGORITHMS)
+        self.local_variant = check_choice("local_variant", local_variant, LOCAL_ALGORITHMS)
         self.restarts = check_param("restarts", restarts, low=0, integer=True)
         self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)
         self.data_gap = None if data_gap is None else check_param("data_gap", data_gap, low=0)
-        self.box_map = _check_name("box_map", box_map, ("auto", "spans", "sorted"))
+        self.box_map = check_choice("box_map", box_map, ("auto", "spans", "sorted"))
         self.span_range = check_param("span_range", span_range, low=1, low_open=True)
         self.initial_step = check_param("initial_step", initial_step, low=0, high=1,
                                         low_open=True)

@@ -29,16 +29,12 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty, optional_import, refuse_variable_count
+from ._adapters import FinitePenalty, check_choice, optional_import, refuse_variable_count
 from .knot_map import KnotMap
 
 __all__ = ["PymooOptimizer"]
 
 ALGORITHMS = ("GA", "DE", "BRKGA", "NSGA2")
-
-
-def _require_pymoo():
-    return optional_import("pymoo", "pymoo")
 
 
 @register("pymoo")
@@ -65,10 +61,7 @@ class PymooOptimizer(Optimizer):
     @renamed_parameters("pymoo")
     def __init__(self, variant: str = "GA", population: int = 50,
                  initial: str = "random") -> None:
-        if variant not in ALGORITHMS:
-            raise ValueError(f"variant must be one of {', '.join(ALGORITHMS)}; "
-                             f"got {variant!r}")
-        self.variant = variant
+        self.variant = check_choice("variant", variant, ALGORITHMS)
         self.multi_objective = variant == "NSGA2"
         if initial not in ("random", "averaging"):
             raise ValueError(f"initial must be 'random' or 'averaging'; got {initial!r}")
@@ -78,7 +71,7 @@ class PymooOptimizer(Optimizer):
         self.population = check_param("population", population, low=4, integer=True)
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
-        _require_pymoo()
+        optional_import("pymoo", "pymoo")
         refuse_variable_count(problem, "pymoo")
         super().setup(problem, rng)
         from pymoo.core.problem import Problem as PymooProblem
