@@ -34,6 +34,8 @@ Every candidate goes through the evaluator: the budget holds.
 
 from __future__ import annotations
 
+import itertools
+
 import nlopt
 import numpy as np
 
@@ -99,16 +101,13 @@ class FreeKnotFront(Optimizer):
         #: per count: (lowest error or objective value seen, its knots)
         self.best: dict[int, tuple[float, np.ndarray]] = {}
         self.penalty = FinitePenalty()
+        #: ``(u, F(u))``: the normalised cumulative knot density on a fine grid
+        #: (:func:`~metaknot.algorithms.literature.knot_density`, one external fit)
         self._density: tuple[np.ndarray, np.ndarray] | None = None
         if self.density_exponent > 0:
-            self._density = self._knot_density()
-
-    def _knot_density(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(u, F(u))``: the normalised cumulative knot density on a fine grid
-        (:func:`~metaknot.algorithms.literature.knot_density`, one external fit)."""
-        p = self.problem
-        self.count_fits(1)
-        return knot_density(p.params, p.points, p.degree, self.density_exponent)
+            self.count_fits(1)
+            self._density = knot_density(problem.params, problem.points, problem.degree,
+                                         self.density_exponent)
 
     def density_knots(self, k: int) -> np.ndarray | None:
         """The ``k`` knots that split the knot density into equal parts (None without one)."""
@@ -137,7 +136,8 @@ class FreeKnotFront(Optimizer):
     def run(self, evaluator: Evaluator) -> None:
         try:
             self._scan(evaluator)
-            active = self._active()
+            # the counts to refine: all scanned, up to the first at the error floor (excluded)
+            active = list(itertools.takewhile(lambda k: not self.at_floor(k), sorted(self.best)))
             for i, k in enumerate(active):
                 if any(self.at_floor(j) for j in active[:i]):
                     active = active[:i]
@@ -166,15 +166,6 @@ class FreeKnotFront(Optimizer):
                 self._offer(k, v, t)
             if len(F) < len(starts):
                 raise BudgetExhausted
-
-    def _active(self) -> list[int]:
-        """The counts to refine: all scanned, up to the first at the error floor (excluded)."""
-        active = []
-        for k in sorted(self.best):
-            if self.at_floor(k):
-                break
-            active.append(k)
-        return active
 
     def _local(self, evaluator: Evaluator, k: int, budget: int, y0: np.ndarray) -> None:
         """One local run on ``k`` knots from the unit-box point ``y0``, at most ``budget``
