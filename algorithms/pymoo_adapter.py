@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from metaknot.bspline import averaging_knots
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
 from ._adapters import FinitePenalty, check_choice, optional_import, refuse_variable_count
+from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 
 __all__ = ["PymooOptimizer"]
@@ -134,10 +136,6 @@ class PymooOptimizer(Optimizer):
 
     def _averaging_start(self, sampling):
         """A first population of averaging-knot masks (half) and ``sampling``'s (the rest)."""
-        from metaknot.bspline import averaging_knots
-
-        from .baselines import knots_to_candidate
-
         problem = self.problem
         if problem.encoding.kind != "binary":
             raise ValueError("initial='averaging' needs a 0/1 mask problem (mask)")
