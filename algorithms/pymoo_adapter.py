@@ -80,11 +80,8 @@ class PymooOptimizer(Optimizer):
 
         encoding = problem.encoding
         n = encoding.n_var
-        self.genotype = "keys"
-        if self.variant in ("GA", "NSGA2") and encoding.kind == "binary":
-            self.genotype = "binary"
-        elif self.variant in ("GA", "NSGA2") and encoding.kind == "integer":
-            self.genotype = "integer"
+        own = self.variant in ("GA", "NSGA2") and encoding.kind in ("binary", "integer")
+        self.genotype = encoding.kind if own else "keys"  # GA, NSGA2: masks and sets as such
         if self.genotype == "integer":
             lower, upper = encoding.lower.astype(float), encoding.upper.astype(float)
         else:
