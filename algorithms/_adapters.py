@@ -1,4 +1,5 @@
-"""What the adapters to other optimizer libraries share: optional imports, finite penalties."""
+"""What the adapters to other optimizer libraries share: optional imports, named choices,
+finite penalties."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 
 from metaknot.problems import FreeKnotSpace
 
-__all__ = ["FinitePenalty", "optional_import", "refuse_variable_count"]
+__all__ = ["FinitePenalty", "check_choice", "optional_import", "refuse_variable_count"]
 
 
 def optional_import(module: str, optimizer: str) -> ModuleType:
@@ -19,6 +20,13 @@ def optional_import(module: str, optimizer: str) -> ModuleType:
     except ImportError:
         raise ImportError(f"optimizer {optimizer!r} needs the {module} package: pip install "
                           f"{module} (or metaknot[adapters])") from None
+
+
+def check_choice(name: str, value: object, valid: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``valid``, else a ``ValueError`` naming the parameter."""
+    if value not in valid:
+        raise ValueError(f"{name} must be one of {', '.join(valid)}; got {value!r}")
+    return str(value)
 
 
 def refuse_variable_count(problem: object, optimizer: str) -> None:

@@ -30,8 +30,6 @@ Choices the paper leaves open (or that differ):
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from metaknot.optimizer import check_param
@@ -147,12 +145,10 @@ class Bisection(ToleranceMethod):
     """
 
     method = staticmethod(bisection)
+    options = ("max_nfev",)
 
     def __init__(self, max_nfev: int = 20, tolerance: float | None = None,
                  metric: str = "max_deviation", max_knots: int | None = None,
                  batch_size: int = 1) -> None:
         super().__init__(tolerance, metric, max_knots, batch_size)
         self.max_nfev = check_param("max_nfev", max_nfev, low=0, integer=True)
-
-    def method_options(self) -> dict[str, Any]:
-        return {"max_nfev": self.max_nfev}

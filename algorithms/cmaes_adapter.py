@@ -24,10 +24,6 @@ from .knot_map import KnotMap
 __all__ = ["CMAESKnots"]
 
 
-def _require_cmaes():
-    return optional_import("cmaes", "cmaes")
-
-
 @register("cmaes")
 class CMAESKnots(Optimizer):
     """CMA-ES (the ``cmaes`` package) on the K knot positions of a ``FreeKnots`` problem.
@@ -56,7 +52,7 @@ class CMAESKnots(Optimizer):
         if not isinstance(problem, FreeKnotSpace):
             raise ValueError(f"optimizer 'cmaes' needs a FreeKnots problem; got {problem.name!r}")
         refuse_variable_count(problem, "cmaes")
-        _require_cmaes()
+        optional_import("cmaes", "cmaes")
         super().setup(problem, rng)
         self.box = KnotMap(problem.params, problem.degree, data_gap=self.data_gap,
                            span_range=self.span_range)
@@ -66,7 +62,7 @@ class CMAESKnots(Optimizer):
         self._start(self.best_y)
 
     def _start(self, mean: np.ndarray) -> None:
-        cmaes = _require_cmaes()
+        cmaes = optional_import("cmaes", "cmaes")
         n = mean.size
         self.es = cmaes.CMA(mean=np.clip(mean, 0.0, 1.0), sigma=self.sigma,
                             bounds=np.tile([0.0, 1.0], (n, 1)),

@@ -202,24 +202,21 @@ class DolphinEcholocation(Optimizer):
                 "bit of the loop-best with probability PP and flips it otherwise: re, epsilon "
                 "and fitness have no effect there; they act on index encodings (KnotIndices)",
                 UserWarning, stacklevel=2)
-        if self.loops is None:
+        loops = self.loops
+        if loops is None:
             budget = getattr(problem, "budget", None)
             if budget is None:
                 raise ValueError("loops=None derives the number of loops from the budget; set "
                                  "the optimizer up on a Task (Evaluator(problem, budget).task) "
                                  "or give loops")
-            self._set_loops(max(1, math.ceil(budget / self.population)))
-        else:
-            self._set_loops(self.loops)
+            loops = max(1, math.ceil(budget / self.population))
+        self.n_loops = loops
+        self.pp = pp_schedule(loops, self.pp1, self.power)
         self.loop = 0
         self.best_x: np.ndarray | None = None
         self.best_f = np.inf
         self.probabilities: np.ndarray | None = None
         self._locations = problem.sample(rng, self.population)
-
-    def _set_loops(self, loops: int) -> None:
-        self.n_loops = loops
-        self.pp = pp_schedule(loops, self.pp1, self.power)
 
     def finished(self) -> bool:
         return self.loop >= self.n_loops

@@ -27,8 +27,6 @@ Choices the paper leaves open (or that differ):
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from metaknot.optimizer import check_param
@@ -112,12 +110,10 @@ class DominantPoints(ToleranceMethod):
     """
 
     method = staticmethod(dominant_points)
+    options = ("smoothing",)
 
     def __init__(self, smoothing: float = 1.0, tolerance: float | None = None,
                  metric: str = "max_deviation", max_knots: int | None = None,
                  batch_size: int = 1) -> None:
         super().__init__(tolerance, metric, max_knots, batch_size)
         self.smoothing = check_param("smoothing", smoothing, low=0)
-
-    def method_options(self) -> dict[str, Any]:
-        return {"smoothing": self.smoothing}

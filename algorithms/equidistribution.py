@@ -34,8 +34,6 @@ Choices the papers leave open:
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from metaknot.bspline.curve import Curve
@@ -136,6 +134,7 @@ class Equidistribution(ToleranceMethod):
     """
 
     method = staticmethod(equidistribution)
+    options = ("feature", "smoothing")
 
     def __init__(self, feature: str = "derivative", smoothing: float = 2.0,
                  tolerance: float | None = None, metric: str = "max_deviation",
@@ -145,6 +144,3 @@ class Equidistribution(ToleranceMethod):
             raise ValueError(f"feature must be 'derivative' or 'curvature'; got {feature!r}")
         self.feature = feature
         self.smoothing = check_param("smoothing", smoothing, low=0)
-
-    def method_options(self) -> dict[str, Any]:
-        return {"feature": self.feature, "smoothing": self.smoothing}

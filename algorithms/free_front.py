@@ -34,6 +34,8 @@ Every candidate goes through the evaluator: the budget holds.
 
 from __future__ import annotations
 
+import itertools
+
 import nlopt
 import numpy as np
 
@@ -43,10 +45,11 @@ from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty
+from ._adapters import FinitePenalty, check_choice
+from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 from .literature import equidistribute, knot_density
-from .nlopt_knots import LOCAL_ALGORITHMS, NLOPT_STOPS, check_free_knots
+from .nlopt_knots import LOCAL_ALGORITHMS, NloptObjective, check_free_knots
 
 __all__ = ["FreeKnotFront"]
 
@@ -80,10 +83,7 @@ class FreeKnotFront(Optimizer):
     def __init__(self, local_variant: str = "LN_BOBYQA", initial_step: float = 0.5,
                  perturbation: float = 0.1, min_gap: float = 1e-4,
                  density_exponent: float = 0.3, batch_size: int = 64) -> None:
-        if local_variant not in LOCAL_ALGORITHMS:
-            raise ValueError(f"local_variant must be one of {', '.join(LOCAL_ALGORITHMS)}; "
-                             f"got {local_variant!r}")
-        self.local_variant = local_variant
+        self.local_variant = check_choice("local_variant", local_variant, LOCAL_ALGORITHMS)
         self.initial_step = check_param("initial_step", initial_step, low=0, low_open=True)
         self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
         self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)
@@ -96,31 +96,24 @@ class FreeKnotFront(Optimizer):
         self.box = KnotMap(problem.params, problem.degree, kind="sorted",
                            min_gap=self.min_gap, data_gap=0.0)
         self.pareto = getattr(problem, "n_objectives", 1) == 2
-        self.variable = bool(problem.variable_count)  # check_free_knots: a FreeKnotSpace
-        self.counts = list(range(1, problem.n_knots + 1)) if self.variable else \
-            [problem.n_knots]
+        self.counts = list(range(1, problem.n_knots + 1)) if problem.variable_count else \
+            [problem.n_knots]  # check_free_knots: a FreeKnotSpace
         #: per count: (lowest error or objective value seen, its knots)
         self.best: dict[int, tuple[float, np.ndarray]] = {}
         self.penalty = FinitePenalty()
+        #: ``(u, F(u))``: the normalised cumulative knot density on a fine grid
+        #: (:func:`~metaknot.algorithms.literature.knot_density`, one external fit)
         self._density: tuple[np.ndarray, np.ndarray] | None = None
         if self.density_exponent > 0:
-            self._density = self._knot_density()
-
-    def _knot_density(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """``(u, F(u))``: the normalised cumulative knot density on a fine grid
-        (:func:`~metaknot.algorithms.literature.knot_density`, one external fit)."""
-        p = self.problem
-        self.count_fits(1)
-        return knot_density(p.params, p.points, p.degree, self.density_exponent)
+            self.count_fits(1)
+            self._density = knot_density(problem.params, problem.points, problem.degree,
+                                         self.density_exponent)
 
     def density_knots(self, k: int) -> np.ndarray | None:
         """The ``k`` knots that split the knot density into equal parts (None without one)."""
         return equidistribute(self._density, k)
 
     # -- candidates and their scores ---------------------------------------------------------
-
-    def candidate(self, knots: np.ndarray) -> np.ndarray:
-        return self.problem.pad(knots) if self.variable else np.sort(knots)
 
     def score(self, F: np.ndarray) -> np.ndarray:
         """What a count minimises: the error (``pareto``'s second objective) or the value."""
@@ -140,7 +133,8 @@ class FreeKnotFront(Optimizer):
     def run(self, evaluator: Evaluator) -> None:
         try:
             self._scan(evaluator)
-            active = self._active()
+            # the counts to refine: all scanned, up to the first at the error floor (excluded)
+            active = list(itertools.takewhile(lambda k: not self.at_floor(k), sorted(self.best)))
             for i, k in enumerate(active):
                 if any(self.at_floor(j) for j in active[:i]):
                     active = active[:i]
@@ -164,45 +158,26 @@ class FreeKnotFront(Optimizer):
             chunk = self.counts[first : first + self.batch_size]
             starts = [(k, averaging_knots(p.params, k, p.degree)) for k in chunk]
             starts += [(k, t) for k in chunk if (t := self.density_knots(k)) is not None]
-            F = evaluator(np.array([self.candidate(t) for _, t in starts]))
+            F = evaluator(np.array([knots_to_candidate(p, t) for _, t in starts]))
             for (k, t), v in zip(starts, self.score(F), strict=False):
                 self._offer(k, v, t)
             if len(F) < len(starts):
                 raise BudgetExhausted
 
-    def _active(self) -> list[int]:
-        """The counts to refine: all scanned, up to the first at the error floor (excluded)."""
-        active = []
-        for k in sorted(self.best):
-            if self.at_floor(k):
-                break
-            active.append(k)
-        return active
-
     def _local(self, evaluator: Evaluator, k: int, budget: int, y0: np.ndarray) -> None:
         """One local run on ``k`` knots from the unit-box point ``y0``, at most ``budget``
         evaluations; exceptions of the objective (the budget's) are raised after nlopt
-        returns."""
-        caught: list[BaseException] = []
-        cache: dict[bytes, float] = {}
+        returns (:class:`~metaknot.algorithms.nlopt_knots.NloptObjective`)."""
+
+        def evaluate(y: np.ndarray) -> float:
+            knots = self.box.knots(y)
+            candidate = knots_to_candidate(self.problem, knots)
+            value = float(self.score(evaluator(candidate[None, :]))[0])
+            self._offer(k, value, knots)
+            return value
+
         opt = nlopt.opt(getattr(nlopt, self.local_variant), k)
-
-        def objective(y: np.ndarray, grad: np.ndarray) -> float:
-            if caught:
-                return self.penalty.value
-            key = y.tobytes()
-            if key not in cache:
-                knots = self.box.knots(y)
-                try:
-                    value = float(self.score(evaluator(self.candidate(knots)[None, :]))[0])
-                except Exception as exc:  # handed back after nlopt returns
-                    caught.append(exc)
-                    opt.force_stop()
-                    return self.penalty.value
-                self._offer(k, value, knots)
-                cache[key] = value
-            return float(self.penalty(np.array([cache[key]]))[0])
-
+        objective = NloptObjective(evaluate, self.penalty)
         nlopt.srand(int(self.rng.integers(2**31)))
         opt.set_min_objective(objective)
         opt.set_lower_bounds(np.zeros(k))
@@ -210,9 +185,4 @@ class FreeKnotFront(Optimizer):
         opt.set_initial_step(min(self.initial_step / (k + 1), 0.5))
         opt.set_xtol_abs(1e-9)
         opt.set_maxeval(int(max(1, budget)))
-        try:
-            opt.optimize(np.clip(np.asarray(y0, dtype=np.float64), 0.0, 1.0))
-        except NLOPT_STOPS:
-            pass
-        if caught:
-            raise caught[0]
+        objective.optimize(opt, np.clip(np.asarray(y0, dtype=np.float64), 0.0, 1.0))

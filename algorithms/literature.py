@@ -344,6 +344,8 @@ class ToleranceMethod(_KnotCountBaseline):
 
     #: the method's function (a :func:`tolerance_method`)
     method: ClassVar[Callable[..., LiteratureKnots]]
+    #: the subclass's own hyperparameters, passed to the method by name
+    options: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, tolerance: float | None = None, metric: str = "max_deviation",
                  max_knots: int | None = None, batch_size: int = 1) -> None:
@@ -355,8 +357,8 @@ class ToleranceMethod(_KnotCountBaseline):
         self.metric = metric
 
     def method_options(self) -> dict[str, Any]:
-        """Options passed to the method (a subclass's own hyperparameters)."""
-        return {}
+        """Options passed to the method (a subclass's own hyperparameters, :attr:`options`)."""
+        return {name: getattr(self, name) for name in self.options}
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
         super().setup(problem, rng)

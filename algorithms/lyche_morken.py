@@ -74,19 +74,13 @@ def most_removable(target: Target, knots: np.ndarray, order: np.ndarray) -> int:
     most = knots.size - target.min_count
     if most < 1 or not target.within(np.delete(knots, order[:1])):
         return 0
-    within, beyond = 1, None
-    while beyond is None and within < most:
-        m = min(2 * within, most)
+    within, beyond = 1, most + 1  # beyond: the fewest removals found not within, or most + 1
+    while beyond - within > 1:  # doubling until one is not within, then bisection
+        m = min(2 * within, most) if beyond > most else (within + beyond) // 2
         if target.within(np.delete(knots, order[:m])):
             within = m
         else:
             beyond = m
-    while beyond is not None and beyond - within > 1:
-        mid = (within + beyond) // 2
-        if target.within(np.delete(knots, order[:mid])):
-            within = mid
-        else:
-            beyond = mid
     return within
 
 

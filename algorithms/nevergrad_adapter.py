@@ -25,12 +25,6 @@ from .knot_map import KnotMap
 __all__ = ["NevergradOptimizer"]
 
 
-def _require_nevergrad():
-    nevergrad = optional_import("nevergrad", "nevergrad")
-    _patch_metamodel()
-    return nevergrad
-
-
 def _patch_metamodel() -> None:
     """Compatibility with numpy 2: nevergrad's surrogate step (used by NGOpt and MetaModel)
     converts a 1-element array to float, which numpy 2.4 refuses with a TypeError; raised
@@ -77,7 +71,8 @@ class NevergradOptimizer(Optimizer):
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
-        ng = _require_nevergrad()
+        ng = optional_import("nevergrad", "nevergrad")
+        _patch_metamodel()
         if self.variant not in ng.optimizers.registry:
             import difflib
 

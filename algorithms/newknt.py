@@ -24,8 +24,6 @@ Choices the guide leaves to the caller:
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from metaknot.optimizer import check_param
@@ -92,12 +90,10 @@ class NewKnt(ToleranceMethod):
     """
 
     method = staticmethod(newknt)
+    options = ("iterations",)
 
     def __init__(self, iterations: int = 3, tolerance: float | None = None,
                  metric: str = "max_deviation", max_knots: int | None = None,
                  batch_size: int = 1) -> None:
         super().__init__(tolerance, metric, max_knots, batch_size)
         self.iterations = check_param("iterations", iterations, low=0, integer=True)
-
-    def method_options(self) -> dict[str, Any]:
-        return {"iterations": self.iterations}

@@ -22,6 +22,8 @@ discrete methods.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import nlopt
 import numpy as np
 
@@ -32,6 +34,8 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.problems import FreeKnots, FreeKnotSpace
 from metaknot.registry import register
 
+from ._adapters import FinitePenalty, check_choice
+from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 
 LOCAL_ALGORITHMS = ("LN_BOBYQA", "LN_SBPLX", "LN_COBYLA", "LN_NELDERMEAD")
@@ -41,12 +45,6 @@ ALGORITHMS = LOCAL_ALGORITHMS + GLOBAL_ALGORITHMS
 #: nlopt's generic failure. An exception raised by the objective (the problem, the budget) is
 #: never one of these: it is caught in the objective and raised again after nlopt returns.
 NLOPT_STOPS = (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError)
-
-
-def _check_name(name: str, value: object, valid: tuple[str, ...]) -> str:
-    if value not in valid:
-        raise ValueError(f"{name} must be one of {', '.join(valid)}; got {value!r}")
-    return str(value)
 
 
 def check_free_knots(name: str, problem: FreeKnots, min_gap: float) -> None:
@@ -59,6 +57,46 @@ def check_free_knots(name: str, problem: FreeKnots, min_gap: float) -> None:
     if (problem.n_knots + 1) * min_gap >= 1:
         raise ValueError(f"min_gap={min_gap} leaves no room for {problem.n_knots} knots; "
                          f"it must be < 1 / {problem.n_knots + 1}")
+
+
+class NloptObjective:
+    """``evaluate`` (the value of a unit-box point) as an nlopt objective: a point sent again is
+    answered from a cache, a value that is not finite as ``penalty``'s stand-in. Nothing raises
+    through nlopt (GN_CRS2_LM keeps calling after an exception): an exception of ``evaluate``
+    force-stops nlopt, further calls are answered at once, and :meth:`optimize` raises it."""
+
+    def __init__(self, evaluate: Callable[[np.ndarray], float], penalty: FinitePenalty) -> None:
+        self.evaluate, self.penalty = evaluate, penalty
+        self.cache: dict[bytes, float] = {}
+        self.caught: list[BaseException] = []
+        self.opt: nlopt.opt | None = None  # the run to stop
+
+    def __call__(self, y: np.ndarray, grad: np.ndarray) -> float:
+        if self.caught:
+            return self.penalty.value
+        key = y.tobytes()
+        if key not in self.cache:
+            try:
+                self.cache[key] = self.evaluate(y)
+            except Exception as exc:  # handed back by optimize after nlopt returns
+                self.caught.append(exc)
+                self.opt.force_stop()
+                return self.penalty.value
+        return float(self.penalty(self.cache[key]))
+
+    def optimize(self, opt: nlopt.opt, y0: np.ndarray, first: bool = False) -> None:
+        """``opt.optimize(y0)``, ``y0`` evaluated first with ``first``; nlopt's own stops
+        (:data:`NLOPT_STOPS`) are passed over, the exception of ``evaluate`` raised again."""
+        self.opt = opt
+        try:
+            if first:
+                self(y0, np.empty(0))
+            if not self.caught:
+                opt.optimize(y0)
+        except NLOPT_STOPS:
+            pass  # the best point seen is kept by evaluate and the evaluator
+        if self.caught:
+            raise self.caught[0]
 
 
 @register("nlopt")
@@ -106,12 +144,12 @@ class NloptKnots(Optimizer):
                  restarts: int = 0, min_gap: float = 1e-4, data_gap: float | None = None,
                  box_map: str = "auto", span_range: float = 4.0, initial_step: float = 0.1,
                  perturbation: float = 0.05, k_grid: int = 5) -> None:
-        self.variant = _check_name("variant", variant, ALGORITHMS)
-        self.local_variant = _check_name("local_variant", local_variant, LOCAL_ALGORITHMS)
+        self.variant = check_choice("variant", variant, ALGORITHMS)
+        self.local_variant = check_choice("local_variant", local_variant, LOCAL_ALGORITHMS)
         self.restarts = check_param("restarts", restarts, low=0, integer=True)
         self.min_gap = check_param("min_gap", min_gap, low=0, high=0.5, low_open=True)
         self.data_gap = None if data_gap is None else check_param("data_gap", data_gap, low=0)
-        self.box_map = _check_name("box_map", box_map, ("auto", "spans", "sorted"))
+        self.box_map = check_choice("box_map", box_map, ("auto", "spans", "sorted"))
         self.span_range = check_param("span_range", span_range, low=1, low_open=True)
         self.initial_step = check_param("initial_step", initial_step, low=0, high=1,
                                         low_open=True)
@@ -121,7 +159,7 @@ class NloptKnots(Optimizer):
     def setup(self, problem: FreeKnots, rng: np.random.Generator) -> None:
         check_free_knots(self.name, problem, self.min_gap)
         super().setup(problem, rng)
-        self._worst_finite = -np.inf
+        self.penalty = FinitePenalty()
         self._box = None
 
     @property
@@ -188,63 +226,37 @@ class NloptKnots(Optimizer):
                   start: np.ndarray | None = None) -> tuple[float, np.ndarray]:
         """Runs on ``n_knots`` knots within ``budget`` evaluations; the best value and point.
 
-        Nothing raises through nlopt (GN_CRS2_LM keeps calling after an exception, with a Python
-        error pending): the objective records the exception, force-stops nlopt and answers
-        further calls at once; afterwards nlopt's own stop exceptions are passed over and the
-        objective's exception (``BudgetExhausted``, or any error of the problem, a
-        ``RuntimeError`` included) is raised again.
+        An exception of the evaluation (``BudgetExhausted``, any error of the problem) is raised
+        after nlopt returns (:class:`NloptObjective`).
         """
         if start is None:
             start = self.unit(averaging_knots(self.problem.params, n_knots, self.problem.degree))
-        best, caught, current = [np.inf, start.copy()], [], []
-        pad = self.problem.pad if self.problem.variable_count else (lambda x: x)
-        cache: dict[bytes, float] = {}  # nlopt may re-send a point; do not pay for it twice
+        best = [np.inf, start.copy()]
 
-        def objective(y: np.ndarray, grad: np.ndarray) -> float:
-            if caught:
-                return self._penalty()
-            key = y.tobytes()
-            try:
-                if key not in cache:
-                    cache[key] = float(evaluator(pad(self.knots(y))[None, :])[0])
-            except Exception as exc:  # handed back after nlopt returns
-                caught.append(exc)
-                current[0].force_stop()
-                return self._penalty()
-            f = cache[key]
+        def evaluate(y: np.ndarray) -> float:
+            f = float(evaluator(knots_to_candidate(self.problem, self.knots(y))[None, :])[0])
             if f < best[0]:
                 best[0], best[1] = f, y.copy()
-            if not np.isfinite(f):
-                return self._penalty()
-            self._worst_finite = max(self._worst_finite, f)
             return f
 
+        objective = NloptObjective(evaluate, self.penalty)
         first, idle, run = evaluator.n_evaluations, 0, 0
         while idle < 3 and (left := budget - (evaluator.n_evaluations - first)) > 0:
             x0 = start if run == 0 else np.clip(
                 best[1] + self.rng.normal(0.0, self.perturbation, n_knots), 0.0, 1.0)
             before = evaluator.n_evaluations
-            current[:] = [self._build(n_knots, objective, max(1, left // max(starts - run, 1)))]
-            caught.clear()
-            try:
-                if run == 0:  # the start itself first (BOBYQA may shift it off a bound)
-                    objective(start, np.empty(0))
-                if not caught:
-                    current[0].optimize(x0)
-            except NLOPT_STOPS:
-                pass  # the best point seen is kept by the objective and the evaluator
-            if caught:
-                raise caught[0]
+            opt = self._build(n_knots, objective, max(1, left // max(starts - run, 1)))
+            # the start itself first on the first run (BOBYQA may shift it off a bound)
+            objective.optimize(opt, x0, first=run == 0)
             idle = idle + 1 if evaluator.n_evaluations == before else 0
             run += 1
         return best[0], best[1]
 
     def _penalty(self) -> float:
         """Finite stand-in for +inf: worse than every finite value seen so far."""
-        worst = self._worst_finite
-        return worst + abs(worst) + 1.0 if np.isfinite(worst) else 1e12
+        return self.penalty.value
 
-    def _build(self, n_knots: int, objective, maxeval: int) -> nlopt.opt:
+    def _build(self, n_knots: int, objective: NloptObjective, maxeval: int) -> nlopt.opt:
         nlopt.srand(int(self.rng.integers(2**31)))  # nlopt's RNG, for the GN_* / MLSL draws
         opt = nlopt.opt(getattr(nlopt, self.variant), n_knots)
         opt.set_min_objective(objective)

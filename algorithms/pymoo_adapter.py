@@ -24,21 +24,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from metaknot.bspline import averaging_knots
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
 from metaknot.registry import register
 
-from ._adapters import FinitePenalty, optional_import, refuse_variable_count
+from ._adapters import FinitePenalty, check_choice, optional_import, refuse_variable_count
+from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 
 __all__ = ["PymooOptimizer"]
 
 ALGORITHMS = ("GA", "DE", "BRKGA", "NSGA2")
-
-
-def _require_pymoo():
-    return optional_import("pymoo", "pymoo")
 
 
 @register("pymoo")
@@ -65,10 +63,7 @@ class PymooOptimizer(Optimizer):
     @renamed_parameters("pymoo")
     def __init__(self, variant: str = "GA", population: int = 50,
                  initial: str = "random") -> None:
-        if variant not in ALGORITHMS:
-            raise ValueError(f"variant must be one of {', '.join(ALGORITHMS)}; "
-                             f"got {variant!r}")
-        self.variant = variant
+        self.variant = check_choice("variant", variant, ALGORITHMS)
         self.multi_objective = variant == "NSGA2"
         if initial not in ("random", "averaging"):
             raise ValueError(f"initial must be 'random' or 'averaging'; got {initial!r}")
@@ -78,18 +73,15 @@ class PymooOptimizer(Optimizer):
         self.population = check_param("population", population, low=4, integer=True)
 
     def setup(self, problem: Problem, rng: np.random.Generator) -> None:
-        _require_pymoo()
+        optional_import("pymoo", "pymoo")
         refuse_variable_count(problem, "pymoo")
         super().setup(problem, rng)
         from pymoo.core.problem import Problem as PymooProblem
 
         encoding = problem.encoding
         n = encoding.n_var
-        self.genotype = "keys"
-        if self.variant in ("GA", "NSGA2") and encoding.kind == "binary":
-            self.genotype = "binary"
-        elif self.variant in ("GA", "NSGA2") and encoding.kind == "integer":
-            self.genotype = "integer"
+        own = self.variant in ("GA", "NSGA2") and encoding.kind in ("binary", "integer")
+        self.genotype = encoding.kind if own else "keys"  # GA, NSGA2: masks and sets as such
         if self.genotype == "integer":
             lower, upper = encoding.lower.astype(float), encoding.upper.astype(float)
         else:
@@ -141,10 +133,6 @@ class PymooOptimizer(Optimizer):
 
     def _averaging_start(self, sampling):
         """A first population of averaging-knot masks (half) and ``sampling``'s (the rest)."""
-        from metaknot.bspline import averaging_knots
-
-        from .baselines import knots_to_candidate
-
         problem = self.problem
         if problem.encoding.kind != "binary":
             raise ValueError("initial='averaging' needs a 0/1 mask problem (mask)")

@@ -39,8 +39,6 @@ Choices the paper leaves open (or that differ):
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from metaknot.optimizer import check_param
@@ -169,6 +167,7 @@ class SparseL1(ToleranceMethod):
     """
 
     method = staticmethod(sparse_l1)
+    options = ("threshold", "rounds")
 
     def __init__(self, threshold: float = 1e-3, rounds: int = 30,
                  tolerance: float | None = None, metric: str = "max_deviation",
@@ -176,6 +175,3 @@ class SparseL1(ToleranceMethod):
         super().__init__(tolerance, metric, max_knots, batch_size)
         self.threshold = check_param("threshold", threshold, low=0, high=1, low_open=True)
         self.rounds = check_param("rounds", rounds, low=1, integer=True)
-
-    def method_options(self) -> dict[str, Any]:
-        return {"threshold": self.threshold, "rounds": self.rounds}

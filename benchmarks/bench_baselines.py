@@ -45,9 +45,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
 import tempfile
 import time
 import warnings
@@ -55,6 +52,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from _timing import metaknot_run
 from scipy.stats import rankdata, wilcoxon
 
 from metaknot.bspline import fitpack
@@ -105,12 +103,11 @@ def run_sweeps(results: Path, seeds: int, workers: int, only: str | None = None)
     for study, overrides in SWEEPS:
         if only is not None and study != only:
             continue
-        command = [sys.executable, "-m", "metaknot.cli", "run", "-m", f"study={study}",
-                   f"problem={CURVES}", "problem.parameterization=centripetal",
-                   f"seed=range(0,{seeds})", *overrides, f"results_dir={results}",
-                   "launcher=joblib", f"hydra.launcher.n_jobs={workers}"]
-        print("$ metaknot run -m " + " ".join(command[5:-3]), flush=True)
-        done = subprocess.run(command, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        shown = [f"study={study}", f"problem={CURVES}", "problem.parameterization=centripetal",
+                 f"seed=range(0,{seeds})", *overrides]
+        print("$ metaknot run -m " + " ".join(shown), flush=True)
+        done = metaknot_run([*shown, f"results_dir={results}", "launcher=joblib",
+                             f"hydra.launcher.n_jobs={workers}"])
         if done.returncode != 0:
             raise SystemExit(f"the sweep failed (exit {done.returncode})")
 

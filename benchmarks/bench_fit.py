@@ -21,9 +21,8 @@ import os
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
-import time
-
 import numpy as np
+from _timing import timed
 
 import metaknot as mk
 from metaknot.problems import add_noise, get_curve
@@ -57,9 +56,8 @@ def main() -> None:
     print(f"{'case':<28} {'N':>4} {'FITPACK CP':>10} {'s':>7} {'metaknot CP':>11} {'ratio':>6} "
           f"{'s':>7}  method")
     for name, points, function, closed in cases():
-        start = time.perf_counter()
-        result = mk.fit(points, TOLERANCE, relative=True, function=function, closed=closed)
-        seconds = time.perf_counter() - start
+        result, seconds = timed(mk.fit, points, TOLERANCE, relative=True, function=function,
+                                closed=closed)
         ratio = result.n_control_points / result.fitpack["n_control_points"]
         ratios.append(ratio)
         slowest = max(slowest, seconds)

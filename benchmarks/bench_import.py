@@ -19,14 +19,13 @@ import argparse
 import statistics
 import subprocess
 import sys
-import time
+
+from _timing import timed
 
 
 def seconds(code: str) -> float:
     """Wall time of a fresh interpreter running ``code``."""
-    start = time.perf_counter()
-    subprocess.run([sys.executable, "-c", code], check=True)
-    return time.perf_counter() - start
+    return timed(subprocess.run, [sys.executable, "-c", code], check=True)[1]
 
 
 def main() -> None:

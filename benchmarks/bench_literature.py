@@ -21,9 +21,8 @@ import os
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
-import time
-
 import numpy as np
+from _timing import timed
 from bench_fit import TOLERANCE
 from bench_fit import cases as fit_cases
 
@@ -60,18 +59,13 @@ def main() -> None:
     print(f"{'case':<26} {'fit':>9} " + " ".join(f"{n[:15]:>15}" for n in names) + "  best")
     ratios, worse = [], 0
     for case, options in cases():
-        start = time.perf_counter()
-        fitted = mk.fit(**options)
-        seconds = time.perf_counter() - start
+        fitted, seconds = timed(mk.fit, **options)
         extra = curve_model(fitted.closed)(fitted.params, fitted.points,
                                            fitted.degree).extra_control_points
         cells, best = [], None
         for name in names:
-            start = time.perf_counter()
-            found = METHODS[name](fitted.params, fitted.points, fitted.tolerance,
-                                  degree=fitted.degree, closed=fitted.closed,
-                                  metric=fitted.metric)
-            took = time.perf_counter() - start
+            found, took = timed(METHODS[name], fitted.params, fitted.points, fitted.tolerance,
+                                degree=fitted.degree, closed=fitted.closed, metric=fitted.metric)
             if not found.within:
                 cells.append(f"{'-':>8} {took:>6.2f}")
                 continue

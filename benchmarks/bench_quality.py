@@ -22,14 +22,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from _timing import metaknot_run
 
 from metaknot.bspline import fitpack, parameterize
 from metaknot.experiments import load_study
@@ -49,10 +47,9 @@ def fitpack_rmse(curve: str, factor: float) -> float:
 
 
 def run_study(results: Path, budget: int, seeds: int, workers: int) -> None:
-    command = [sys.executable, "-m", "metaknot.cli", "run", "-m", "experiment=fitpack_front",
-               f"budget={budget}", f"seed=range(0,{seeds})", f"results_dir={results}",
-               "launcher=joblib", f"hydra.launcher.n_jobs={workers}"]
-    done = subprocess.run(command, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    done = metaknot_run(["experiment=fitpack_front", f"budget={budget}",
+                         f"seed=range(0,{seeds})", f"results_dir={results}", "launcher=joblib",
+                         f"hydra.launcher.n_jobs={workers}"])
     if done.returncode != 0:
         raise SystemExit(f"the study failed (exit {done.returncode})")
 

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
 from pathlib import Path
+
+from _timing import timed
 
 from metaknot.experiments import load_study
 from metaknot.experiments.report import build
@@ -22,18 +23,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study", nargs="?", default="results/seed_paper", type=Path)
     args = parser.parse_args()
-    start = time.perf_counter()
-    study = load_study(args.study)
-    read = time.perf_counter() - start
+    study, read = timed(load_study, args.study)
     print(f"read {len(study.runs)} runs and {len(study.trace)} trace points: {read:.1f} s")
     with tempfile.TemporaryDirectory() as out:
-        start = time.perf_counter()
-        build(args.study, Path(out) / "tables-only", figures=False, log=None)
-        tables = time.perf_counter() - start
+        _, tables = timed(build, args.study, Path(out) / "tables-only", figures=False, log=None)
         print(f"report without figures: {tables:.1f} s", flush=True)
-        start = time.perf_counter()
-        report = build(args.study, Path(out) / "full", log=None)
-        full = time.perf_counter() - start
+        report, full = timed(build, args.study, Path(out) / "full", log=None)
         print(f"report with {len(report.figures) // 2} figures: {full:.1f} s")
     print(f"report_seconds: {full:.1f}")
 

@@ -56,13 +56,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
-import sys
 import tempfile
 import time
 
 import numba
 import numpy as np
+from _timing import best_time, metaknot_run, timed
 
 import metaknot as mk
 from metaknot.bspline import evaluate_masks
@@ -91,13 +90,12 @@ class Recording(KnotSelection):
 def kernel_seconds(problem: KnotSelection, batches: list[np.ndarray], repeats: int) -> float:
     """Best-of-``repeats`` time of the kernel alone on the recorded batches."""
     masks = [b.astype(bool) for b in batches]
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
+
+    def kernel() -> None:
         for m in masks:
             evaluate_masks(problem.params, problem.points, m, problem.degree)
-        best = min(best, time.perf_counter() - start)
-    return best
+
+    return best_time(kernel, repeats)
 
 
 def run_overhead(evaluations: int, repeats: int) -> tuple[float, dict[str, float]]:
@@ -110,12 +108,8 @@ def run_overhead(evaluations: int, repeats: int) -> tuple[float, dict[str, float
     for name in OPTIMIZERS:
         problem = KnotSelection(data)
         mk.minimize(problem, name, budget=500, seed=0, optimizer_kwargs=OPTIONS[name])  # warm
-        run = np.inf
-        for _ in range(repeats):
-            start = time.perf_counter()
-            mk.minimize(problem, name, budget=evaluations, seed=1,
-                        optimizer_kwargs=OPTIONS[name])
-            run = min(run, time.perf_counter() - start)
+        run = best_time(lambda p=problem, n=name: mk.minimize(
+            p, n, budget=evaluations, seed=1, optimizer_kwargs=OPTIONS[n]), repeats)
         recording = Recording(data)
         recording.batches = []
         mk.minimize(recording, name, budget=evaluations, seed=1, optimizer_kwargs=OPTIONS[name])
@@ -140,12 +134,8 @@ def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float, f
 
     def best_run(name: str, options: dict) -> float:
         mk.minimize(problem, name, budget=500, seed=0, optimizer_kwargs=options)  # warm
-        best = np.inf
-        for _ in range(repeats):
-            start = time.perf_counter()
-            mk.minimize(problem, name, budget=evaluations, seed=1, optimizer_kwargs=options)
-            best = min(best, time.perf_counter() - start)
-        return best / evaluations
+        return best_time(lambda: mk.minimize(problem, name, budget=evaluations, seed=1,
+                                             optimizer_kwargs=options), repeats) / evaluations
 
     per_random = best_run("random_search", single)
     recording = Recording(data)
@@ -157,13 +147,13 @@ def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float, f
     # the floor: the sampler's draw and one bare kernel call per candidate, no framework
     rng, curve = np.random.default_rng(1), problem.curve
     one_by_one = [c[None, :] for c in candidates]
-    per_floor = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
+
+    def floor() -> None:
         for c in one_by_one:
             problem.sample(rng, 1)
             curve.evaluate_masks(c, max_deviation=False)
-        per_floor = min(per_floor, (time.perf_counter() - start) / len(candidates))
+
+    per_floor = best_time(floor, repeats) / len(candidates)
     per_ea = best_run("one_plus_one", {})
     recording = Recording(data)
     recording.batches, recording.near_batches = [], []
@@ -180,12 +170,12 @@ def sequential_overhead(evaluations: int, repeats: int) -> tuple[float, float, f
     flips = bit_flips(problem.params, best, np.arange(best.size))
     moves.evaluate_replacements(*flips)  # compile outside the timing
     calls = -(-evaluations // best.size)  # as many moves as the run made: timed alike
-    per_move = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
+
+    def replacements() -> None:
         for _ in range(calls):
             moves.evaluate_replacements(*flips)
-        per_move = min(per_move, (time.perf_counter() - start) / (calls * best.size))
+
+    per_move = best_time(replacements, repeats) / (calls * best.size)
     print(f"\nsequential optimizers on the epitrochoid masks, {evaluations} evaluations, one "
           f"kernel thread, best of {repeats}")
     print(f"random search, batch 1:  {1e6 * per_random:7.2f} us/evaluation; kernel on its "
@@ -229,14 +219,10 @@ def sweep_seconds(workers: int, runs: int, budget: int) -> float:
     """Wall time of a ``metaknot run -m`` sweep of ``runs`` runs with ``workers`` workers."""
     seeds = runs // 2
     with tempfile.TemporaryDirectory() as results:
-        command = [sys.executable, "-m", "metaknot.cli", "run", "-m", "launcher=joblib",
-                   f"hydra.launcher.n_jobs={workers}", "optimizer=ga,random_search",
-                   "problem=epitrochoid", f"budget={budget}", f"seed=range(0,{seeds})",
-                   f"results_dir={results}", "progress=false"]
-        start = time.perf_counter()
-        done = subprocess.run(command, capture_output=True, text=True, timeout=3600,
-                              env={**os.environ, "PYTHONUNBUFFERED": "1"})
-        seconds = time.perf_counter() - start
+        overrides = ["launcher=joblib", f"hydra.launcher.n_jobs={workers}",
+                     "optimizer=ga,random_search", "problem=epitrochoid", f"budget={budget}",
+                     f"seed=range(0,{seeds})", f"results_dir={results}", "progress=false"]
+        done, seconds = timed(metaknot_run, overrides, capture_output=True, timeout=3600)
         if done.returncode != 0:
             raise RuntimeError(done.stderr)
         if f"{2 * seeds} ok" not in done.stderr:

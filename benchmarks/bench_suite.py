@@ -25,12 +25,10 @@ report in DIR (default: a temporary folder, removed at the end).
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
+
+from _timing import metaknot_run, timed
 
 from metaknot.experiments import load_study
 from metaknot.experiments.report import build
@@ -42,14 +40,10 @@ STUDY = "bench_suite"
 
 def study_seconds(results: Path, split: str, seeds: int, budget: int) -> float:
     """Wall time of the sweep command (raises if a run is missing or failed)."""
-    command = [sys.executable, "-m", "metaknot.cli", "run", "-m", f"suite={split}",
-               "problem.task=tolerance", f"optimizer={','.join(OPTIMIZERS)}",
-               f"seed=range(0,{seeds})", f"budget={budget}", "launcher=joblib",
-               f"study={STUDY}", f"results_dir={results}", "progress=false"]
-    start = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, timeout=7200,
-                          env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    seconds = time.perf_counter() - start
+    overrides = [f"suite={split}", "problem.task=tolerance", f"optimizer={','.join(OPTIMIZERS)}",
+                 f"seed=range(0,{seeds})", f"budget={budget}", "launcher=joblib",
+                 f"study={STUDY}", f"results_dir={results}", "progress=false"]
+    done, seconds = timed(metaknot_run, overrides, capture_output=True, timeout=7200)
     if done.returncode != 0:
         raise RuntimeError(done.stderr[-2000:])
     return seconds
@@ -83,10 +77,9 @@ def main() -> None:
             raise RuntimeError(f"{len(runs) - ok} of {len(runs)} runs did not finish")
         print(f"suite_runs: {ok}  ({ok / study:.1f} runs per second)")
         print(f"suite_study_seconds: {study:.1f}", flush=True)
-        start = time.perf_counter()
-        build(results / STUDY, results / f"{STUDY}-report", figures=not args.no_figures,
-              log=None)
-        print(f"suite_report_seconds: {time.perf_counter() - start:.1f}")
+        _, seconds = timed(build, results / STUDY, results / f"{STUDY}-report",
+                           figures=not args.no_figures, log=None)
+        print(f"suite_report_seconds: {seconds:.1f}")
 
 
 if __name__ == "__main__":
