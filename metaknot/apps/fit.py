@@ -34,6 +34,7 @@ from scipy.interpolate import BSpline
 
 from ..bspline import check_degree, fitpack
 from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
+from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates
 from ..compat import KEYWORDS, renamed_parameters
@@ -125,10 +126,7 @@ class _Search:
         moves = None if near is None else self._move_evaluator(near)
         if moves is None:
             return self.curve.errors(rows, self.metric)
-        offsets = np.zeros(len(rows) + 1, dtype=np.int64)
-        np.cumsum([len(r) for r in rows], out=offsets[1:])
-        knots = np.concatenate(rows) if rows else np.empty(0)
-        batch, path = moves.evaluate(knots, offsets,
+        batch, path = moves.evaluate(*stack_rows(rows),
                                      max_deviation=self.metric == "max_deviation")
         self.delta_evaluations += int(np.count_nonzero(path == PATH_DELTA))
         return batch_errors(batch, self.metric, self.curve.n_points)

@@ -154,7 +154,6 @@ class MoveEvaluator:
         audit.add_fits(1)
         code, t, _ = _kernel.fit_one(u, q, interior, p)
         if code != _kernel.FEASIBLE:
-            from .fit import Infeasibility
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()
         self.t = t
