@@ -370,8 +370,8 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         raise ValueError(f"the tolerance {tol_abs:.3g} is below what interpolation reaches "
                          f"({floor:.3g}); raise it")
     stages = [f"{curve.kind} curve of {curve.n_points} points{why}"]
-    u, q = curve.params, curve.points
-    reference = fitpack.fewest_within(u, q, p, tol_abs, metric, closed=curve.closed)
+    reference = fitpack.fewest_within(curve.params, curve.points, p, tol_abs, metric,
+                                      closed=curve.closed)
     stages.append(f"FITPACK: {reference['n_control_points']} control points (s = "
                   f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
     if method in LITERATURE:
@@ -406,23 +406,21 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     if best is not None and \
             len(best) + curve.extra_control_points < reference["n_control_points"]:
         return _result(curve, best, method_name, tol_abs, metric, reference, stages, start)
-    metrics = {k: reference[k] for k in ("n_control_points", "max_deviation", "rmse")}
-    metrics["seconds"] = time.perf_counter() - start
-    return ToleranceFit(spline=reference["spline"], params=u, tolerance=tol_abs, metric=metric,
-                        method="fitpack", metrics=metrics,
-                        fitpack={k: v for k, v in reference.items() if k != "spline"},
-                        stages=stages, closed=curve.closed, points=q)
+    return _result(curve, None, "fitpack", tol_abs, metric, reference, stages, start)
 
 
-def _result(curve: Curve, knots: np.ndarray, method: str, tol: float, metric: Metric,
+def _result(curve: Curve, knots: np.ndarray | None, method: str, tol: float, metric: Metric,
             reference: dict, stages: list[str], start: float) -> ToleranceFit:
-    """The fit with these knots, as :func:`fit` returns it."""
-    solution = curve.fit(knots)
-    metrics = {"n_control_points": solution.n_control_points,
-               "max_deviation": solution.max_deviation, "rmse": solution.rmse,
-               "seconds": time.perf_counter() - start}
-    return ToleranceFit(spline=solution.spline, params=curve.params, tolerance=tol,
-                        metric=metric, method=method, metrics=metrics,
+    """The fit with these knots (FITPACK's answer if None), as :func:`fit` returns it."""
+    if knots is None:
+        spline, found = reference["spline"], reference
+    else:
+        solution = curve.fit(knots)
+        spline, found = solution.spline, solution.metrics
+    metrics = {k: found[k] for k in ("n_control_points", "max_deviation", "rmse")}
+    metrics["seconds"] = time.perf_counter() - start
+    return ToleranceFit(spline=spline, params=curve.params, tolerance=tol, metric=metric,
+                        method=method, metrics=metrics,
                         fitpack={k: v for k, v in reference.items() if k != "spline"},
                         stages=stages, closed=curve.closed, points=curve.points)
 
