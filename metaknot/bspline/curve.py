@@ -36,7 +36,7 @@ from .fit import (
     evaluate_knots,
     fit_spline,
 )
-from .knots import averaging_knots, padded_rows, stack_indices, stack_rows
+from .knots import averaging_knots, clamped_knot_vector, padded_rows, stack_indices, stack_rows
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
 from .periodic import closed_parameterize, evaluate_periodic, fit_periodic, periodic_knot_vector
@@ -332,9 +332,8 @@ class OpenCurve(Curve):
     def coefficient_map(self, interior_knots):
         from scipy import sparse
 
-        u, p = self.params, self.degree
-        t = np.concatenate((np.full(p + 1, u[0]), interior_knots, np.full(p + 1, u[-1])))
-        return t, sparse.identity(t.size - p - 1, format="csr")
+        t = clamped_knot_vector(self.params, interior_knots, self.degree)
+        return t, sparse.identity(t.size - self.degree - 1, format="csr")
 
 
 class ClosedCurve(Curve):
