@@ -25,7 +25,7 @@ from scipy.interpolate import BSpline
 from .. import audit
 from . import _periodic_kernel
 from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors
-from .knots import padded_rows, stack_positions, stack_rows
+from .knots import padded_rows, stack_rows
 from .parameterize import check_degree
 
 __all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
@@ -142,10 +142,12 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     rank-deficient systems come back infeasible with their reason, never raised.
     """
     p, u, q = _prepare(u, points, degree)
-    knots, offsets = stack_positions(np.atleast_2d(np.asarray(positions, dtype=np.float64)),
-                                     nan_is_absent=nan_is_absent)
-    counts = np.diff(offsets)
-    b = counts.size
+    pos = np.sort(np.atleast_2d(np.asarray(positions, dtype=np.float64)), axis=1)
+    present = ~np.isnan(pos) if nan_is_absent else np.ones(pos.shape, dtype=bool)
+    counts = present.sum(axis=1)
+    knots = np.ascontiguousarray(pos[present])
+    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+    b = pos.shape[0]
     sse, max_dev, n_ctrl, reason = out = _outputs(b, max_deviation)
     safe = knots.copy()
     bad_range = ~((safe > 0.0) & (safe < 1.0))  # NaN included
