@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -27,7 +27,6 @@ from ._codegen import MAX_DIMENSION
 from .fit import (
     BatchFit,
     CurveFit,
-    Metric,
     _evaluate,
     _evaluate_masks,
     _evaluate_positions,
@@ -43,6 +42,8 @@ from .periodic import closed_parameterize, evaluate_periodic, fit_periodic, peri
 
 __all__ = ["CLOSING_CHORD_SPACINGS", "REPEAT_SPACINGS", "ClosedCurve", "Closure", "Curve",
            "OpenCurve", "closure", "curve_model", "make_curve"]
+
+Metric = Literal["max_deviation", "rmse"]
 
 #: A closing chord of at most this many typical point spacings makes a sequence an outline.
 CLOSING_CHORD_SPACINGS = 2.5

@@ -95,10 +95,8 @@ class BatchFit:
         return self.sse.size
 
 
-Metric = Literal["max_deviation", "rmse"]
-
-
-def batch_errors(batch: BatchFit, metric: Metric, n_points: int) -> np.ndarray:
+def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_points: int
+                 ) -> np.ndarray:
     """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
     err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / n_points)
     return np.where(batch.feasible, err, np.inf)

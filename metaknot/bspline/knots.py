@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -114,7 +112,7 @@ def _offsets(counts: np.ndarray) -> np.ndarray:
     return offsets
 
 
-def stack_rows(rows: Sequence[ArrayLike]) -> tuple[np.ndarray, np.ndarray]:
+def stack_rows(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Flatten rows of interior knots (of any lengths) to knots plus row offsets."""
     knots = np.concatenate(rows) if len(rows) else np.empty(0)
     return knots, _offsets(np.array([len(r) for r in rows], dtype=np.int64))
