@@ -118,7 +118,8 @@ class _Search:
         self.delta_evaluations = 0
         self._moves: MoveEvaluator | None = None
 
-    def errors(self, rows: list[np.ndarray], near: np.ndarray | None = None) -> np.ndarray:
+    def errors(self, rows: list[np.ndarray] | np.ndarray, near: np.ndarray | None = None
+               ) -> np.ndarray:
         """Error of each row of sorted interior knots (``inf`` if it cannot be fitted); rows
         one move from the knots ``near`` are scored by delta evaluation (open and closed
         curves)."""
@@ -150,11 +151,8 @@ class _Search:
                 left = knots[j - 1] if j > 0 else lo_u
                 right = knots[j + 1] if j + 1 < len(knots) else hi_u
                 grid = np.linspace(left, right, self.grid + 2)[1:-1]
-                rows = []
-                for x in grid:
-                    row = knots.copy()
-                    row[j] = x
-                    rows.append(row)
+                rows = np.repeat(knots[None], grid.size, axis=0)  # knot j at each grid point
+                rows[:, j] = grid
                 errs = self.errors(rows, near=knots)
                 best = int(np.argmin(errs))
                 if errs[best] < err:
