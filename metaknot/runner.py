@@ -105,11 +105,8 @@ def minimize(
     try:
         with clock("setup_seconds"):
             optimizer.setup(evaluator.task, make_rng(seed))
-        with clock("optimize_seconds"):
-            try:
-                optimizer.run(evaluator)
-            except BudgetExhausted:
-                pass
+        with clock("optimize_seconds"), contextlib.suppress(BudgetExhausted):
+            optimizer.run(evaluator)
         audit.close()
         result = _record(problem, optimizer, seed, evaluator, recorder, clock, audit)
     except Exception as exc:

@@ -15,7 +15,7 @@ code and score it with an objective chosen by name (see :mod:`metaknot.problems.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -139,8 +139,7 @@ class KnotProblem(Problem):
                                 parameterization=parameterization, closed=closed,
                                 params=self.data.params)
         if self.curve.n_points < self.data.n_points:  # a closed outline's repeated first point
-            self.data = PointSet(self.curve.points, name=self.data.name, noise=self.data.noise,
-                                 noise_seed=self.data.noise_seed)
+            self.data = replace(self.data, points=self.curve.points)
         self.degree = self.curve.degree
         self.closed = self.curve.closed
         self.params = self.curve.params

@@ -34,6 +34,7 @@ from scipy.interpolate import BSpline
 
 from ..bspline import check_degree, fitpack
 from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
+from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates
 from ..compat import KEYWORDS, renamed_parameters
@@ -117,7 +118,8 @@ class _Search:
         self.delta_evaluations = 0
         self._moves: MoveEvaluator | None = None
 
-    def errors(self, rows: list[np.ndarray], near: np.ndarray | None = None) -> np.ndarray:
+    def errors(self, rows: list[np.ndarray] | np.ndarray, near: np.ndarray | None = None
+               ) -> np.ndarray:
         """Error of each row of sorted interior knots (``inf`` if it cannot be fitted); rows
         one move from the knots ``near`` are scored by delta evaluation (open and closed
         curves)."""
@@ -125,10 +127,7 @@ class _Search:
         moves = None if near is None else self._move_evaluator(near)
         if moves is None:
             return self.curve.errors(rows, self.metric)
-        offsets = np.zeros(len(rows) + 1, dtype=np.int64)
-        np.cumsum([len(r) for r in rows], out=offsets[1:])
-        knots = np.concatenate(rows) if rows else np.empty(0)
-        batch, path = moves.evaluate(knots, offsets,
+        batch, path = moves.evaluate(*stack_rows(rows),
                                      max_deviation=self.metric == "max_deviation")
         self.delta_evaluations += int(np.count_nonzero(path == PATH_DELTA))
         return batch_errors(batch, self.metric, self.curve.n_points)
@@ -152,11 +151,8 @@ class _Search:
                 left = knots[j - 1] if j > 0 else lo_u
                 right = knots[j + 1] if j + 1 < len(knots) else hi_u
                 grid = np.linspace(left, right, self.grid + 2)[1:-1]
-                rows = []
-                for x in grid:
-                    row = knots.copy()
-                    row[j] = x
-                    rows.append(row)
+                rows = np.repeat(knots[None], grid.size, axis=0)  # knot j at each grid point
+                rows[:, j] = grid
                 errs = self.errors(rows, near=knots)
                 best = int(np.argmin(errs))
                 if errs[best] < err:
@@ -372,8 +368,8 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         raise ValueError(f"the tolerance {tol_abs:.3g} is below what interpolation reaches "
                          f"({floor:.3g}); raise it")
     stages = [f"{curve.kind} curve of {curve.n_points} points{why}"]
-    u, q = curve.params, curve.points
-    reference = fitpack.fewest_within(u, q, p, tol_abs, metric, closed=curve.closed)
+    reference = fitpack.fewest_within(curve.params, curve.points, p, tol_abs, metric,
+                                      closed=curve.closed)
     stages.append(f"FITPACK: {reference['n_control_points']} control points (s = "
                   f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
     if method in LITERATURE:
@@ -408,23 +404,21 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     if best is not None and \
             len(best) + curve.extra_control_points < reference["n_control_points"]:
         return _result(curve, best, method_name, tol_abs, metric, reference, stages, start)
-    metrics = {k: reference[k] for k in ("n_control_points", "max_deviation", "rmse")}
-    metrics["seconds"] = time.perf_counter() - start
-    return ToleranceFit(spline=reference["spline"], params=u, tolerance=tol_abs, metric=metric,
-                        method="fitpack", metrics=metrics,
-                        fitpack={k: v for k, v in reference.items() if k != "spline"},
-                        stages=stages, closed=curve.closed, points=q)
+    return _result(curve, None, "fitpack", tol_abs, metric, reference, stages, start)
 
 
-def _result(curve: Curve, knots: np.ndarray, method: str, tol: float, metric: Metric,
+def _result(curve: Curve, knots: np.ndarray | None, method: str, tol: float, metric: Metric,
             reference: dict, stages: list[str], start: float) -> ToleranceFit:
-    """The fit with these knots, as :func:`fit` returns it."""
-    solution = curve.fit(knots)
-    metrics = {"n_control_points": solution.n_control_points,
-               "max_deviation": solution.max_deviation, "rmse": solution.rmse,
-               "seconds": time.perf_counter() - start}
-    return ToleranceFit(spline=solution.spline, params=curve.params, tolerance=tol,
-                        metric=metric, method=method, metrics=metrics,
+    """The fit with these knots (FITPACK's answer if None), as :func:`fit` returns it."""
+    if knots is None:
+        spline, found = reference["spline"], reference
+    else:
+        solution = curve.fit(knots)
+        spline, found = solution.spline, solution.metrics
+    metrics = {k: found[k] for k in ("n_control_points", "max_deviation", "rmse")}
+    metrics["seconds"] = time.perf_counter() - start
+    return ToleranceFit(spline=spline, params=curve.params, tolerance=tol, metric=metric,
+                        method=method, metrics=metrics,
                         fitpack={k: v for k, v in reference.items() if k != "spline"},
                         stages=stages, closed=curve.closed, points=curve.points)
 

@@ -171,8 +171,6 @@ def write_fit(result: ToleranceFit, points: np.ndarray, out: str | Path, *,
                    header=header, comments="")
         _figure(result, points, folder)
         _dxf(result, folder / "fit.dxf")
-        written = []
         for name in FILES:
             shutil.move(folder / name, out / name)
-            written.append(out / name)
-    return written
+    return [out / name for name in FILES]

@@ -31,10 +31,11 @@ from .fit import (
     _evaluate_masks,
     _evaluate_positions,
     _prepare,
+    batch_errors,
     evaluate_knots,
     fit_spline,
 )
-from .knots import averaging_knots, stack_indices
+from .knots import averaging_knots, clamped_knot_vector, padded_rows, stack_indices, stack_rows
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
 from .periodic import closed_parameterize, evaluate_periodic, fit_periodic, periodic_knot_vector
@@ -240,17 +241,9 @@ class Curve(ABC):
     def errors(self, knot_sets: list[np.ndarray], metric: Metric) -> np.ndarray:
         """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
         it cannot be fitted."""
-        offsets = np.zeros(len(knot_sets) + 1, dtype=np.int64)
-        np.cumsum([len(k) for k in knot_sets], out=offsets[1:])
-        knots = np.concatenate(knot_sets) if knot_sets else np.empty(0)
-        batch = self.evaluate_knots(knots, offsets, max_deviation=metric == "max_deviation")
+        batch = self.evaluate_knots(*stack_rows(knot_sets),
+                                    max_deviation=metric == "max_deviation")
         return batch_errors(batch, metric, self.n_points)
-
-
-def batch_errors(batch: BatchFit, metric: Metric, n_points: int) -> np.ndarray:
-    """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
-    err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / n_points)
-    return np.where(batch.feasible, err, np.inf)
 
 
 class OpenCurve(Curve):
@@ -340,9 +333,8 @@ class OpenCurve(Curve):
     def coefficient_map(self, interior_knots):
         from scipy import sparse
 
-        u, p = self.params, self.degree
-        t = np.concatenate((np.full(p + 1, u[0]), interior_knots, np.full(p + 1, u[-1])))
-        return t, sparse.identity(t.size - p - 1, format="csr")
+        t = clamped_knot_vector(self.params, interior_knots, self.degree)
+        return t, sparse.identity(t.size - self.degree - 1, format="csr")
 
 
 class ClosedCurve(Curve):
@@ -375,10 +367,8 @@ class ClosedCurve(Curve):
         return self.n_points - 1
 
     def evaluate_knots(self, knots, offsets, *, max_deviation=True):
-        counts = np.diff(offsets)
-        rows = np.full((counts.size, max(int(counts.max(initial=0)), 1)), np.nan)
-        rows[np.arange(rows.shape[1]) < counts[:, None]] = knots
-        return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
+        return self.evaluate_positions(padded_rows(knots, offsets), max_deviation=max_deviation,
+                                       nan_is_absent=True)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
         rows = np.where(np.asarray(masks).astype(bool), self.params[1:][None, :], np.nan)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Literal
 
 import numba
 import numpy as np
@@ -92,6 +93,13 @@ class BatchFit:
 
     def __len__(self) -> int:
         return self.sse.size
+
+
+def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_points: int
+                 ) -> np.ndarray:
+    """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
+    err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / n_points)
+    return np.where(batch.feasible, err, np.inf)
 
 
 def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, np.ndarray]:

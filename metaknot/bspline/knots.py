@@ -16,9 +16,11 @@ __all__ = [
     "interior_from_indices",
     "interior_from_mask",
     "n_control_points",
+    "padded_rows",
     "stack_indices",
     "stack_masks",
     "stack_positions",
+    "stack_rows",
 ]
 
 
@@ -108,6 +110,21 @@ def _offsets(counts: np.ndarray) -> np.ndarray:
     offsets = np.zeros(counts.size + 1, dtype=np.int64)
     np.cumsum(counts, out=offsets[1:])
     return offsets
+
+
+def stack_rows(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten rows of interior knots (of any lengths) to knots plus row offsets."""
+    knots = np.concatenate(rows) if len(rows) else np.empty(0)
+    return knots, _offsets(np.array([len(r) for r in rows], dtype=np.int64))
+
+
+def padded_rows(knots: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Rows ``knots[offsets[b]:offsets[b + 1]]`` NaN-padded to one ``(B, K)`` array (one
+    column at least): :func:`stack_rows` undone, as the periodic evaluator takes rows."""
+    counts = np.diff(offsets)
+    rows = np.full((counts.size, max(int(counts.max(initial=0)), 1)), np.nan)
+    rows[np.arange(rows.shape[1]) < counts[:, None]] = knots
+    return rows
 
 
 def check_mask_shape(u: np.ndarray, masks: ArrayLike) -> np.ndarray:

@@ -52,6 +52,7 @@ from ..validate import is_integer
 from . import _kernel, _moves, _periodic_kernel, _periodic_moves
 from . import periodic as _periodic
 from .fit import BatchFit, Infeasibility, _prepare
+from .knots import _offsets
 
 __all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "PeriodicMoveEvaluator",
            "bit_flips", "bound_to"]
@@ -94,10 +95,7 @@ def bit_flips(u: ArrayLike, mask: ArrayLike, bits: ArrayLike, *, closed: bool = 
         raise ValueError(f"bits must be indices into the mask, 0..{mask.size - 1}")
     rank = np.concatenate(([0], np.cumsum(mask)))[bits]  # knots before each bit
     on = mask[bits]
-    inserted = u[bits[~on] + 1]
-    offsets = np.zeros(bits.size + 1, dtype=np.int64)
-    np.cumsum(~on, out=offsets[1:])
-    return rank, rank + on, inserted, offsets
+    return rank, rank + on, u[bits[~on] + 1], _offsets(~on)
 
 
 class MoveEvaluator:
@@ -154,7 +152,6 @@ class MoveEvaluator:
         audit.add_fits(1)
         code, t, _ = _kernel.fit_one(u, q, interior, p)
         if code != _kernel.FEASIBLE:
-            from .fit import Infeasibility
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()
         self.t = t

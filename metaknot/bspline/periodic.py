@@ -24,7 +24,8 @@ from scipy.interpolate import BSpline
 
 from .. import audit
 from . import _periodic_kernel
-from .fit import BatchFit, CurveFit, Infeasibility
+from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors
+from .knots import padded_rows, stack_rows
 from .parameterize import check_degree
 
 __all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
@@ -147,15 +148,11 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     knots = np.ascontiguousarray(pos[present])
     offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
     b = pos.shape[0]
-    audit.add_fits(b)
-    fit = BatchFit(sse=np.empty(b), max_deviation=np.empty(b if max_deviation else 0),
-                   n_control_points=np.empty(b, dtype=np.int64),
-                   reason=np.empty(b, dtype=np.int8))
+    sse, max_dev, n_ctrl, reason = out = _outputs(b, max_deviation)
     safe = knots.copy()
     bad_range = ~((safe > 0.0) & (safe < 1.0))  # NaN included
     safe[bad_range] = 0.5
-    _periodic_kernel.evaluate_batch(u, q, p, safe, offsets, max_deviation, fit.sse,
-                                    fit.max_deviation, fit.n_control_points, fit.reason)
+    _periodic_kernel.evaluate_batch(u, q, p, safe, offsets, max_deviation, *out)
     # the reasons the kernel does not check itself, per row
     row_of = np.repeat(np.arange(b), counts)
     same_row = row_of[1:] == row_of[:-1]
@@ -163,24 +160,19 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     coincident[row_of[1:][same_row & (np.diff(knots) <= 0)]] = True
     out_of_range = np.zeros(b, dtype=bool)
     out_of_range[row_of[bad_range]] = True
-    fit.reason[coincident] = Infeasibility.COINCIDENT_KNOTS
-    fit.reason[out_of_range] = Infeasibility.KNOT_OUT_OF_RANGE  # takes precedence
+    reason[coincident] = Infeasibility.COINCIDENT_KNOTS
+    reason[out_of_range] = Infeasibility.KNOT_OUT_OF_RANGE  # takes precedence
     refused = coincident | out_of_range
-    fit.sse[refused] = np.inf
+    sse[refused] = np.inf
     if max_deviation:
-        fit.max_deviation[refused] = np.inf
-    return fit if max_deviation else BatchFit(fit.sse, None, fit.n_control_points, fit.reason)
+        max_dev[refused] = np.inf
+    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
 def periodic_errors(u: ArrayLike, points: ArrayLike, knot_sets: list[np.ndarray],
                     degree: int = 3, metric: str = "max_deviation") -> np.ndarray:
     """Error (max deviation or RMSE) of the periodic fit for each interior-knot set;
     ``inf`` where it cannot be fitted (the compiled batch evaluator)."""
-    width = max((len(k) for k in knot_sets), default=0)
-    rows = np.full((len(knot_sets), max(width, 1)), np.nan)
-    for i, knots in enumerate(knot_sets):
-        rows[i, : len(knots)] = knots
-    fit = evaluate_periodic(u, points, rows, degree, max_deviation=metric == "max_deviation")
-    err = fit.max_deviation if metric == "max_deviation" else \
-        np.sqrt(fit.sse / len(np.asarray(u)))
-    return np.where(fit.feasible, err, np.inf)
+    fit = evaluate_periodic(u, points, padded_rows(*stack_rows(knot_sets)), degree,
+                            max_deviation=metric == "max_deviation")
+    return batch_errors(fit, metric, len(np.asarray(u)))
