@@ -163,6 +163,17 @@ def test_compiled_batch_names_what_cannot_be_fitted() -> None:
         Infeasibility.TOO_MANY_CONTROL_POINTS
 
 
+
+@pytest.mark.parametrize("shape", [(1, 2, 3), (2, 1, 4)])
+def test_compiled_batch_refuses_positions_that_are_not_rows(shape) -> None:
+    """Positions of more than two dimensions are refused by name before the compiled loop
+    (which trusts its offsets: a 3-D batch wrote past its outputs)."""
+    from metaknot.bspline.periodic import evaluate_periodic
+
+    points = outline(40)
+    with pytest.raises(ValueError, match=r"positions must have shape \(B, K\); got"):
+        evaluate_periodic(closed_parameterize(points), points, np.full(shape, 0.5), 3)
+
 # --- the knot problems on closed outlines ----------------------------------------------------
 
 def closed_problems(objective: str = "paper"):

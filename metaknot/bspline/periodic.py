@@ -142,7 +142,10 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     rank-deficient systems come back infeasible with their reason, never raised.
     """
     p, u, q = _prepare(u, points, degree)
-    pos = np.sort(np.atleast_2d(np.asarray(positions, dtype=np.float64)), axis=1)
+    pos = np.atleast_2d(np.asarray(positions, dtype=np.float64))
+    if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
+        raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
+    pos = np.sort(pos, axis=1)
     present = ~np.isnan(pos) if nan_is_absent else np.ones(pos.shape, dtype=bool)
     counts = present.sum(axis=1)
     knots = np.ascontiguousarray(pos[present])
