@@ -247,6 +247,32 @@ def test_batching_seeds_into_jobs_changes_no_result(tmp_path):
     assert bad.returncode != 0 and "hydra.sweeper.runs_per_job" in bad.stderr
 
 
+
+def test_runs_in_processes_with_different_string_hashing_store_the_same_records(tmp_path):
+    """Same seed, same records, whatever the interpreter's string hashing: every stored field
+    but the timings and the host is equal (traces and their metric columns included)."""
+    import pyarrow.parquet as pq
+
+    sweep = ("-m", "optimizer=one_plus_one,ga", "objective=paper,error_bounded",
+             "problem=archimedean", "seed=0", "budget=200")
+    for hash_seed in ("1", "7"):
+        done = subprocess.run(
+            [sys.executable, "-m", "metaknot.cli", "run", *sweep,
+             f"results_dir={tmp_path / hash_seed}"], cwd=tmp_path, capture_output=True,
+            text=True, timeout=600, env={**ENV, "PYTHONHASHSEED": hash_seed})
+        assert done.returncode == 0 and "4 ok" in done.stderr, done.stderr
+    timings = {"timestamp", "host", "elapsed_seconds", "setup_seconds", "optimize_seconds",
+               "decode_seconds"}
+    records = sorted((tmp_path / "1" / "default" / "runs").glob("*.parquet"))
+    assert len(records) == 4
+    for record in records:
+        one, other = (pq.read_table(tmp_path / h / "default" / "runs" / record.name)
+                      for h in ("1", "7"))
+        assert one.column_names == other.column_names
+        kept = [name for name in one.column_names if name not in timings]
+        assert one.select(kept).equals(other.select(kept)), record.name
+        assert one.schema.metadata == other.schema.metadata
+
 # --- method presets: data, never code ---------------------------------------------------------
 
 #: A preset that, loaded as a Hydra config (``--config-dir``), would run a Python callable when
