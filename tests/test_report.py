@@ -11,6 +11,7 @@ import functools
 import hashlib
 import itertools
 import json
+import os
 import re
 import subprocess
 import sys
@@ -885,6 +886,25 @@ def test_latex_escapes_names(tmp_path):
 
 
 @pytest.mark.slow
+def test_the_same_study_gives_the_same_report_files_in_every_process(three_methods, tmp_path):
+    """Every file of a report with its figures, byte for byte, from two processes with different
+    string hashing (SVG element ids from a fixed salt, no date; each critical-difference bar
+    drawn in rank order)."""
+    for hash_seed in ("1", "7"):
+        done = subprocess.run(
+            [sys.executable, "-m", "metaknot.cli", "report", str(three_methods), "--out",
+             str(tmp_path / hash_seed)], capture_output=True, text=True, timeout=600,
+            env={**os.environ, "PYTHONHASHSEED": hash_seed})
+        assert done.returncode == 0, done.stderr
+    files = sorted(p.relative_to(tmp_path / "1") for p in (tmp_path / "1").rglob("*")
+                   if p.is_file())
+    assert any(f.suffix == ".svg" and f.name.startswith("cd-") for f in files)
+    assert files == sorted(p.relative_to(tmp_path / "7") for p in (tmp_path / "7").rglob("*")
+                           if p.is_file())
+    for name in files:
+        assert (tmp_path / "1" / name).read_bytes() == (tmp_path / "7" / name).read_bytes(), name
+
+
 def test_full_report_with_figures(tmp_path):
     runs = []
     rng = np.random.default_rng(5)

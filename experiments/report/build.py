@@ -271,7 +271,9 @@ def _draw(comparison: Comparison, friedman: dict[str, FriedmanResult], metrics: 
             continue
         png, svg = folder / f"{name}.png", folder / f"{name}.svg"
         figure.savefig(png, dpi=110)
-        figure.savefig(svg)
+        # the same figure, the same file: element ids from a fixed salt, no date
+        with plt.rc_context({"svg.hashsalt": name}):
+            figure.savefig(svg, metadata={"Date": None})
         plt.close(figure)
         drawn.append(_Figure(name, title, caption, png, svg))
     say(f"figures: {len(drawn)} in {folder}")

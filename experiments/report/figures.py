@@ -326,8 +326,12 @@ def cd_diagram(comparison: Comparison, friedman: FriedmanResult,
     fig, ax = plt.subplots(figsize=(7, 0.6 + 0.35 * len(friedman.ranks)),
                            constrained_layout=True)
     colours = {m: matplotlib.colors.to_hex(c) for m, c in palette(comparison).items()}
-    sp.critical_difference_diagram(friedman.ranks, friedman.posthoc, ax=ax, alpha=alpha,
-                                   color_palette=colours)
+    drawn = sp.critical_difference_diagram(friedman.ranks, friedman.posthoc, ax=ax,
+                                           alpha=alpha, color_palette=colours)
+    for lines in drawn["crossbars"]:  # each bar is drawn through a set of names: in rank
+        for line in lines:  # order, so the same ranks give the same pixels in every process
+            x, y = map(np.asarray, line.get_data())
+            line.set_data(np.sort(x), y)
     from .data import METRICS
 
     ax.set_title(f"average ranks of the {METRICS.get(friedman.metric, friedman.metric)} over "
