@@ -38,7 +38,8 @@ from .fit import (
 from .knots import averaging_knots, clamped_knot_vector, padded_rows, stack_indices, stack_rows
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
-from .periodic import closed_parameterize, evaluate_periodic, fit_periodic, periodic_knot_vector
+from .periodic import _evaluate_periodic, closed_parameterize, fit_periodic, periodic_knot_vector
+from .periodic import _prepare as _periodic_prepare
 
 __all__ = ["CLOSING_CHORD_SPACINGS", "REPEAT_SPACINGS", "ClosedCurve", "Closure", "Curve",
            "OpenCurve", "closure", "curve_model", "make_curve"]
@@ -345,9 +346,12 @@ class ClosedCurve(Curve):
     max_interior_knots_rule = "N - 1, closed"
 
     def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
-        if params[0] != 0.0 or params[-1] >= 1.0:
+        u = np.asarray(params, dtype=np.float64)
+        if u.ndim == 1 and u.size and (u[0] != 0.0 or u[-1] >= 1.0):
             raise ValueError("a closed outline's params must start at 0 and stay below 1 "
                              "(metaknot.bspline.periodic.closed_parameterize)")
+        # the data as the kernel takes it, checked once: batches go to the kernel directly
+        self._p, self._u, self._q = _periodic_prepare(params, points, degree)
         super().__init__(params, points, degree)
 
     @property
@@ -380,8 +384,8 @@ class ClosedCurve(Curve):
                                        max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
-        return evaluate_periodic(self.params, self.points, positions, self.degree,
-                                 max_deviation=max_deviation, nan_is_absent=nan_is_absent)
+        return _evaluate_periodic(self._p, self._u, self._q, positions, max_deviation,
+                                  nan_is_absent)
 
     def fit(self, interior_knots):
         return fit_periodic(self.params, self.points, interior_knots, self.degree)

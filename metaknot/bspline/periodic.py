@@ -26,7 +26,7 @@ from .. import audit
 from . import _periodic_kernel
 from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors
 from .knots import padded_rows, stack_rows
-from .parameterize import check_degree
+from .parameterize import check_coordinates, check_degree
 
 __all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
            "periodic_errors", "periodic_knot_vector"]
@@ -99,8 +99,20 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int
     takes them."""
     p = check_degree(degree)
     u = np.ascontiguousarray(u, dtype=np.float64)
-    q = np.asarray(points, dtype=np.float64)
-    q = np.ascontiguousarray(q[:, None] if q.ndim == 1 else q)
+    try:
+        q = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"points must be a numeric array: {exc}") from None
+    q = q[:, None] if q.ndim == 1 else q
+    # the compiled kernel trusts the layout it is given: anything else is refused here
+    if q.ndim != 2:
+        raise ValueError(f"points must have shape (N, d); got an array with shape {q.shape}")
+    if q.shape[1] < 1:
+        raise ValueError(f"points must have at least one coordinate; got shape {q.shape}")
+    if q.shape[0] < 3:
+        raise ValueError(f"a closed curve needs at least 3 points; got {q.shape[0]}")
+    check_coordinates(q, "points")
+    q = np.ascontiguousarray(q)
     if u.shape != (q.shape[0],) or not np.isfinite(u).all() or (np.diff(u) <= 0).any() \
             or u[0] < 0 or u[-1] >= 1:
         raise ValueError("parameter values must be finite, strictly increasing and in [0, 1)")
@@ -142,6 +154,13 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     rank-deficient systems come back infeasible with their reason, never raised.
     """
     p, u, q = _prepare(u, points, degree)
+    return _evaluate_periodic(p, u, q, positions, max_deviation, nan_is_absent)
+
+
+def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLike,
+                       max_deviation: bool, nan_is_absent: bool) -> BatchFit:
+    """:func:`evaluate_periodic` of data already checked (``p``, ``u``, ``q`` as
+    :func:`_prepare` returns them)."""
     pos = np.atleast_2d(np.asarray(positions, dtype=np.float64))
     if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
