@@ -401,3 +401,29 @@ def test_closed_fits_refuse_bad_points_by_name(call, change, message) -> None:
 def test_closed_fits_refuse_too_few_points_by_name(call) -> None:
     with pytest.raises(ValueError, match="a closed curve needs at least 3 points; got 0"):
         _closed_calls()[call](np.empty(0), np.empty((0, 2)))
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_periodic_knots_are_refused_by_name(bad) -> None:
+    """A NaN knot passed the range checks (every comparison with NaN is false) and reached the
+    compiled fit; now refused like a knot outside (0, 1)."""
+    from metaknot.bspline.curve import make_curve
+    from metaknot.bspline.moves import PeriodicMoveEvaluator
+
+    points = outline(40)
+    u = closed_parameterize(points)
+    knots = np.array([0.2, 0.4, bad, 0.8])
+    with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
+        periodic_knot_vector(knots)
+    with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
+        fit_periodic(u, points, knots)
+    with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
+        PeriodicMoveEvaluator(u, points, knots)
+    assert make_curve(points, closed=True).move_evaluator(knots) is None
+
+
+def test_fit_periodic_refuses_interior_knots_of_two_dimensions() -> None:
+    points = outline(40)
+    u = closed_parameterize(points)
+    with pytest.raises(ValueError, match="interior_knots must be 1-D"):
+        fit_periodic(u, points, np.array([[0.2, 0.4, 0.6, 0.8]]))

@@ -378,3 +378,16 @@ def test_candidates_of_more_knots_than_points_are_reported_not_written_past() ->
     assert batch.reason.tolist() == [Infeasibility.KNOT_OUT_OF_RANGE]
     assert evaluate_periodic(params, points, bad[None, :]).reason.tolist() == \
         [Infeasibility.KNOT_OUT_OF_RANGE]
+
+
+def test_an_unsorted_incumbent_is_refused() -> None:
+    """The incumbent's knots index the replacements: unsorted, a replacement removed another
+    knot than the one named (and was scored singular), as the open evaluator refuses them."""
+    params, points = seed_outline("epitrochoid", 60)
+    incumbent = params[[6, 14, 22, 30, 38, 46]]
+    with pytest.raises(ValueError, match="the incumbent cannot be fitted: coincident"):
+        PeriodicMoveEvaluator(params, points, incumbent[::-1])
+    moves = PeriodicMoveEvaluator(params, points, incumbent)
+    with pytest.raises(ValueError, match="the incumbent cannot be fitted: coincident"):
+        moves.rebind(incumbent[[1, 0, 2, 3, 4, 5]])
+    assert np.array_equal(moves.interior, incumbent)

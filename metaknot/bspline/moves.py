@@ -315,6 +315,9 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
         t = _periodic.periodic_knot_vector(interior, p)
+        if (np.diff(interior) <= 0).any():  # the replacements index them as given
+            raise ValueError("the incumbent cannot be fitted: "
+                             f"{Infeasibility(_kernel.COINCIDENT_KNOTS).message}")
         m = interior.size + 1
         audit.add_fits(1)
         if m > u.size:

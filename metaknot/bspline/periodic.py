@@ -64,9 +64,10 @@ def periodic_knot_vector(interior: ArrayLike, degree: int = 3) -> np.ndarray:
     the sorted ``interior`` knots (all in (0, 1))."""
     p = check_degree(degree)
     inner = np.sort(np.asarray(interior, dtype=np.float64).ravel())
-    if inner.size and (inner[0] <= 0.0 or inner[-1] >= 1.0 or (np.diff(inner) <= 0).any()):
-        raise ValueError("interior knots of a periodic spline must be distinct and lie in "
-                         "(0, 1)")
+    # NaN sorts last and fails no comparison: checked by name
+    if inner.size and (inner[0] <= 0.0 or not inner[-1] < 1.0 or (np.diff(inner) <= 0).any()):
+        raise ValueError("interior knots of a periodic spline must be finite, distinct and lie "
+                         "in (0, 1)")
     breaks = np.concatenate(([0.0], inner))
     m = breaks.size
     if m < p:
@@ -131,6 +132,9 @@ def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
         (knot spans without data).
     """
     p, u, q = _prepare(u, points, degree)
+    interior = np.asarray(interior, dtype=np.float64)
+    if interior.ndim != 1:
+        raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
     t = periodic_knot_vector(interior, p)
     m = t.size - 2 * p - 1
     audit.add_fits(1)
