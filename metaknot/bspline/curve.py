@@ -35,7 +35,15 @@ from .fit import (
     evaluate_knots,
     fit_spline,
 )
-from .knots import averaging_knots, clamped_knot_vector, padded_rows, stack_indices, stack_rows
+from .knots import (
+    averaging_knots,
+    check_indices,
+    check_offsets,
+    clamped_knot_vector,
+    padded_rows,
+    stack_indices,
+    stack_rows,
+)
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
 from .periodic import _evaluate_periodic, closed_parameterize, fit_periodic, periodic_knot_vector
@@ -371,16 +379,21 @@ class ClosedCurve(Curve):
         return self.n_points - 1
 
     def evaluate_knots(self, knots, offsets, *, max_deviation=True):
-        return self.evaluate_positions(padded_rows(knots, offsets), max_deviation=max_deviation,
-                                       nan_is_absent=True)
+        return self.evaluate_positions(padded_rows(*check_offsets(knots, offsets)),
+                                       max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
-        rows = np.where(np.asarray(masks).astype(bool), self.params[1:][None, :], np.nan)
+        masks = np.asarray(masks)
+        n_var = self._u.size - 1
+        if masks.ndim != 2 or masks.shape[1] != n_var:  # else broadcast over the knots
+            raise ValueError(f"masks must have shape (B, N - 1) = (B, {n_var}); "
+                             f"got {masks.shape}")
+        rows = np.where(masks.astype(bool), self._u[1:][None, :], np.nan)
         return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_indices(self, indices, *, max_deviation=True):
         # a repeated index gives coincident knots: reported infeasible
-        return self.evaluate_positions(self.params[np.sort(indices, axis=1)],
+        return self.evaluate_positions(self._u[check_indices(self._u, indices, closed=True)],
                                        max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
