@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ._kernel import masks_to_knots
+from . import _kernel
 from .parameterize import check_degree
 
 __all__ = [
@@ -150,9 +150,22 @@ def check_masks(u: np.ndarray, masks: ArrayLike) -> np.ndarray:
     return masks
 
 
-def stack_masks(u: np.ndarray, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Flatten a ``(B, N-2)`` batch of masks to interior knots plus row offsets."""
-    return masks_to_knots(u, np.ascontiguousarray(check_masks(u, masks)))
+def stack_masks(u: ArrayLike, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten a ``(B, N-2)`` batch of 0/1 masks to interior knots plus row offsets.
+
+    Raises
+    ------
+    ValueError
+        Unless ``u`` is 1-D and ``masks`` has shape ``(B, N-2)`` and holds only 0 and 1 (the
+        compiled gathering trusts both: a wider mask read past ``u``, other values sized the
+        output wrongly).
+    """
+    u = _as_params(u)
+    return _kernel.masks_to_knots(u, np.ascontiguousarray(check_masks(u, masks)))
+
+
+#: :func:`stack_masks`, by the compiled function's name (which takes no unchecked input here).
+masks_to_knots = stack_masks
 
 
 def check_offsets(knots: ArrayLike, offsets: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
