@@ -224,3 +224,24 @@ def test_closed_evaluate_indices_takes_whole_numbers_up_to_the_last_point():
         got = curve.evaluate_indices(indices)
         assert np.array_equal(got.sse, expected.sse)
         assert np.array_equal(got.reason, expected.reason)
+
+
+@pytest.mark.parametrize("kind", ["open", "closed"])
+def test_errors_refuse_an_unknown_metric_and_knot_sets_of_two_dimensions(kind):
+    """An unknown metric was read as ``rmse``; a knot set of two dimensions failed in numpy's
+    concatenate (or, alone, was flattened)."""
+    from metaknot.bspline.periodic import periodic_errors
+
+    curve = _both_curves()[kind]
+    knots = curve.candidate_params[[5, 10, 15, 20, 25, 30]]
+    calls = [curve.errors]
+    if kind == "closed":
+        calls.append(lambda sets, metric: periodic_errors(curve.params, curve.points, sets,
+                                                          curve.degree, metric))
+    for call in calls:
+        assert np.isfinite(call([knots, knots[:3]], "rmse")).all()
+        with pytest.raises(ValueError, match="metric must be 'max_deviation' or 'rmse'; got"):
+            call([knots], "bogus")
+        for sets in ([knots[None, :]], [knots[None, :], knots[:3]], [knots, 0.5]):
+            with pytest.raises(ValueError, match=r"knot set 0|knot set 1"):
+                call(sets, "rmse")

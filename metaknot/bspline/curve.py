@@ -32,6 +32,7 @@ from .fit import (
     _evaluate_positions,
     _prepare,
     batch_errors,
+    check_metric,
     evaluate_knots,
     fit_spline,
 )
@@ -250,6 +251,7 @@ class Curve(ABC):
     def errors(self, knot_sets: list[np.ndarray], metric: Metric) -> np.ndarray:
         """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
         it cannot be fitted."""
+        check_metric(metric)
         batch = self.evaluate_knots(*stack_rows(knot_sets),
                                     max_deviation=metric == "max_deviation")
         return batch_errors(batch, metric, self.n_points)

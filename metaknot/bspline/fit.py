@@ -101,9 +101,17 @@ class BatchFit:
         return self.sse.size
 
 
+def check_metric(metric: str) -> str:
+    """``metric``, or a ``ValueError`` unless it is ``"max_deviation"`` or ``"rmse"``."""
+    if metric not in ("max_deviation", "rmse"):
+        raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+    return metric
+
+
 def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_points: int
                  ) -> np.ndarray:
     """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
+    check_metric(metric)
     err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / n_points)
     return np.where(batch.feasible, err, np.inf)
 

@@ -115,7 +115,12 @@ def _offsets(counts: np.ndarray) -> np.ndarray:
 
 
 def stack_rows(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Flatten rows of interior knots (of any lengths) to knots plus row offsets."""
+    """Flatten rows of interior knots (of any lengths) to knots plus row offsets; a
+    ``ValueError`` naming the first row that is not 1-D."""
+    for b, row in enumerate(rows):
+        if np.ndim(row) != 1:
+            raise ValueError(f"knot set {b} must be a 1-D array of knots; got shape "
+                             f"{np.shape(row)}")
     knots = np.concatenate(rows) if len(rows) else np.empty(0)
     return knots, _offsets(np.array([len(r) for r in rows], dtype=np.int64))
 

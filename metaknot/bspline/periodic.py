@@ -24,7 +24,7 @@ from scipy.interpolate import BSpline
 
 from .. import audit
 from . import _periodic_kernel
-from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors
+from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors, check_metric
 from .knots import padded_rows, stack_rows
 from .parameterize import check_coordinates, check_degree
 
@@ -199,6 +199,7 @@ def periodic_errors(u: ArrayLike, points: ArrayLike, knot_sets: list[np.ndarray]
                     degree: int = 3, metric: str = "max_deviation") -> np.ndarray:
     """Error (max deviation or RMSE) of the periodic fit for each interior-knot set;
     ``inf`` where it cannot be fitted (the compiled batch evaluator)."""
+    check_metric(metric)
     fit = evaluate_periodic(u, points, padded_rows(*stack_rows(knot_sets)), degree,
                             max_deviation=metric == "max_deviation")
     return batch_errors(fit, metric, len(np.asarray(u)))
