@@ -245,3 +245,16 @@ def test_errors_refuse_an_unknown_metric_and_knot_sets_of_two_dimensions(kind):
         for sets in ([knots[None, :]], [knots[None, :], knots[:3]], [knots, 0.5]):
             with pytest.raises(ValueError, match=r"knot set 0|knot set 1"):
                 call(sets, "rmse")
+
+
+@pytest.mark.parametrize("kind", ["open", "closed"])
+def test_coefficient_map_takes_a_list_and_refuses_two_dimensions(kind):
+    """A closed curve's coefficient_map failed on a list (no ``size``) and flattened knots of
+    two dimensions, as the open one did."""
+    curve = _both_curves()[kind]
+    knots = curve.candidate_params[[5, 10, 15, 20, 25, 30]]
+    t, spread = curve.coefficient_map(knots)
+    t_list, spread_list = curve.coefficient_map(list(knots))
+    assert np.array_equal(t, t_list) and (spread != spread_list).nnz == 0
+    with pytest.raises(ValueError, match=r"interior_knots must be 1-D; got shape \(1, 6\)"):
+        curve.coefficient_map(knots[None, :])

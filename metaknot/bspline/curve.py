@@ -344,6 +344,7 @@ class OpenCurve(Curve):
     def coefficient_map(self, interior_knots):
         from scipy import sparse
 
+        interior_knots = _interior(interior_knots)
         t = clamped_knot_vector(self.params, interior_knots, self.degree)
         return t, sparse.identity(t.size - self.degree - 1, format="csr")
 
@@ -443,12 +444,21 @@ class ClosedCurve(Curve):
         from scipy import sparse
 
         p = self.degree
+        interior_knots = _interior(interior_knots)
         t = periodic_knot_vector(interior_knots, p)
         n = t.size - p - 1
         distinct = interior_knots.size + 1  # breakpoints, 0 included
         spread = sparse.csr_matrix((np.ones(n), (np.arange(n), np.arange(n) % distinct)),
                                    shape=(n, distinct))
         return t, spread
+
+
+def _interior(interior_knots: ArrayLike) -> np.ndarray:
+    """Interior knots as a 1-D float array, or a ``ValueError`` naming their shape."""
+    interior = np.asarray(interior_knots, dtype=np.float64)
+    if interior.ndim != 1:
+        raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
+    return interior
 
 
 def curve_model(closed: bool) -> type[Curve]:
