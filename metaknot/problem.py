@@ -137,6 +137,13 @@ class Encoding:
         two index sets) call this on their offspring.
         """
         X = np.asarray(X)
+        if X.ndim != 2 or X.shape[1] != self.n_var:  # the compiled repair trusts the width
+            if X.ndim == 1 and X.size == self.n_var:
+                return self.repair(X[None, :])[0]
+            raise ValueError(
+                f"candidates must have shape (B, {self.n_var}) for this {self.kind} encoding; "
+                f"got {X.shape}"
+            )
         if (self.kind == "integer" and self.distinct_sorted and X.ndim == 2
                 and X.dtype == np.int64 and self.lower.dtype == np.int64
                 and self.upper.dtype == np.int64):  # the same steps, compiled

@@ -196,6 +196,12 @@ class KnotProblem(Problem):
         can be. Returns the values, the metrics and which candidates the delta path decided
         (a boolean per candidate; for a single candidate, 1 or 0).
         """
+        near = np.asarray(near)
+        if near.ndim != 1:  # the compiled move evaluation takes one 1-D candidate
+            if near.ndim != 2 or near.shape[0] != 1:
+                raise ValueError(f"near must be one candidate, shape ({self.encoding.n_var},); "
+                                 f"got {near.shape}")
+            near = near[0]
         moves = self._move_evaluator(near) if self.delta_evaluation \
             and type(self).evaluate is KnotProblem.evaluate else None
         if moves is None:
@@ -267,7 +273,11 @@ class KnotProblem(Problem):
         ValueError
             If the candidate's knots cannot be fitted (the message names the reason).
         """
-        x = self.encoding.check(x)[0]
+        x = self.encoding.check(x)
+        if x.shape[0] != 1:
+            raise ValueError(f"decode takes one candidate, shape ({self.encoding.n_var},); got "
+                             f"{x.shape}")
+        x = x[0]
         value = self.evaluate_details(x[None, :])[0][0]
         value = float(value) if np.ndim(value) == 0 else value
         return KnotSolution(x=x, objective_value=value, fit=self.curve.fit(self._interior_knots(x)))

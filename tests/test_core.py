@@ -986,3 +986,24 @@ def test_repair_examples():
         [[3, 4, 5, 6], [1, 2, 3, 4], [2, 7, 8, 9], [3, 4, 5, 6]])
     with pytest.raises(ValueError, match="cannot pick 4 distinct values"):
         mk.Encoding.integer(4, 1, 3, distinct_sorted=True).repair(np.ones((1, 4)))
+
+
+@pytest.mark.parametrize("kind", ["sets", "integer", "continuous", "binary"])
+@pytest.mark.parametrize("shape", [(1, 8), (3, 12), (1, 2), (1, 1, 4), ()])
+def test_repair_refuses_candidates_of_another_width(kind, shape):
+    """Integer sets of more columns than the encoding made the compiled repair read bounds
+    past their end and loop for ever; fewer columns were repaired silently, three dimensions
+    came back as given; the other encodings failed in numpy's broadcasting."""
+    enc = {"sets": mk.Encoding.integer(4, 1, 10, distinct_sorted=True),
+           "integer": mk.Encoding.integer(4, 1, 10),
+           "continuous": mk.Encoding.continuous(4, 0.0, 1.0, distinct_sorted=True),
+           "binary": mk.Encoding.binary(4)}[kind]
+    X = np.full(shape, 3, dtype=np.int64)
+    with pytest.raises(ValueError, match=r"candidates must have shape \(B, 4\) for this"):
+        enc.repair(X)
+
+
+def test_repair_takes_one_candidate_as_a_1d_array():
+    enc = mk.Encoding.integer(4, 1, 10, distinct_sorted=True)
+    np.testing.assert_array_equal(enc.repair(np.array([3, 3, 3, 3])), [1, 2, 3, 4])
+    np.testing.assert_array_equal(enc.repair(np.array([[3, 3, 3, 3]])), [[1, 2, 3, 4]])

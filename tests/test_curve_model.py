@@ -158,3 +158,103 @@ def test_a_closed_curve_takes_parameters_over_one_period():
         ClosedCurve(u + 0.01, ring, 3)
     with pytest.raises(ValueError, match="start at 0 and stay below 1"):
         ClosedCurve(np.linspace(0, 1, 12), ring, 3)
+
+
+def _both_curves():
+    ring = polygon(40)
+    return {"open": make_curve(ring), "closed": make_curve(ring, closed=True)}
+
+
+@pytest.mark.parametrize("kind", ["open", "closed"])
+@pytest.mark.parametrize(("offsets", "message"), [
+    ([0, 9], r"offsets must run from 0 to len\(knots\)"),
+    ([0, 3], r"offsets must run from 0 to len\(knots\)"),
+    ([-1, 6], r"offsets must run from 0 to len\(knots\)"),
+    ([], r"offsets must run from 0 to len\(knots\)"),
+    ([[0, 6]], r"offsets must run from 0 to len\(knots\)"),
+    ([0, 4, 2, 6], "offsets must be non-decreasing"),
+    ([0, 2.5, 6], "offsets must be integers"),
+])
+def test_evaluate_knots_refuses_offsets_that_do_not_match_the_knots(kind, offsets, message):
+    """A closed curve's evaluate_knots took any offsets (numpy's boolean-assignment errors,
+    or rows from offsets starting at -1); fractional offsets were truncated on both."""
+    curve = _both_curves()[kind]
+    knots = curve.candidate_params[[5, 10, 15, 20, 25, 30]]
+    assert curve.evaluate_knots(knots, [0, 6]).feasible.all()
+    with pytest.raises(ValueError, match=message):
+        curve.evaluate_knots(knots, offsets)
+    with pytest.raises(ValueError, match=r"knots must be a 1-D array; got shape \(1, 6\)"):
+        curve.evaluate_knots(knots[None, :], [0, 6])
+
+
+@pytest.mark.parametrize("kind", ["open", "closed"])
+@pytest.mark.parametrize("shape", [(2, 1), (2, 50), (1, 1, "n"), ("n",)])
+def test_evaluate_masks_refuses_masks_of_another_width(kind, shape):
+    """A closed curve broadcast a ``(B, 1)`` mask over every candidate knot (a knot at every
+    data point, silently) and took 1-D masks."""
+    curve = _both_curves()[kind]
+    n_var = curve.candidate_params.size
+    masks = np.ones([n_var if s == "n" else s for s in shape], dtype=int)
+    with pytest.raises(ValueError, match=rf"masks must have shape \(B, .*\) = \(B, {n_var}\)"):
+        curve.evaluate_masks(masks)
+
+
+@pytest.mark.parametrize("kind", ["open", "closed"])
+@pytest.mark.parametrize(("indices", "message"), [
+    ([[-1, 10, 15]], "indices must lie in 1.."),
+    ([[0, 10, 15]], "indices must lie in 1.."),
+    ([[5, 10, 40]], "indices must lie in 1.."),
+    ([5, 10, 15], r"indices must have shape \(B, K\)"),
+    ([[[5, 10, 15]]], r"indices must have shape \(B, K\)"),
+    ([[5.5, 10, 15]], "indices must be integers"),
+])
+def test_evaluate_indices_refuses_indices_off_the_candidate_points(kind, indices, message):
+    """A closed curve took negative indices as counted from the end (a fit of other knots,
+    silently) and left the rest to numpy's IndexError and AxisError."""
+    curve = _both_curves()[kind]
+    with pytest.raises(ValueError, match=message):
+        curve.evaluate_indices(indices)
+
+
+def test_closed_evaluate_indices_takes_whole_numbers_up_to_the_last_point():
+    curve = _both_curves()["closed"]
+    rows = np.array([[5, 10, 39], [39, 5, 10]])
+    expected = curve.evaluate_positions(curve.params[np.sort(rows, axis=1)])
+    for indices in (rows, rows.astype(float)):
+        got = curve.evaluate_indices(indices)
+        assert np.array_equal(got.sse, expected.sse)
+        assert np.array_equal(got.reason, expected.reason)
+
+
+@pytest.mark.parametrize("kind", ["open", "closed"])
+def test_errors_refuse_an_unknown_metric_and_knot_sets_of_two_dimensions(kind):
+    """An unknown metric was read as ``rmse``; a knot set of two dimensions failed in numpy's
+    concatenate (or, alone, was flattened)."""
+    from metaknot.bspline.periodic import periodic_errors
+
+    curve = _both_curves()[kind]
+    knots = curve.candidate_params[[5, 10, 15, 20, 25, 30]]
+    calls = [curve.errors]
+    if kind == "closed":
+        calls.append(lambda sets, metric: periodic_errors(curve.params, curve.points, sets,
+                                                          curve.degree, metric))
+    for call in calls:
+        assert np.isfinite(call([knots, knots[:3]], "rmse")).all()
+        with pytest.raises(ValueError, match="metric must be 'max_deviation' or 'rmse'; got"):
+            call([knots], "bogus")
+        for sets in ([knots[None, :]], [knots[None, :], knots[:3]], [knots, 0.5]):
+            with pytest.raises(ValueError, match=r"knot set 0|knot set 1"):
+                call(sets, "rmse")
+
+
+@pytest.mark.parametrize("kind", ["open", "closed"])
+def test_coefficient_map_takes_a_list_and_refuses_two_dimensions(kind):
+    """A closed curve's coefficient_map failed on a list (no ``size``) and flattened knots of
+    two dimensions, as the open one did."""
+    curve = _both_curves()[kind]
+    knots = curve.candidate_params[[5, 10, 15, 20, 25, 30]]
+    t, spread = curve.coefficient_map(knots)
+    t_list, spread_list = curve.coefficient_map(list(knots))
+    assert np.array_equal(t, t_list) and (spread != spread_list).nnz == 0
+    with pytest.raises(ValueError, match=r"interior_knots must be 1-D; got shape \(1, 6\)"):
+        curve.coefficient_map(knots[None, :])

@@ -184,3 +184,34 @@ def test_mask_rows_far_from_the_origin_still_score_as_the_full_evaluation():
     for key in metrics:
         np.testing.assert_allclose(metrics[key], full_metrics[key], rtol=1e-9)
     assert np.count_nonzero(n_delta) >= 1  # the origin itself at least
+
+
+def _knot_problem(kind: str, closed: bool):
+    points = get_curve("epitrochoid", n_points=60).points
+    if kind == "mask":
+        return KnotSelection(points, closed=closed)
+    return (KnotIndices if kind == "indices" else FreeKnots)(points, n_knots=8, closed=closed)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+@pytest.mark.parametrize("kind", ["mask", "indices", "free"])
+def test_evaluate_near_and_decode_take_one_candidate(kind, closed):
+    """``near`` of several rows was a numba typing error (masks) or silently its first row;
+    ``decode`` of several rows decoded the first. One row, 1-D or ``(1, n_var)``, is taken."""
+    problem = _knot_problem(kind, closed)
+    rng = np.random.default_rng(0)
+    near = problem.sample(rng, 1)[0]
+    X = problem.sample(rng, 3)
+    values = problem.evaluate(X)
+    n_var = problem.encoding.n_var
+    for two_rows in (np.stack((near, near)), np.stack((near, X[0]))):
+        with pytest.raises(ValueError, match=rf"near must be one candidate, shape \({n_var},\)"):
+            problem.evaluate_near(X, two_rows)
+        with pytest.raises(ValueError, match=rf"decode takes one candidate, shape \({n_var},\)"):
+            problem.decode(two_rows)
+    with pytest.raises(ValueError, match=rf"near must be one candidate, shape \({n_var},\)"):
+        problem.evaluate_near(X, near[None, None, :])
+    for one in (near, near[None, :]):
+        got = problem.evaluate_near(X, one)[0]
+        assert np.allclose(got, values, rtol=1e-9, equal_nan=True)
+    assert problem.decode(near[None, :]).objective_value == problem.decode(near).objective_value

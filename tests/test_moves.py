@@ -410,3 +410,35 @@ def test_replacements_refuse_bad_arrays():
         me.evaluate_replacements([1], [2], [0.5], [0, 1, 1])
     with pytest.raises(ValueError, match="bits"):
         bit_flips(u, np.zeros(u.size - 2), [u.size])
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_fractional_offsets_starts_stops_and_bits_are_refused(closed):
+    """Offsets, starts, stops and bits of 2.5 were truncated to 2 (another candidate, scored
+    silently); whole numbers given as floats are taken."""
+    from metaknot.bspline.curve import make_curve
+    from metaknot.bspline.moves import bit_flips
+
+    points = curve(40, 2)
+    model = make_curve(points, closed=closed)
+    u = model.params
+    incumbent = model.candidate_params[[5, 10, 15, 20, 25, 30]]
+    me = model.move_evaluator(incumbent)
+    assert me is not None
+    with pytest.raises(ValueError, match="offsets must be integers"):
+        me.evaluate(incumbent, [0, 2.5, 6])
+    whole, _ = me.evaluate(incumbent, [0.0, 6.0])
+    assert whole.reason.tolist() == [0]
+    with pytest.raises(ValueError, match="starts must be integers"):
+        me.evaluate_replacements([1.5], [2], [incumbent[1]], [0, 1])
+    with pytest.raises(ValueError, match="stops must be integers"):
+        me.evaluate_replacements([1], [2.5], [incumbent[1]], [0, 1])
+    with pytest.raises(ValueError, match="offsets must be integers"):
+        me.evaluate_replacements([1], [2], [incumbent[1]], [0, 0.5])
+    same, _ = me.evaluate_replacements([1.0], [2.0], [incumbent[1]], [0.0, 1.0])
+    assert same.sse[0] == pytest.approx(whole.sse[0], rel=1e-10)
+    mask = np.isin(model.candidate_params, incumbent)
+    with pytest.raises(ValueError, match="bits must be integers"):
+        bit_flips(u, mask, [1.5], closed=closed)
+    assert np.array_equal(bit_flips(u, mask, [1.0, 4.0], closed=closed)[0],
+                          bit_flips(u, mask, [1, 4], closed=closed)[0])

@@ -362,3 +362,68 @@ def test_the_generated_row_loops_give_the_generic_loop_s_bits() -> None:
             (r1, c1, b1, s1), (r2, c2, b2, s2) = out
             assert r1 == r2, (p, d, m, trial)
             assert np.array_equal(c1, c2) and np.array_equal(b1, b2) and np.array_equal(s1, s2)
+
+
+def _closed_calls():
+    from metaknot.bspline.curve import ClosedCurve
+    from metaknot.bspline.moves import PeriodicMoveEvaluator
+    from metaknot.bspline.periodic import evaluate_periodic
+
+    knots = np.array([0.2, 0.4, 0.6, 0.8])
+    return {
+        "evaluate_periodic": lambda u, q: evaluate_periodic(u, q, knots[None, :]),
+        "fit_periodic": lambda u, q: fit_periodic(u, q, knots),
+        "periodic_errors": lambda u, q: periodic_errors(u, q, [knots]),
+        "PeriodicMoveEvaluator": lambda u, q: PeriodicMoveEvaluator(u, q, knots),
+        "ClosedCurve": lambda u, q: ClosedCurve(u, q, 3).evaluate_positions(knots[None, :]),
+    }
+
+
+@pytest.mark.parametrize("call", list(_closed_calls()))
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda q: np.where(np.arange(len(q))[:, None] == 4, np.nan, q),
+     r"points contains NaN or infinite values \(first at row 4\)"),
+    (lambda q: np.where(np.arange(len(q))[:, None] == 2, np.inf, q),
+     r"points contains NaN or infinite values \(first at row 2\)"),
+    (lambda q: q[:, :, None], r"points must have shape \(N, d\)"),
+    (lambda q: q[:, :0], "at least one coordinate"),
+])
+def test_closed_fits_refuse_bad_points_by_name(call, change, message) -> None:
+    """NaN or infinite coordinates (fitted to NaN, reported feasible), points of three
+    dimensions (a numba typing error) or without coordinates (an SSE of 0) are refused."""
+    points = outline(40)
+    u = closed_parameterize(points)
+    with pytest.raises(ValueError, match=message):
+        _closed_calls()[call](u, change(points))
+
+
+@pytest.mark.parametrize("call", list(_closed_calls()))
+def test_closed_fits_refuse_too_few_points_by_name(call) -> None:
+    with pytest.raises(ValueError, match="a closed curve needs at least 3 points; got 0"):
+        _closed_calls()[call](np.empty(0), np.empty((0, 2)))
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_periodic_knots_are_refused_by_name(bad) -> None:
+    """A NaN knot passed the range checks (every comparison with NaN is false) and reached the
+    compiled fit; now refused like a knot outside (0, 1)."""
+    from metaknot.bspline.curve import make_curve
+    from metaknot.bspline.moves import PeriodicMoveEvaluator
+
+    points = outline(40)
+    u = closed_parameterize(points)
+    knots = np.array([0.2, 0.4, bad, 0.8])
+    with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
+        periodic_knot_vector(knots)
+    with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
+        fit_periodic(u, points, knots)
+    with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
+        PeriodicMoveEvaluator(u, points, knots)
+    assert make_curve(points, closed=True).move_evaluator(knots) is None
+
+
+def test_fit_periodic_refuses_interior_knots_of_two_dimensions() -> None:
+    points = outline(40)
+    u = closed_parameterize(points)
+    with pytest.raises(ValueError, match="interior_knots must be 1-D"):
+        fit_periodic(u, points, np.array([[0.2, 0.4, 0.6, 0.8]]))

@@ -354,3 +354,40 @@ def test_closed_runs_use_delta_evaluation_and_end_where_full_evaluation_ends(opt
     assert again.best_f == fast.best_f and again.delta_evaluations == fast.delta_evaluations
     np.testing.assert_array_equal(again.best_x, fast.best_x)
     np.testing.assert_array_equal(again.trace.best_f, fast.trace.best_f)
+
+
+def test_candidates_of_more_knots_than_points_are_reported_not_written_past() -> None:
+    """More knots than data points, as whole candidates or as one replacement: reported as
+    too many control points, as :func:`evaluate_periodic` reports them (the compiled loop
+    gathered them into a workspace sized for the data and wrote past it)."""
+    params, points = seed_outline("epitrochoid", 60)
+    incumbent = params[[6, 14, 22, 30, 38, 46]]
+    moves = PeriodicMoveEvaluator(params, points, incumbent)
+    many = np.linspace(0.001, 0.999, 100 * params.size)
+    batch, path = moves.evaluate(many, np.array([0, many.size]))
+    assert batch.reason.tolist() == [Infeasibility.TOO_MANY_CONTROL_POINTS]
+    assert path.tolist() == [PATH_CHECKS]
+    full = evaluate_periodic(params, points, many[None, :])
+    assert batch.reason.tolist() == full.reason.tolist()
+    assert batch.n_control_points.tolist() == full.n_control_points.tolist()
+    batch, _ = moves.evaluate_replacements([0], [incumbent.size], many, [0, many.size])
+    assert batch.reason.tolist() == [Infeasibility.TOO_MANY_CONTROL_POINTS]
+    # out of range before too many, as the batch evaluator decides
+    bad = np.concatenate((many, [1.5]))
+    batch, _ = moves.evaluate(bad, np.array([0, bad.size]))
+    assert batch.reason.tolist() == [Infeasibility.KNOT_OUT_OF_RANGE]
+    assert evaluate_periodic(params, points, bad[None, :]).reason.tolist() == \
+        [Infeasibility.KNOT_OUT_OF_RANGE]
+
+
+def test_an_unsorted_incumbent_is_refused() -> None:
+    """The incumbent's knots index the replacements: unsorted, a replacement removed another
+    knot than the one named (and was scored singular), as the open evaluator refuses them."""
+    params, points = seed_outline("epitrochoid", 60)
+    incumbent = params[[6, 14, 22, 30, 38, 46]]
+    with pytest.raises(ValueError, match="the incumbent cannot be fitted: coincident"):
+        PeriodicMoveEvaluator(params, points, incumbent[::-1])
+    moves = PeriodicMoveEvaluator(params, points, incumbent)
+    with pytest.raises(ValueError, match="the incumbent cannot be fitted: coincident"):
+        moves.rebind(incumbent[[1, 0, 2, 3, 4, 5]])
+    assert np.array_equal(moves.interior, incumbent)

@@ -334,7 +334,12 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
     n_cand = offsets.size - 1
     check_offsets(offsets, knots.size)
     m_max = n + 1
-    breaks = np.empty(m_max)
+    # a candidate's breakpoints are gathered before its count is checked against the data:
+    # room for the largest (the incumbent's and all its inserted knots at most)
+    widest = 0
+    for b in range(n_cand):
+        widest = max(widest, offsets[b + 1] - offsets[b])
+    breaks = np.empty(max(m_max, m + widest))
     t2 = np.empty(m_max + 2 * p + 1)
     coef = np.zeros((m_max, d))
     rows_max = m_max + p

@@ -32,13 +32,23 @@ from .fit import (
     _evaluate_positions,
     _prepare,
     batch_errors,
+    check_metric,
     evaluate_knots,
     fit_spline,
 )
-from .knots import averaging_knots, clamped_knot_vector, padded_rows, stack_indices, stack_rows
+from .knots import (
+    averaging_knots,
+    check_indices,
+    check_offsets,
+    clamped_knot_vector,
+    padded_rows,
+    stack_indices,
+    stack_rows,
+)
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
-from .periodic import closed_parameterize, evaluate_periodic, fit_periodic, periodic_knot_vector
+from .periodic import _evaluate_periodic, closed_parameterize, fit_periodic, periodic_knot_vector
+from .periodic import _prepare as _periodic_prepare
 
 __all__ = ["CLOSING_CHORD_SPACINGS", "REPEAT_SPACINGS", "ClosedCurve", "Closure", "Curve",
            "OpenCurve", "closure", "curve_model", "make_curve"]
@@ -241,6 +251,7 @@ class Curve(ABC):
     def errors(self, knot_sets: list[np.ndarray], metric: Metric) -> np.ndarray:
         """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
         it cannot be fitted."""
+        check_metric(metric)
         batch = self.evaluate_knots(*stack_rows(knot_sets),
                                     max_deviation=metric == "max_deviation")
         return batch_errors(batch, metric, self.n_points)
@@ -333,6 +344,7 @@ class OpenCurve(Curve):
     def coefficient_map(self, interior_knots):
         from scipy import sparse
 
+        interior_knots = _interior(interior_knots)
         t = clamped_knot_vector(self.params, interior_knots, self.degree)
         return t, sparse.identity(t.size - self.degree - 1, format="csr")
 
@@ -345,9 +357,12 @@ class ClosedCurve(Curve):
     max_interior_knots_rule = "N - 1, closed"
 
     def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
-        if params[0] != 0.0 or params[-1] >= 1.0:
+        u = np.asarray(params, dtype=np.float64)
+        if u.ndim == 1 and u.size and (u[0] != 0.0 or u[-1] >= 1.0):
             raise ValueError("a closed outline's params must start at 0 and stay below 1 "
                              "(metaknot.bspline.periodic.closed_parameterize)")
+        # the data as the kernel takes it, checked once: batches go to the kernel directly
+        self._p, self._u, self._q = _periodic_prepare(params, points, degree)
         super().__init__(params, points, degree)
 
     @property
@@ -367,21 +382,26 @@ class ClosedCurve(Curve):
         return self.n_points - 1
 
     def evaluate_knots(self, knots, offsets, *, max_deviation=True):
-        return self.evaluate_positions(padded_rows(knots, offsets), max_deviation=max_deviation,
-                                       nan_is_absent=True)
+        return self.evaluate_positions(padded_rows(*check_offsets(knots, offsets)),
+                                       max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
-        rows = np.where(np.asarray(masks).astype(bool), self.params[1:][None, :], np.nan)
+        masks = np.asarray(masks)
+        n_var = self._u.size - 1
+        if masks.ndim != 2 or masks.shape[1] != n_var:  # else broadcast over the knots
+            raise ValueError(f"masks must have shape (B, N - 1) = (B, {n_var}); "
+                             f"got {masks.shape}")
+        rows = np.where(masks.astype(bool), self._u[1:][None, :], np.nan)
         return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_indices(self, indices, *, max_deviation=True):
         # a repeated index gives coincident knots: reported infeasible
-        return self.evaluate_positions(self.params[np.sort(indices, axis=1)],
+        return self.evaluate_positions(self._u[check_indices(self._u, indices, closed=True)],
                                        max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
-        return evaluate_periodic(self.params, self.points, positions, self.degree,
-                                 max_deviation=max_deviation, nan_is_absent=nan_is_absent)
+        return _evaluate_periodic(self._p, self._u, self._q, positions, max_deviation,
+                                  nan_is_absent)
 
     def fit(self, interior_knots):
         return fit_periodic(self.params, self.points, interior_knots, self.degree)
@@ -424,12 +444,21 @@ class ClosedCurve(Curve):
         from scipy import sparse
 
         p = self.degree
+        interior_knots = _interior(interior_knots)
         t = periodic_knot_vector(interior_knots, p)
         n = t.size - p - 1
         distinct = interior_knots.size + 1  # breakpoints, 0 included
         spread = sparse.csr_matrix((np.ones(n), (np.arange(n), np.arange(n) % distinct)),
                                    shape=(n, distinct))
         return t, spread
+
+
+def _interior(interior_knots: ArrayLike) -> np.ndarray:
+    """Interior knots as a 1-D float array, or a ``ValueError`` naming their shape."""
+    interior = np.asarray(interior_knots, dtype=np.float64)
+    if interior.ndim != 1:
+        raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
+    return interior
 
 
 def curve_model(closed: bool) -> type[Curve]:

@@ -17,7 +17,13 @@ from ..compat import Metrics
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from ._kernel import masks_to_knots
-from .knots import check_mask_shape, check_masks, stack_indices, stack_positions
+from .knots import (
+    check_mask_shape,
+    check_masks,
+    check_offsets,
+    stack_indices,
+    stack_positions,
+)
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
@@ -95,9 +101,17 @@ class BatchFit:
         return self.sse.size
 
 
+def check_metric(metric: str) -> str:
+    """``metric``, or a ``ValueError`` unless it is ``"max_deviation"`` or ``"rmse"``."""
+    if metric not in ("max_deviation", "rmse"):
+        raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+    return metric
+
+
 def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_points: int
                  ) -> np.ndarray:
     """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
+    check_metric(metric)
     err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / n_points)
     return np.where(batch.feasible, err, np.inf)
 
@@ -190,15 +204,7 @@ def evaluate_knots(
         Also compute the largest point deviation (a second pass over the data).
     """
     u, q = _prepare(u, points, degree)
-    knots = np.asarray(knots, dtype=np.float64)
-    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
-    if knots.ndim != 1:
-        raise ValueError(f"knots must be a 1-D array; got shape {knots.shape}")
-    if offsets.ndim != 1 or offsets.size < 1 or offsets[0] != 0 or offsets[-1] != knots.size:
-        raise ValueError("offsets must run from 0 to len(knots)")
-    if (np.diff(offsets) < 0).any():
-        raise ValueError("offsets must be non-decreasing")
-    return _evaluate(u, q, knots, offsets, int(degree), max_deviation)
+    return _evaluate(u, q, *check_offsets(knots, offsets), int(degree), max_deviation)
 
 
 def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: int = 3, *,

@@ -5,13 +5,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ._kernel import masks_to_knots
+from . import _kernel
 from .parameterize import check_degree
 
 __all__ = [
     "averaging_knots",
+    "check_indices",
     "check_mask_shape",
     "check_masks",
+    "check_offsets",
     "clamped_knot_vector",
     "interior_from_indices",
     "interior_from_mask",
@@ -113,7 +115,12 @@ def _offsets(counts: np.ndarray) -> np.ndarray:
 
 
 def stack_rows(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Flatten rows of interior knots (of any lengths) to knots plus row offsets."""
+    """Flatten rows of interior knots (of any lengths) to knots plus row offsets; a
+    ``ValueError`` naming the first row that is not 1-D."""
+    for b, row in enumerate(rows):
+        if np.ndim(row) != 1:
+            raise ValueError(f"knot set {b} must be a 1-D array of knots; got shape "
+                             f"{np.shape(row)}")
     knots = np.concatenate(rows) if len(rows) else np.empty(0)
     return knots, _offsets(np.array([len(r) for r in rows], dtype=np.int64))
 
@@ -148,18 +155,46 @@ def check_masks(u: np.ndarray, masks: ArrayLike) -> np.ndarray:
     return masks
 
 
-def stack_masks(u: np.ndarray, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Flatten a ``(B, N-2)`` batch of masks to interior knots plus row offsets."""
-    return masks_to_knots(u, np.ascontiguousarray(check_masks(u, masks)))
+def stack_masks(u: ArrayLike, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten a ``(B, N-2)`` batch of 0/1 masks to interior knots plus row offsets.
 
-
-def stack_indices(u: np.ndarray, indices: ArrayLike, *, closed: bool = False
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Flatten a ``(B, K)`` batch of data indices (each sorted per row) to knots plus offsets.
-
-    Rows are sorted; repeated indices are kept and reported by the evaluator as coincident knots.
-    Indices lie in ``1..N-2`` (the interior data points), or ``1..N-1`` on a ``closed`` curve.
+    Raises
+    ------
+    ValueError
+        Unless ``u`` is 1-D and ``masks`` has shape ``(B, N-2)`` and holds only 0 and 1 (the
+        compiled gathering trusts both: a wider mask read past ``u``, other values sized the
+        output wrongly).
     """
+    u = _as_params(u)
+    return _kernel.masks_to_knots(u, np.ascontiguousarray(check_masks(u, masks)))
+
+
+#: :func:`stack_masks`, by the compiled function's name (which takes no unchecked input here).
+masks_to_knots = stack_masks
+
+
+def check_offsets(knots: ArrayLike, offsets: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Flattened candidates (candidate ``b``: ``knots[offsets[b]:offsets[b + 1]]``) as float64
+    knots and int64 offsets, or a ``ValueError`` naming what does not match: the compiled
+    evaluators trust the offsets to stay within the knots."""
+    knots = np.asarray(knots, dtype=np.float64)
+    if knots.ndim != 1:
+        raise ValueError(f"knots must be a 1-D array; got shape {knots.shape}")
+    offsets = np.asarray(offsets)
+    if offsets.dtype.kind not in "iu" and offsets.size and (
+            offsets.dtype.kind not in "f" or not np.array_equal(offsets, np.round(offsets))):
+        raise ValueError(f"offsets must be integers; got {offsets.dtype} {offsets.tolist()!r:.80}")
+    offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+    if offsets.ndim != 1 or offsets.size < 1 or offsets[0] != 0 or offsets[-1] != knots.size:
+        raise ValueError("offsets must run from 0 to len(knots)")
+    if (np.diff(offsets) < 0).any():
+        raise ValueError("offsets must be non-decreasing")
+    return knots, offsets
+
+
+def check_indices(u: np.ndarray, indices: ArrayLike, *, closed: bool = False) -> np.ndarray:
+    """A ``(B, K)`` batch of data indices as int64, each row sorted, or a ``ValueError``
+    unless they are whole numbers in ``1..N-2`` (``1..N-1`` on a ``closed`` curve)."""
     idx = np.asarray(indices)
     if idx.ndim != 2:
         raise ValueError(f"indices must have shape (B, K); got {idx.shape}")
@@ -171,7 +206,17 @@ def stack_indices(u: np.ndarray, indices: ArrayLike, *, closed: bool = False
     if idx.size and (idx.min() < 1 or idx.max() > last):
         raise ValueError(f"indices must lie in 1..{last} "
                          f"({'data points after the first' if closed else 'interior data points'})")
-    idx = np.sort(idx.astype(np.int64, copy=False), axis=1)
+    return np.sort(idx.astype(np.int64, copy=False), axis=1)
+
+
+def stack_indices(u: np.ndarray, indices: ArrayLike, *, closed: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Flatten a ``(B, K)`` batch of data indices (each sorted per row) to knots plus offsets.
+
+    Rows are sorted; repeated indices are kept and reported by the evaluator as coincident knots.
+    Indices lie in ``1..N-2`` (the interior data points), or ``1..N-1`` on a ``closed`` curve.
+    """
+    idx = check_indices(u, indices, closed=closed)
     counts = np.full(idx.shape[0], idx.shape[1], dtype=np.int64)
     return np.ascontiguousarray(u[idx].ravel()), _offsets(counts)
 

@@ -63,6 +63,18 @@ PATH_FULL = _moves.PATH_FULL
 _NO_MOVES = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
 
 
+def _as_int64(values: ArrayLike, name: str) -> np.ndarray:
+    """``values`` as a contiguous int64 array, or a ``ValueError`` naming ``name`` unless they
+    are whole numbers (a cast would truncate 2.5 to 2: another candidate, silently)."""
+    arr = np.asarray(values)
+    if arr.dtype != np.int64:
+        if arr.dtype.kind not in "iu" and arr.size and (
+                arr.dtype.kind != "f" or not np.array_equal(arr, np.round(arr))):
+            raise ValueError(f"{name} must be integers; got {arr.dtype} {arr.tolist()!r:.80}")
+        arr = arr.astype(np.int64)
+    return np.ascontiguousarray(arr)
+
+
 def bound_to(evaluator: MoveEvaluator | None, u: ArrayLike, points: ArrayLike,
              interior_knots: np.ndarray, degree: int, *, closed: bool = False
              ) -> MoveEvaluator | None:
@@ -87,7 +99,7 @@ def bit_flips(u: ArrayLike, mask: ArrayLike, bits: ArrayLike, *, closed: bool = 
     ``(starts, stops, inserted, offsets)``."""
     u = np.asarray(u, dtype=np.float64)
     mask = np.asarray(mask).astype(bool)
-    bits = np.asarray(bits, dtype=np.int64)
+    bits = _as_int64(bits, "bits")
     n_var = u.size - (1 if closed else 2)
     if mask.shape != (n_var,):
         raise ValueError(f"mask must have shape ({n_var},); got {mask.shape}")
@@ -189,7 +201,7 @@ class MoveEvaluator:
         if knots.dtype != np.float64 or not knots.flags.c_contiguous:
             knots = np.ascontiguousarray(knots, dtype=np.float64)
         if offsets.dtype != np.int64 or not offsets.flags.c_contiguous:
-            offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+            offsets = _as_int64(offsets, "offsets")
         return self._evaluate(knots, offsets, max_deviation, *_NO_MOVES)
 
     def _evaluate(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool,
@@ -236,14 +248,14 @@ class MoveEvaluator:
             If the arrays do not match (one start and stop per move, offsets from 0 to
             ``len(inserted)``) or a start or stop lies outside ``0..len(interior)``.
         """
-        starts = np.ascontiguousarray(starts, dtype=np.int64)
-        stops = np.ascontiguousarray(stops, dtype=np.int64)
+        starts = _as_int64(starts, "starts")
+        stops = _as_int64(stops, "stops")
         k = self.interior.size
         if starts.ndim != 1 or starts.shape != stops.shape:
             raise ValueError("starts and stops must be 1-D arrays of the same length")
         if starts.size == 0:
             raise ValueError("no moves given")
-        offsets = np.ascontiguousarray(offsets, dtype=np.int64)
+        offsets = _as_int64(offsets, "offsets")
         if offsets.ndim != 1 or offsets.size != starts.size + 1:
             raise ValueError("offsets must have one entry more than there are moves")
         if (starts < 0).any() or (stops > k).any() or (starts > stops).any():
@@ -315,6 +327,9 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
         t = _periodic.periodic_knot_vector(interior, p)
+        if (np.diff(interior) <= 0).any():  # the replacements index them as given
+            raise ValueError("the incumbent cannot be fitted: "
+                             f"{Infeasibility(_kernel.COINCIDENT_KNOTS).message}")
         m = interior.size + 1
         audit.add_fits(1)
         if m > u.size:

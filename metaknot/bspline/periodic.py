@@ -24,9 +24,9 @@ from scipy.interpolate import BSpline
 
 from .. import audit
 from . import _periodic_kernel
-from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors
+from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors, check_metric
 from .knots import padded_rows, stack_rows
-from .parameterize import check_degree
+from .parameterize import check_coordinates, check_degree
 
 __all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
            "periodic_errors", "periodic_knot_vector"]
@@ -64,9 +64,10 @@ def periodic_knot_vector(interior: ArrayLike, degree: int = 3) -> np.ndarray:
     the sorted ``interior`` knots (all in (0, 1))."""
     p = check_degree(degree)
     inner = np.sort(np.asarray(interior, dtype=np.float64).ravel())
-    if inner.size and (inner[0] <= 0.0 or inner[-1] >= 1.0 or (np.diff(inner) <= 0).any()):
-        raise ValueError("interior knots of a periodic spline must be distinct and lie in "
-                         "(0, 1)")
+    # NaN sorts last and fails no comparison: checked by name
+    if inner.size and (inner[0] <= 0.0 or not inner[-1] < 1.0 or (np.diff(inner) <= 0).any()):
+        raise ValueError("interior knots of a periodic spline must be finite, distinct and lie "
+                         "in (0, 1)")
     breaks = np.concatenate(([0.0], inner))
     m = breaks.size
     if m < p:
@@ -99,8 +100,20 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int
     takes them."""
     p = check_degree(degree)
     u = np.ascontiguousarray(u, dtype=np.float64)
-    q = np.asarray(points, dtype=np.float64)
-    q = np.ascontiguousarray(q[:, None] if q.ndim == 1 else q)
+    try:
+        q = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"points must be a numeric array: {exc}") from None
+    q = q[:, None] if q.ndim == 1 else q
+    # the compiled kernel trusts the layout it is given: anything else is refused here
+    if q.ndim != 2:
+        raise ValueError(f"points must have shape (N, d); got an array with shape {q.shape}")
+    if q.shape[1] < 1:
+        raise ValueError(f"points must have at least one coordinate; got shape {q.shape}")
+    if q.shape[0] < 3:
+        raise ValueError(f"a closed curve needs at least 3 points; got {q.shape[0]}")
+    check_coordinates(q, "points")
+    q = np.ascontiguousarray(q)
     if u.shape != (q.shape[0],) or not np.isfinite(u).all() or (np.diff(u) <= 0).any() \
             or u[0] < 0 or u[-1] >= 1:
         raise ValueError("parameter values must be finite, strictly increasing and in [0, 1)")
@@ -119,6 +132,9 @@ def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
         (knot spans without data).
     """
     p, u, q = _prepare(u, points, degree)
+    interior = np.asarray(interior, dtype=np.float64)
+    if interior.ndim != 1:
+        raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
     t = periodic_knot_vector(interior, p)
     m = t.size - 2 * p - 1
     audit.add_fits(1)
@@ -142,6 +158,13 @@ def evaluate_periodic(u: ArrayLike, points: ArrayLike, positions: ArrayLike,
     rank-deficient systems come back infeasible with their reason, never raised.
     """
     p, u, q = _prepare(u, points, degree)
+    return _evaluate_periodic(p, u, q, positions, max_deviation, nan_is_absent)
+
+
+def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLike,
+                       max_deviation: bool, nan_is_absent: bool) -> BatchFit:
+    """:func:`evaluate_periodic` of data already checked (``p``, ``u``, ``q`` as
+    :func:`_prepare` returns them)."""
     pos = np.atleast_2d(np.asarray(positions, dtype=np.float64))
     if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
@@ -176,6 +199,7 @@ def periodic_errors(u: ArrayLike, points: ArrayLike, knot_sets: list[np.ndarray]
                     degree: int = 3, metric: str = "max_deviation") -> np.ndarray:
     """Error (max deviation or RMSE) of the periodic fit for each interior-knot set;
     ``inf`` where it cannot be fitted (the compiled batch evaluator)."""
+    check_metric(metric)
     fit = evaluate_periodic(u, points, padded_rows(*stack_rows(knot_sets)), degree,
                             max_deviation=metric == "max_deviation")
     return batch_errors(fit, metric, len(np.asarray(u)))
