@@ -174,6 +174,24 @@ def test_compiled_batch_refuses_positions_that_are_not_rows(shape) -> None:
     with pytest.raises(ValueError, match=r"positions must have shape \(B, K\); got"):
         evaluate_periodic(closed_parameterize(points), points, np.full(shape, 0.5), 3)
 
+
+@pytest.mark.parametrize("density", [0.0, 0.03, 0.3, 0.9, 1.0])
+def test_closed_masks_fit_as_their_knots_do(density) -> None:
+    """A closed curve's masks go to the compiled fit as the data's own parameters (no sorting,
+    no checks of range or coincidence): the same bits as the same knots as positions."""
+    from metaknot.bspline.curve import make_curve
+    from metaknot.bspline.periodic import evaluate_periodic
+
+    curve = make_curve(outline(80), closed=True)
+    masks = (np.random.default_rng(4).random((7, 79)) < density).astype(np.int64)
+    for max_deviation in (True, False):
+        fast = curve.evaluate_masks(masks, max_deviation=max_deviation)
+        rows = np.where(masks.astype(bool), curve.params[1:][None, :], np.nan)
+        reference = evaluate_periodic(curve.params, curve.points, rows, 3,
+                                      max_deviation=max_deviation)
+        for field in ("sse", "max_deviation", "n_control_points", "reason"):
+            np.testing.assert_array_equal(getattr(fast, field), getattr(reference, field))
+
 # --- the knot problems on closed outlines ----------------------------------------------------
 
 def closed_problems(objective: str = "paper"):

@@ -47,6 +47,7 @@ from .knots import (
 )
 from .moves import MoveEvaluator, bound_to
 from .parameterize import as_points, check_degree, parameterize
+from .periodic import _evaluate_masks as _evaluate_periodic_masks
 from .periodic import _evaluate_periodic, closed_parameterize, fit_periodic, periodic_knot_vector
 from .periodic import _prepare as _periodic_prepare
 
@@ -391,8 +392,7 @@ class ClosedCurve(Curve):
         if masks.ndim != 2 or masks.shape[1] != n_var:  # else broadcast over the knots
             raise ValueError(f"masks must have shape (B, N - 1) = (B, {n_var}); "
                              f"got {masks.shape}")
-        rows = np.where(masks.astype(bool), self._u[1:][None, :], np.nan)
-        return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
+        return _evaluate_periodic_masks(self._p, self._u, self._q, masks, max_deviation)
 
     def evaluate_indices(self, indices, *, max_deviation=True):
         # a repeated index gives coincident knots: reported infeasible

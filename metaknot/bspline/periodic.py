@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
 from .. import audit
-from . import _periodic_kernel
+from . import _kernel, _periodic_kernel
 from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors, check_metric
 from .knots import padded_rows, stack_rows
 from .parameterize import check_coordinates, check_degree
@@ -174,11 +174,10 @@ def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLik
     knots = np.ascontiguousarray(pos[present])
     offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
     b = pos.shape[0]
-    sse, max_dev, n_ctrl, reason = out = _outputs(b, max_deviation)
     safe = knots.copy()
     bad_range = ~((safe > 0.0) & (safe < 1.0))  # NaN included
     safe[bad_range] = 0.5
-    _periodic_kernel.evaluate_batch(u, q, p, safe, offsets, max_deviation, *out)
+    sse, max_dev, n_ctrl, reason = _fit_flat(p, u, q, safe, offsets, max_deviation)
     # the reasons the kernel does not check itself, per row
     row_of = np.repeat(np.arange(b), counts)
     same_row = row_of[1:] == row_of[:-1]
@@ -192,6 +191,25 @@ def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLik
     sse[refused] = np.inf
     if max_deviation:
         max_dev[refused] = np.inf
+    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
+
+
+def _fit_flat(p: int, u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray,
+              max_deviation: bool) -> tuple[np.ndarray, ...]:
+    """The compiled fits of a flattened batch whose knots are sorted, distinct and inside
+    (0, 1) in every row (nothing is checked): SSE, maximum deviation, control points, reason."""
+    out = _outputs(offsets.size - 1, max_deviation)
+    _periodic_kernel.evaluate_batch(u, q, p, knots, offsets, max_deviation, *out)
+    return out
+
+
+def _evaluate_masks(p: int, u: np.ndarray, q: np.ndarray, masks: np.ndarray,
+                    max_deviation: bool) -> BatchFit:
+    """Fit a ``(B, N - 1)`` batch of masks over the data parameters after the first
+    (nonzero: a knot; the shape is not checked): the data's own parameters, sorted, distinct
+    and inside (0, 1), go to the compiled fit as they are."""
+    knots, offsets = _kernel.masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool))
+    sse, max_dev, n_ctrl, reason = _fit_flat(p, u, q, knots, offsets, max_deviation)
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
