@@ -671,3 +671,32 @@ def test_masks_to_knots_checks_its_masks(masks, message):
     knots, offsets = masks_to_knots(U, MASKS)
     assert offsets.tolist() == np.concatenate(([0], np.cumsum(MASKS.sum(axis=1)))).tolist()
     assert np.array_equal(knots, np.concatenate([U[1:-1][m] for m in MASKS]))
+
+
+def test_complex_knot_positions_are_refused_by_name():
+    """Complex positions lost their imaginary parts with only a numpy warning (another
+    candidate, silently), on open and closed curves, one candidate or a batch."""
+    from metaknot.bspline.knots import stack_positions
+    from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
+
+    positions = np.array([[0.3 + 0.2j, 0.6 + 0.0j]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # refused before any cast could warn
+        for call in (lambda: evaluate_positions(U, Q, positions),
+                     lambda: evaluate_positions(U, Q, np.repeat(positions, 40, axis=0)),
+                     lambda: stack_positions(positions),
+                     lambda: evaluate_periodic(closed_parameterize(Q), Q, positions)):
+            with pytest.raises(ValueError, match="knot positions must be real numbers"):
+                call()
+
+
+def test_bit_flips_refuse_a_mask_of_other_values_than_0_and_1():
+    """A mask value of 0.5 was read as a set bit."""
+    from metaknot.bspline.moves import bit_flips
+
+    mask = np.zeros(N - 2)
+    mask[[3, 6]] = 1.0
+    assert len(bit_flips(U, mask, [3, 4])[0]) == 2  # 0.0 and 1.0 as floats are taken
+    mask[5] = 0.5
+    with pytest.raises(ValueError, match="mask must contain only 0 and 1"):
+        bit_flips(U, mask, [3, 4])

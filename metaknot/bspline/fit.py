@@ -18,6 +18,7 @@ from . import _kernel
 from ._codegen import MAX_DIMENSION
 from ._kernel import masks_to_knots
 from .knots import (
+    as_positions,
     check_mask_shape,
     check_masks,
     check_offsets,
@@ -177,7 +178,7 @@ def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
 def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: int,
                         max_deviation: bool, nan_is_absent: bool) -> BatchFit:
     """Fit a ``(B, K)`` batch of knot positions (see :func:`evaluate_positions`)."""
-    positions = np.asarray(positions, dtype=np.float64)
+    positions = as_positions(positions)
     if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
         return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
                          max_deviation)

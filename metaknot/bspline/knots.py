@@ -9,6 +9,7 @@ from . import _kernel
 from .parameterize import check_degree
 
 __all__ = [
+    "as_positions",
     "averaging_knots",
     "check_indices",
     "check_mask_shape",
@@ -221,6 +222,14 @@ def stack_indices(u: np.ndarray, indices: ArrayLike, *, closed: bool = False
     return np.ascontiguousarray(u[idx].ravel()), _offsets(counts)
 
 
+def as_positions(positions: ArrayLike) -> np.ndarray:
+    """Knot positions as a float64 array, or a ``ValueError`` for complex values (the cast would
+    drop their imaginary parts with only a warning)."""
+    if np.iscomplexobj(positions):
+        raise ValueError("knot positions must be real numbers; got complex values")
+    return np.asarray(positions, dtype=np.float64)
+
+
 def stack_positions(positions: ArrayLike, *, nan_is_absent: bool = False
                     ) -> tuple[np.ndarray, np.ndarray]:
     """Flatten a ``(B, K)`` batch of continuous knot positions (sorted per row) plus offsets.
@@ -229,7 +238,7 @@ def stack_positions(positions: ArrayLike, *, nan_is_absent: bool = False
     report as infeasible; so is NaN, unless ``nan_is_absent``: then a NaN entry means "no knot"
     (rows of different knot counts in one batch).
     """
-    pos = np.asarray(positions, dtype=np.float64)
+    pos = as_positions(positions)
     if pos.ndim != 2:
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
     pos = np.sort(pos, axis=1)  # NaN sorts last

@@ -98,7 +98,10 @@ def bit_flips(u: ArrayLike, mask: ArrayLike, bits: ArrayLike, *, closed: bool = 
     ``closed`` curve): a set bit removes its knot, a clear bit inserts ``u[bit + 1]``. Returns
     ``(starts, stops, inserted, offsets)``."""
     u = np.asarray(u, dtype=np.float64)
-    mask = np.asarray(mask).astype(bool)
+    mask = np.asarray(mask)
+    if mask.dtype != bool and not np.isin(mask, (0, 1)).all():
+        raise ValueError("mask must contain only 0 and 1")
+    mask = mask.astype(bool)
     bits = _as_int64(bits, "bits")
     n_var = u.size - (1 if closed else 2)
     if mask.shape != (n_var,):

@@ -25,7 +25,7 @@ from scipy.interpolate import BSpline
 from .. import audit
 from . import _kernel, _periodic_kernel
 from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors, check_metric
-from .knots import padded_rows, stack_rows
+from .knots import as_positions, padded_rows, stack_rows
 from .parameterize import check_coordinates, check_degree
 
 __all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
@@ -165,7 +165,7 @@ def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLik
                        max_deviation: bool, nan_is_absent: bool) -> BatchFit:
     """:func:`evaluate_periodic` of data already checked (``p``, ``u``, ``q`` as
     :func:`_prepare` returns them)."""
-    pos = np.atleast_2d(np.asarray(positions, dtype=np.float64))
+    pos = np.atleast_2d(as_positions(positions))
     if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
     pos = np.sort(pos, axis=1)
