@@ -889,12 +889,12 @@ def test_latex_escapes_names(tmp_path):
 def test_the_same_study_gives_the_same_report_files_in_every_process(three_methods, tmp_path):
     """Every file of a report with its figures, byte for byte, from two processes with different
     string hashing (SVG element ids from a fixed salt, no date; each critical-difference bar
-    drawn in rank order)."""
+    drawn in rank order) and the build time given by ``SOURCE_DATE_EPOCH``."""
     for hash_seed in ("1", "7"):
         done = subprocess.run(
             [sys.executable, "-m", "metaknot.cli", "report", str(three_methods), "--out",
              str(tmp_path / hash_seed)], capture_output=True, text=True, timeout=600,
-            env={**os.environ, "PYTHONHASHSEED": hash_seed})
+            env={**os.environ, "PYTHONHASHSEED": hash_seed, "SOURCE_DATE_EPOCH": "1764633600"})
         assert done.returncode == 0, done.stderr
     files = sorted(p.relative_to(tmp_path / "1") for p in (tmp_path / "1").rglob("*")
                    if p.is_file())
@@ -903,6 +903,13 @@ def test_the_same_study_gives_the_same_report_files_in_every_process(three_metho
                            if p.is_file())
     for name in files:
         assert (tmp_path / "1" / name).read_bytes() == (tmp_path / "7" / name).read_bytes(), name
+    assert "2025-12-02 00:00 UTC" in (tmp_path / "1" / "report.md").read_text()
+
+
+def test_a_malformed_source_date_epoch_is_refused_by_name(three_methods, tmp_path, monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "yesterday")
+    with pytest.raises(ReportError, match="SOURCE_DATE_EPOCH must be whole seconds"):
+        build(three_methods, tmp_path / "out", figures=False)
 
 
 def test_full_report_with_figures(tmp_path):

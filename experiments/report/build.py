@@ -87,6 +87,7 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
     say = log or (lambda _: None)
     if not 0 < alpha < 1:
         raise ReportError(f"alpha must lie in (0, 1); got {alpha}")
+    _built_at()  # a malformed SOURCE_DATE_EPOCH is refused before any work
     unknown = [m for m in metrics if m not in METRICS]
     if unknown or not metrics:
         raise ReportError(f"unknown metric {unknown[0] if unknown else None!r}; choose from "
@@ -558,8 +559,18 @@ def _suite_sections(suite: _Suite, tables: dict[str, pd.DataFrame],
 def _header(comparison: Comparison) -> str:
     from metaknot import __version__
 
-    stamp = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC")
-    return f"metaknot {__version__}, {stamp}"
+    return f"metaknot {__version__}, {_built_at().strftime('%Y-%m-%d %H:%M UTC')}"
+
+
+def _built_at() -> _dt.datetime:
+    """When the report is built: now, or the time ``SOURCE_DATE_EPOCH`` gives (seconds since
+    1970, the reproducible-builds convention: the same study then gives the same files)."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is None:
+        return _dt.datetime.now(_dt.UTC)
+    if not epoch.strip().isdigit():
+        raise ReportError(f"SOURCE_DATE_EPOCH must be whole seconds since 1970; got {epoch!r}")
+    return _dt.datetime.fromtimestamp(int(epoch), _dt.UTC)
 
 
 _CSS = """
