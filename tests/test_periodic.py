@@ -192,6 +192,60 @@ def test_closed_masks_fit_as_their_knots_do(density) -> None:
         for field in ("sse", "max_deviation", "n_control_points", "reason"):
             np.testing.assert_array_equal(getattr(fast, field), getattr(reference, field))
 
+
+@pytest.mark.parametrize("nan_is_absent", [True, False])
+def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> None:
+    """The compiled flattening of position rows (NaN dropped or out of range, knots outside
+    (0, 1) fitted as 0.5 and refused, coincident knots refused, out of range first) gives the
+    values of the same steps in numpy over random rows of every kind."""
+    from metaknot.bspline import _periodic_kernel
+    from metaknot.bspline.fit import _outputs
+    from metaknot.bspline.periodic import evaluate_periodic
+
+    points = outline(50)
+    u = closed_parameterize(points)
+    rng = np.random.default_rng(11)
+    rows = np.sort(rng.random((300, 7)), axis=1)
+    kinds = rng.integers(0, 7, size=300)
+    rows[kinds == 1, 2] = np.nan
+    rows[kinds == 2, rng.integers(0, 7)] = rng.choice([-0.2, 1.0, 1.5, np.inf, -np.inf])
+    rows[kinds == 3, 3] = rows[kinds == 3, 4]
+    rows[kinds == 4, :] = np.nan
+    rows[kinds == 5, 1] = 0.0
+    rows[kinds == 6, 3] = rows[kinds == 6, 4]  # coincident and out of range: out of range
+    rows[kinds == 6, 0] = 1.5
+    for max_deviation in (True, False):
+        batch = evaluate_periodic(u, points, rows, 3, max_deviation=max_deviation,
+                                  nan_is_absent=nan_is_absent)
+        # numpy's steps
+        pos = np.sort(rows, axis=1)
+        present = ~np.isnan(pos) if nan_is_absent else np.ones(pos.shape, dtype=bool)
+        counts = present.sum(axis=1)
+        knots = pos[present]
+        offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
+        safe = knots.copy()
+        bad_range = ~((safe > 0.0) & (safe < 1.0))
+        safe[bad_range] = 0.5
+        sse, max_dev, n_ctrl, reason = out = _outputs(len(rows), max_deviation)
+        _periodic_kernel.evaluate_batch(u, points, 3, safe, offsets, max_deviation, *out)
+        row_of = np.repeat(np.arange(len(rows)), counts)
+        same_row = row_of[1:] == row_of[:-1]
+        coincident = np.zeros(len(rows), dtype=bool)
+        coincident[row_of[1:][same_row & (np.diff(knots) <= 0)]] = True
+        out_of_range = np.zeros(len(rows), dtype=bool)
+        out_of_range[row_of[bad_range]] = True
+        reason[coincident] = 3
+        reason[out_of_range] = 2
+        sse[coincident | out_of_range] = np.inf
+        if max_deviation:
+            max_dev[coincident | out_of_range] = np.inf
+        np.testing.assert_array_equal(batch.reason, reason)
+        np.testing.assert_array_equal(batch.sse, sse)
+        np.testing.assert_array_equal(batch.n_control_points, n_ctrl)
+        if max_deviation:
+            np.testing.assert_array_equal(batch.max_deviation, max_dev)
+        assert {2, 3} <= set(reason.tolist()) and (reason == 0).any()
+
 # --- the knot problems on closed outlines ----------------------------------------------------
 
 def closed_problems(objective: str = "paper"):

@@ -14,7 +14,14 @@ import numba
 import numpy as np
 
 from . import _periodic_rows
-from ._kernel import FEASIBLE, SINGULAR, TOO_MANY_CONTROL_POINTS, reciprocals_into
+from ._kernel import (
+    COINCIDENT_KNOTS,
+    FEASIBLE,
+    KNOT_OUT_OF_RANGE,
+    SINGULAR,
+    TOO_MANY_CONTROL_POINTS,
+    reciprocals_into,
+)
 
 # A pivot of the factor at most this fraction of the largest one makes the system singular.
 PIVOT_RATIO = 1e-11
@@ -253,6 +260,45 @@ def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis:
             dist2 += (q[i, c] - s) ** 2
         worst = max(worst, dist2)
     return np.sqrt(worst)
+
+
+@numba.njit(cache=True)
+def rows_to_knots(pos: np.ndarray, nan_is_absent: bool) -> tuple:
+    """Rows of knot positions, each sorted (NaN last), flattened for :func:`evaluate_batch`:
+    the knots, the row offsets and each row's reason to be refused (0 for none). NaN means no
+    knot when ``nan_is_absent`` and is out of range otherwise; a knot outside (0, 1) is passed on
+    as 0.5 (its row still fits) and refuses its row as KNOT_OUT_OF_RANGE, which takes precedence
+    over COINCIDENT_KNOTS (a knot not above the one before it)."""
+    n_rows, width = pos.shape
+    offsets = np.zeros(n_rows + 1, dtype=np.int64)
+    for b in range(n_rows):
+        count = 0
+        for k in range(width):
+            if not (nan_is_absent and np.isnan(pos[b, k])):
+                count += 1
+        offsets[b + 1] = offsets[b] + count
+    knots = np.empty(offsets[n_rows])
+    refused = np.zeros(n_rows, dtype=np.int8)
+    for b in range(n_rows):
+        at = offsets[b]
+        out_of_range = coincident = False
+        previous = 0.0
+        for k in range(width):
+            x = pos[b, k]
+            if nan_is_absent and np.isnan(x):
+                continue
+            if at > offsets[b] and x - previous <= 0.0:  # False for NaN, as numpy's
+                coincident = True
+            previous = x
+            inside = 0.0 < x < 1.0
+            knots[at] = x if inside else 0.5
+            out_of_range |= not inside
+            at += 1
+        if out_of_range:
+            refused[b] = KNOT_OUT_OF_RANGE
+        elif coincident:
+            refused[b] = COINCIDENT_KNOTS
+    return knots, offsets, refused
 
 
 @numba.njit(cache=True, parallel=True)

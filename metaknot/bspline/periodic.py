@@ -168,36 +168,23 @@ def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLik
     pos = np.atleast_2d(as_positions(positions))
     if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
-    pos = np.sort(pos, axis=1)
-    present = ~np.isnan(pos) if nan_is_absent else np.ones(pos.shape, dtype=bool)
-    counts = present.sum(axis=1)
-    knots = np.ascontiguousarray(pos[present])
-    offsets = np.concatenate(([0], np.cumsum(counts))).astype(np.int64)
-    b = pos.shape[0]
-    safe = knots.copy()
-    bad_range = ~((safe > 0.0) & (safe < 1.0))  # NaN included
-    safe[bad_range] = 0.5
-    sse, max_dev, n_ctrl, reason = _fit_flat(p, u, q, safe, offsets, max_deviation)
-    # the reasons the kernel does not check itself, per row
-    row_of = np.repeat(np.arange(b), counts)
-    same_row = row_of[1:] == row_of[:-1]
-    coincident = np.zeros(b, dtype=bool)
-    coincident[row_of[1:][same_row & (np.diff(knots) <= 0)]] = True
-    out_of_range = np.zeros(b, dtype=bool)
-    out_of_range[row_of[bad_range]] = True
-    reason[coincident] = Infeasibility.COINCIDENT_KNOTS
-    reason[out_of_range] = Infeasibility.KNOT_OUT_OF_RANGE  # takes precedence
-    refused = coincident | out_of_range
-    sse[refused] = np.inf
-    if max_deviation:
-        max_dev[refused] = np.inf
+    knots, offsets, refusal = _periodic_kernel.rows_to_knots(np.sort(pos, axis=1),
+                                                             nan_is_absent)
+    sse, max_dev, n_ctrl, reason = _fit_flat(p, u, q, knots, offsets, max_deviation)
+    refused = refusal != 0  # the reasons the fit does not check itself
+    if refused.any():
+        reason[refused] = refusal[refused]
+        sse[refused] = np.inf
+        if max_deviation:
+            max_dev[refused] = np.inf
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
 def _fit_flat(p: int, u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray,
               max_deviation: bool) -> tuple[np.ndarray, ...]:
-    """The compiled fits of a flattened batch whose knots are sorted, distinct and inside
-    (0, 1) in every row (nothing is checked): SSE, maximum deviation, control points, reason."""
+    """The compiled fits of a flattened batch whose knots lie inside (0, 1), each row sorted
+    (nothing is checked; a row of coincident knots fits as singular): SSE, maximum deviation,
+    control points, reason."""
     out = _outputs(offsets.size - 1, max_deviation)
     _periodic_kernel.evaluate_batch(u, q, p, knots, offsets, max_deviation, *out)
     return out
