@@ -46,7 +46,6 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 
 from ._adapters import FinitePenalty, check_choice
-from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 from .literature import equidistribute, knot_density
 from .nlopt_knots import LOCAL_ALGORITHMS, NloptObjective, check_free_knots
@@ -96,8 +95,9 @@ class FreeKnotFront(Optimizer):
         self.box = KnotMap(problem.params, problem.degree, kind="sorted",
                            min_gap=self.min_gap, data_gap=0.0)
         self.pareto = getattr(problem, "n_objectives", 1) == 2
-        self.counts = list(range(1, problem.n_knots + 1)) if problem.variable_count else \
-            [problem.n_knots]  # check_free_knots: a FreeKnotSpace
+        self.variable = bool(problem.variable_count)  # check_free_knots: a FreeKnotSpace
+        self.counts = list(range(1, problem.n_knots + 1)) if self.variable else \
+            [problem.n_knots]
         #: per count: (lowest error or objective value seen, its knots)
         self.best: dict[int, tuple[float, np.ndarray]] = {}
         self.penalty = FinitePenalty()
@@ -114,6 +114,9 @@ class FreeKnotFront(Optimizer):
         return equidistribute(self._density, k)
 
     # -- candidates and their scores ---------------------------------------------------------
+
+    def candidate(self, knots: np.ndarray) -> np.ndarray:
+        return self.problem.pad(knots) if self.variable else np.sort(knots)
 
     def score(self, F: np.ndarray) -> np.ndarray:
         """What a count minimises: the error (``pareto``'s second objective) or the value."""
@@ -158,7 +161,7 @@ class FreeKnotFront(Optimizer):
             chunk = self.counts[first : first + self.batch_size]
             starts = [(k, averaging_knots(p.params, k, p.degree)) for k in chunk]
             starts += [(k, t) for k in chunk if (t := self.density_knots(k)) is not None]
-            F = evaluator(np.array([knots_to_candidate(p, t) for _, t in starts]))
+            F = evaluator(np.array([self.candidate(t) for _, t in starts]))
             for (k, t), v in zip(starts, self.score(F), strict=False):
                 self._offer(k, v, t)
             if len(F) < len(starts):
@@ -171,8 +174,7 @@ class FreeKnotFront(Optimizer):
 
         def evaluate(y: np.ndarray) -> float:
             knots = self.box.knots(y)
-            candidate = knots_to_candidate(self.problem, knots)
-            value = float(self.score(evaluator(candidate[None, :]))[0])
+            value = float(self.score(evaluator(self.candidate(knots)[None, :]))[0])
             self._offer(k, value, knots)
             return value
 

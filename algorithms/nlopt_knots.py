@@ -35,7 +35,6 @@ from metaknot.problems import FreeKnots, FreeKnotSpace
 from metaknot.registry import register
 
 from ._adapters import FinitePenalty, check_choice
-from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 
 LOCAL_ALGORITHMS = ("LN_BOBYQA", "LN_SBPLX", "LN_COBYLA", "LN_NELDERMEAD")
@@ -232,9 +231,10 @@ class NloptKnots(Optimizer):
         if start is None:
             start = self.unit(averaging_knots(self.problem.params, n_knots, self.problem.degree))
         best = [np.inf, start.copy()]
+        pad = self.problem.pad if self.problem.variable_count else (lambda x: x)
 
         def evaluate(y: np.ndarray) -> float:
-            f = float(evaluator(knots_to_candidate(self.problem, self.knots(y))[None, :])[0])
+            f = float(evaluator(pad(self.knots(y))[None, :])[0])
             if f < best[0]:
                 best[0], best[1] = f, y.copy()
             return f
