@@ -4,6 +4,7 @@ finite penalties."""
 from __future__ import annotations
 
 import importlib
+import math
 from types import ModuleType
 
 import numpy as np
@@ -47,6 +48,13 @@ class FinitePenalty:
     @property
     def value(self) -> float:
         return self.worst + abs(self.worst) + 1.0 if np.isfinite(self.worst) else 1e12
+
+    def one(self, value: float) -> float:
+        """:meth:`__call__` of a single value, on a float (an nlopt objective's every call)."""
+        if not math.isfinite(value):
+            return self.value
+        self.worst = max(self.worst, value)
+        return value
 
     def __call__(self, F: np.ndarray) -> np.ndarray:
         """``F`` with every non-finite value replaced by the penalty (after seeing ``F``)."""

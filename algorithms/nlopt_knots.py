@@ -81,7 +81,7 @@ class NloptObjective:
                 self.caught.append(exc)
                 self.opt.force_stop()
                 return self.penalty.value
-        return float(self.penalty(self.cache[key]))
+        return self.penalty.one(self.cache[key])
 
     def optimize(self, opt: nlopt.opt, y0: np.ndarray, first: bool = False) -> None:
         """``opt.optimize(y0)``, ``y0`` evaluated first with ``first``; nlopt's own stops

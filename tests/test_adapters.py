@@ -151,3 +151,15 @@ def test_finite_penalty_is_worse_than_every_finite_value_seen():
     assert values[1] > -50.0 and values[1] == -50.0 + 50.0 + 1.0
     values = penalty(np.array([3.0, np.inf]))
     assert values[1] == 3.0 + 3.0 + 1.0 and values[0] == 3.0
+
+
+def test_the_finite_penalty_of_one_value_is_that_of_a_batch_of_one():
+    """nlopt's objective takes the scalar path: the same values and the same worst value seen
+    as the batch path, over finite, infinite and NaN values in turn."""
+    from metaknot.algorithms._adapters import FinitePenalty
+
+    one, batch = FinitePenalty(), FinitePenalty()
+    for value in (np.inf, 3.0, np.nan, -2.0, 7.5, np.inf, -np.inf, 1.0):
+        assert one.one(value) == batch(np.array([value]))[0]
+        assert one.worst == batch.worst
+    assert one.value == 7.5 + 7.5 + 1.0
