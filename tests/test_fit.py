@@ -99,6 +99,21 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
     assert max_deviation(result.spline, result.params, points) <= result.tolerance
 
 
+def test_an_answer_beyond_the_tolerance_is_never_returned(monkeypatch) -> None:
+    """Whatever a search hands back is checked by a full fit: knots beyond the tolerance (here
+    a removal that drops most knots) give way to FITPACK's answer, and the stages say so."""
+    from metaknot.apps import fit as tolerance_fit
+
+    monkeypatch.setattr(tolerance_fit._Search, "remove",
+                        lambda self, knots: knots[: max(1, len(knots) // 4)])
+    monkeypatch.setattr(tolerance_fit, "_fewer_at_fixed_counts", lambda *a, **k: (None, 0))
+    points = get_curve("archimedean").points
+    result = mk.fit(points, 1e-3, relative=True)
+    assert result.method == "fitpack"
+    assert max_deviation(result.spline, result.params, points) <= result.tolerance
+    assert any("fails the check by a full fit" in line for line in result.stages)
+
+
 @pytest.mark.parametrize(("points", "kwargs", "message"), [
     (np.array([[0.0, 0], [1, 1], [np.nan, 2], [3, 3], [4, 5], [5, 1]]), {},
      r"NaN or infinite values \(first at row 2\)"),

@@ -403,7 +403,11 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
             best, method_name = search.remove(fewer), "knot removal + fixed-count search"
     if best is not None and \
             len(best) + curve.extra_control_points < reference["n_control_points"]:
-        return _result(curve, best, method_name, tol_abs, metric, reference, stages, start)
+        (err,) = search.errors([best])  # the answer checked by a full fit, whatever found it
+        if err <= tol_abs:
+            return _result(curve, best, method_name, tol_abs, metric, reference, stages, start)
+        stages.append(f"{method_name}: its answer fails the check by a full fit ({err:.3g} > "
+                      f"{tol_abs:.3g}); FITPACK's answer kept")
     return _result(curve, None, "fitpack", tol_abs, metric, reference, stages, start)
 
 
