@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from .progress import Progress, Trace
+from .progress import Progress, Trace, ordered_names
 from .validate import is_integer
 
 if TYPE_CHECKING:
@@ -130,13 +130,6 @@ def checkpoint_grid(budget: int, per_decade: int = 10) -> np.ndarray:
     return np.union1d(grid[grid <= budget], [budget])
 
 
-def _metric_names(recorded: dict, batch: dict) -> list[str]:
-    """The metrics recorded so far, then those the batch adds, in a fixed order (a set's order
-    would change with the interpreter's string hashing, and with it the order of a trace's
-    columns from one process to the next)."""
-    return [*recorded, *(name for name in batch if name not in recorded)]
-
-
 class TraceRecorder(Callback):
     """Record the best-so-far trace with the incumbent's metrics (see :class:`Trace`).
 
@@ -196,7 +189,7 @@ class TraceRecorder(Callback):
         lo, hi = np.searchsorted(self._grid, [first + 1, progress.n_evaluations + 1])
         on_grid[self._grid[lo:hi] - first - 1] = True
         rows = np.flatnonzero(improved | on_grid)
-        for name in _metric_names(self._metrics, progress.batch_metrics):
+        for name in ordered_names(self._metrics, progress.batch_metrics):
             values = np.asarray(progress.batch_metrics.get(name, np.full(F.size, np.nan)),
                                 dtype=np.float64)
             previous = self._incumbent.get(name, np.nan)
@@ -219,7 +212,7 @@ class TraceRecorder(Callback):
         n = progress.n_evaluations
         improved = value < self._best_f
         if improved or n in self._grid_set:
-            for name in _metric_names(self._metrics, progress.batch_metrics):
+            for name in ordered_names(self._metrics, progress.batch_metrics):
                 values = progress.batch_metrics.get(name)
                 current = np.nan if values is None else float(values[0])
                 if name not in self._metrics:  # first seen now: earlier rows get NaN

@@ -14,6 +14,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .progress import ordered_names
+
 __all__ = ["ParetoArchive", "hypervolume_2d", "nondominated_mask"]
 
 
@@ -122,8 +124,7 @@ class ParetoArchive:
         self.F = np.insert(F[keep], at, f, axis=0)
         x = np.asarray(x)[None, :]
         self.X = x.copy() if self.X is None else np.insert(self.X[keep], at, x, axis=0)
-        # in a fixed order (a set's would change with the interpreter's string hashing)
-        names = [*self.metrics, *(name for name in row if name not in self.metrics)]
+        names = ordered_names(self.metrics, row)
         self.metrics = {
             name: np.insert(self.metrics.get(name, np.full(keep.size, np.nan))[keep], at,
                             row.get(name, np.nan))

@@ -80,3 +80,10 @@ class Trace:
 
     def __len__(self) -> int:
         return int(self.evaluations.size)
+
+
+def ordered_names(recorded: Mapping[str, object], new: Mapping[str, object]) -> list[str]:
+    """The metric names recorded so far, then those ``new`` adds, in a fixed order (a set's
+    order would change with the interpreter's string hashing, and with it the order of stored
+    columns from one process to the next)."""
+    return [*recorded, *(name for name in new if name not in recorded)]
