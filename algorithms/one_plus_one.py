@@ -98,15 +98,13 @@ def _step_draws(n_var: int, rate: float, max_step: int, steps: int, rng: np.rand
     and which (flat, as :func:`_flip_draws`), every gene's step size and sign draw (0 for -1)
     per step."""
     if n_var > 10_000:
-        counts, places, sizes, signs = [], [], [], []
-        for _ in range(steps):
-            counts.append(0)
-            while counts[-1] == 0:
-                counts[-1] = int(rng.binomial(n_var, rate))
-            places.append(distinct_positions(n_var, counts[-1], rng))
+        places, sizes, signs = [], [], []
+        for _ in range(steps):  # _step_draw's draws of one row, in its order
+            places.append(np.atleast_1d(_flip_draw(n_var, rate, rng)))
             sizes.append(rng.integers(1, max_step + 1, size=n_var))
             signs.append(rng.integers(0, 2, size=n_var, dtype=np.int64))
-        return np.array(counts), np.concatenate(places), np.array(sizes), np.array(signs)
+        return (np.array([row.size for row in places]), np.concatenate(places), np.array(sizes),
+                np.array(signs))
     from ._mutation_kernels import step_draws
 
     return step_draws(rng, n_var, rate, max_step, steps)
