@@ -419,3 +419,27 @@ def test_one_column_says_what_was_assumed(tmp_path) -> None:
     assert "one column: read as a 1-D curve of values" in done.stdout
     assert "--function" in done.stdout.splitlines()[0]
     assert "open (clamped)" in done.stdout and "closed" not in done.stdout.split("auto:")[0]
+
+
+@pytest.mark.parametrize("n", [5, 6, 8])
+def test_a_loose_tolerance_on_a_tiny_outline_ends(n: int, monkeypatch) -> None:
+    """Knot removal stops once no removal can be fitted: a closed outline of a few points at
+    a loose tolerance once looped forever there (removing either of its last two knots fits
+    nothing). The number of fits is capped so that a regression fails instead of hanging."""
+    from metaknot.apps import fit as fit_app
+
+    errors, calls = fit_app._Search.errors, []
+
+    def counted(self, rows, near=None):
+        calls.append(len(rows))
+        assert len(calls) < 20_000, "knot removal does not end"
+        return errors(self, rows, near)
+
+    monkeypatch.setattr(fit_app._Search, "errors", counted)
+    angle = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    points = np.column_stack((np.cos(angle), np.sin(angle)))
+    for tol in (5e-2, 1e-1):
+        result = mk.fit(points, tol, relative=True, closed=True)
+        assert result.closed
+        assert max_deviation(result.spline, result.params, result.points) <= result.tolerance
+        assert result.n_control_points <= result.fitpack["n_control_points"]

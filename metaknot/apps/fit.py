@@ -173,7 +173,7 @@ class _Search:
                 continue
             for j in order[: self.tries]:
                 if not np.isfinite(errs[j]):
-                    break
+                    return knots  # no removal left can be fitted: nothing to nudge
                 nudged, err = self.nudge(rows[j], int(j))
                 if err <= self.tol:
                     knots = nudged
