@@ -381,7 +381,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
                 sse_out[b] = base_sse
                 path_out[b] = PATH_DELTA
                 continue
-            c_left = n - p  # merge the last spans again (their rows are unchanged)
+            c_left = max(n - p, p)  # merge the last spans again (their rows are unchanged)
             c_right = n
         c_right2 = c_right + delta
         if row_start[c_right] - row_start[c_left] <= max_window_rows:
