@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from metaknot.bspline import Infeasibility, evaluate_knots, parameterize
@@ -62,8 +62,9 @@ def assert_same_scores(fit, ref, q: np.ndarray, max_deviation: bool) -> None:
     np.testing.assert_allclose(fit.sse[ok], ref.sse[ok], rtol=1e-10, atol=1e-22 * scale)
     assert np.all(np.isinf(fit.sse[~ok]))
     if max_deviation:
+        # near interpolation both deviations are rounding (1e-10 of the curve's size)
         np.testing.assert_allclose(fit.max_deviation[ok], ref.max_deviation[ok], rtol=1e-9,
-                                   atol=1e-11 * np.sqrt(scale))
+                                   atol=1e-9 * np.sqrt(scale))
 
 
 def random_mask(rng: np.random.Generator, n_var: int, density: float) -> np.ndarray:
@@ -297,6 +298,7 @@ def test_wide_changes_fall_back_to_the_full_fit():
 @given(degree=st.integers(1, 5), dim=st.integers(1, 3), n_points=st.integers(12, 60),
        density=st.floats(0.05, 0.95), seed=st.integers(0, 2**32 - 1),
        how=st.sampled_from(["uniform", "chord", "centripetal", "explicit"]))
+@example(degree=3, dim=2, n_points=17, density=0.75, seed=17, how="centripetal")  # interpolating
 def test_random_moves_match_the_full_fit(degree, dim, n_points, density, seed, how):
     q = curve(n_points, dim, seed=seed % 1000)
     u = params_for(q, how, degree, seed=seed)
