@@ -29,6 +29,7 @@ from metaknot.bspline import (
     fit_spline,
     parameterize,
 )
+from metaknot.bspline.curve import make_curve
 from metaknot.problems import KnotSelection
 
 N = 10
@@ -155,10 +156,17 @@ def test_bad_indices(indices, message):
         evaluate_indices(U, Q, indices, 3)
 
 
+@pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
 @pytest.mark.parametrize("positions", [np.array([0.3, 0.6]), np.ones((1, 2, 2)), 0.5])
-def test_positions_of_wrong_shape(positions):
+def test_positions_of_wrong_shape(positions, closed):
+    """Open and closed curves refuse the same shapes (a 1-D row is not taken as one row by
+    either)."""
+    curve = make_curve(Q, closed=closed)
     with pytest.raises(ValueError, match=r"positions must have shape \(B, K\)"):
-        evaluate_positions(U, Q, positions, 3)
+        curve.evaluate_positions(positions)
+    if not closed:
+        with pytest.raises(ValueError, match=r"positions must have shape \(B, K\)"):
+            evaluate_positions(U, Q, positions, 3)
 
 
 @pytest.mark.parametrize(

@@ -165,7 +165,7 @@ def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLik
                        max_deviation: bool, nan_is_absent: bool) -> BatchFit:
     """:func:`evaluate_periodic` of data already checked (``p``, ``u``, ``q`` as
     :func:`_prepare` returns them)."""
-    pos = np.atleast_2d(as_positions(positions))
+    pos = as_positions(positions)
     if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
     knots, offsets, refusal = _periodic_kernel.rows_to_knots(np.sort(pos, axis=1),
