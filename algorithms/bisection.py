@@ -22,6 +22,8 @@ Choices the paper leaves open (or that differ):
 * The refinement: ``least_squares`` (trust region reflective with LSMR, finite differences, at most
   ``max_nfev`` residual evaluations), each knot bounded to the middle 90 % between its
   neighbours, so the order holds; the refined knots are kept only if their fit is no worse.
+  A single knot is refined with the exact trust-region solver: scipy's LSMR variant solves
+  its subproblem in a two-dimensional subspace and fails on one variable.
 * Redundant knots: removed one at a time, the removal that leaves the lowest error first,
   while the fit stays within the tolerance.
 * A closed outline is bisected as the sequence of its points from point 0 round to point 0
@@ -86,7 +88,8 @@ def refine_knots(target: Target, knots: np.ndarray, max_nfev: int) -> np.ndarray
 
     solution = least_squares(residuals, knots, bounds=(lower, upper), method="trf",
                              x_scale=np.minimum(knots - lower, upper - knots) + 1e-300,
-                             max_nfev=max_nfev, tr_solver="lsmr")
+                             max_nfev=max_nfev,
+                             tr_solver="lsmr" if knots.size > 1 else "exact")
     refined = np.sort(solution.x)
     return refined if target.error(refined) <= target.error(knots) else knots
 
