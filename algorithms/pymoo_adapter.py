@@ -17,7 +17,9 @@ pymoo searches a genotype that is decoded into the problem's candidate:
 pymoo runs through its ask/tell interface with metaknot's evaluator (each population is one
 batch, counted against the framework's budget; pymoo's own evaluation counter is fed with the
 values, nothing is evaluated twice), seeded from the run's generator. A population cut short by
-the budget is not told.
+the budget is not told. When pymoo ends the search itself (its mating makes no new candidate:
+with duplicates eliminated, a small search space runs out of them), the run ends there, before
+the budget.
 """
 
 from __future__ import annotations
@@ -96,6 +98,7 @@ class PymooOptimizer(Optimizer):
         self.method.setup(self.pymoo_problem, termination=("n_eval", 10**12),
                           seed=int(rng.integers(2**31)))
         self._pop = None
+        self._ended = False
         self.penalty = FinitePenalty()
 
     def _algorithm(self):
@@ -162,8 +165,16 @@ class PymooOptimizer(Optimizer):
             return encoding.repair(X) if encoding.distinct_sorted else X
         return np.array([self.box.knots(g) for g in G])
 
+    def finished(self) -> bool:
+        """True once pymoo has ended the search: its mating made no new candidate (with
+        duplicates eliminated, a small search space runs out of them)."""
+        return self._ended
+
     def ask(self) -> np.ndarray:
         self._pop = self.method.ask()
+        if self._pop is None:  # pymoo terminated itself: nothing new is left to evaluate
+            self._ended = True
+            return np.empty((0, self.problem.encoding.n_var), dtype=np.int64)
         return self.decode(self._pop.get("X"))
 
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:

@@ -135,6 +135,21 @@ def test_pymoo_ga_genotypes():
     assert (np.diff(repaired, axis=1) > 0).all()
 
 
+@pytest.mark.parametrize("variant", ["GA", "NSGA2"])
+def test_pymoo_ends_the_run_when_it_runs_out_of_new_masks(variant):
+    """A population of 50 on a mask of five bits (32 candidates): pymoo's mating, which
+    eliminates duplicates, runs out of new candidates and pymoo ends the search; the run ends
+    there, before its budget, with the best of the whole space (checked by evaluating all 32),
+    not with a crash."""
+    u = np.linspace(0.0, 1.0, 7)
+    problem = KnotSelection(np.column_stack((np.cos(3 * u), np.sin(3 * u))), degree=5)
+    assert problem.encoding.n_var == 5
+    every = np.array([[(m >> b) & 1 for b in range(5)] for m in range(32)])
+    result = mk.minimize(problem, PymooOptimizer(variant, population=50), budget=300, seed=1)
+    assert result.status == "ok" and result.n_evaluations < 300
+    assert result.best_f == problem.evaluate(every).min()
+
+
 def test_pymoo_population_matters():
     problem = KnotSelection(SPIRAL)
     small = mk.minimize(problem, PymooOptimizer("GA", population=10), budget=300, seed=0)
