@@ -18,7 +18,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from metaknot.bspline import averaging_knots, fit_spline, fitpack
+from metaknot.bspline import fit_spline, fitpack
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Encoding, Problem
 from metaknot.problems import FreeKnotSpace, KnotSpace
@@ -128,11 +128,12 @@ class UniformKnots(_KnotCountBaseline):
 
 @register("averaging")
 class AveragingKnots(_KnotCountBaseline):
-    """K interior knots by averaging the data parameters (NURBS Book eqs. 9.68-9.69)."""
+    """K interior knots by averaging the data parameters (NURBS Book eqs. 9.68-9.69; beyond
+    the ``N - p - 1`` knots that formula places, which only a closed outline allows, the
+    curve's evenly spread breakpoints: :meth:`~metaknot.bspline.curve.Curve.start_knots`)."""
 
     def knot_sets(self) -> Iterator[np.ndarray]:
-        p = self.problem
-        return (averaging_knots(p.params, k, p.degree) for k in self.counts)
+        return (self.problem.start_knots(k) for k in self.counts)
 
 
 @register("fitpack")

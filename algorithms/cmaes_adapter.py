@@ -54,8 +54,7 @@ class CMAESKnots(Optimizer):
         refuse_variable_count(problem, "cmaes")
         optional_import("cmaes", "cmaes")
         super().setup(problem, rng)
-        self.box = KnotMap(problem.params, problem.degree, data_gap=self.data_gap,
-                           span_range=self.span_range)
+        self.box = KnotMap.of(problem, data_gap=self.data_gap, span_range=self.span_range)
         self.best_y = np.full(problem.n_knots, 0.5)
         self.best_f = np.inf
         self.penalty = FinitePenalty()

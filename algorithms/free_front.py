@@ -39,7 +39,6 @@ import itertools
 import nlopt
 import numpy as np
 
-from metaknot.bspline import averaging_knots
 from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
@@ -159,7 +158,7 @@ class FreeKnotFront(Optimizer):
         p = self.problem
         for first in range(0, len(self.counts), self.batch_size):
             chunk = self.counts[first : first + self.batch_size]
-            starts = [(k, averaging_knots(p.params, k, p.degree)) for k in chunk]
+            starts = [(k, p.start_knots(k)) for k in chunk]
             starts += [(k, t) for k in chunk if (t := self.density_knots(k)) is not None]
             F = evaluator(np.array([self.candidate(t) for _, t in starts]))
             for (k, t), v in zip(starts, self.score(F), strict=False):

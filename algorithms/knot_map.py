@@ -18,6 +18,8 @@ data parameters, or ``min_gap`` of the range if larger, at most half the room K 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from metaknot.bspline import averaging_knots
@@ -40,11 +42,16 @@ class KnotMap:
         Smallest span as a fraction of the range, and as a multiple of the widest data spacing.
     span_range
         ``"spans"``: the factor (> 1) between a span's weights at the two faces of the box.
+    start
+        ``start(K)``: the K knots the ``"spans"`` box is centred on (default: the averaging
+        knots of ``params``; :meth:`of` passes the knot problem's ``start_knots``, which on a
+        closed outline go on beyond the averaging knots' range).
     """
 
     def __init__(self, params: np.ndarray, degree: int, *, kind: str = "spans",
                  min_gap: float = 1e-4, data_gap: float = 0.5,
-                 span_range: float = 4.0) -> None:
+                 span_range: float = 4.0,
+                 start: Callable[[int], np.ndarray] | None = None) -> None:
         if kind not in ("spans", "sorted"):
             raise ValueError(f"kind must be 'spans' or 'sorted'; got {kind!r}")
         self.params = np.asarray(params, dtype=np.float64)
@@ -52,8 +59,16 @@ class KnotMap:
         self.kind = kind
         self.min_gap, self.data_gap, self.span_range = float(min_gap), float(data_gap), \
             float(span_range)
+        self.start = start if start is not None else \
+            (lambda n_knots: averaging_knots(self.params, n_knots, self.degree))
         self._priors: dict[int, np.ndarray] = {}
         self._frames: dict[int, tuple[float, float, float]] = {}
+
+    @classmethod
+    def of(cls, problem, **options) -> KnotMap:
+        """The map of a knot problem's data parameters and degree, centred on its
+        ``start_knots``."""
+        return cls(problem.params, problem.degree, start=problem.start_knots, **options)
 
     def gap(self, n_knots: int) -> float:
         """The smallest span for ``n_knots`` knots."""
@@ -76,8 +91,7 @@ class KnotMap:
         """Log-shares of the free length of the averaging knots' spans."""
         if n_knots not in self._priors:
             a, gap, free = self._frame(n_knots)
-            ext = np.concatenate(([a], averaging_knots(self.params, n_knots, self.degree),
-                                  [float(self.params[-1])]))
+            ext = np.concatenate(([a], self.start(n_knots), [float(self.params[-1])]))
             share = np.maximum(np.diff(ext) - gap, 1e-3 * free / (n_knots + 1))
             self._priors[n_knots] = np.log(share / share.sum())
         return self._priors[n_knots]

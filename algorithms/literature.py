@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike
 
 from metaknot.bspline import averaging_knots, check_degree
 from metaknot.bspline.curve import Curve, CurveFit, Metric, curve_model
+from metaknot.bspline.parameterize import MAX_DEGREE
 from metaknot.optimizer import check_param
 from metaknot.problem import Problem
 
@@ -285,9 +286,9 @@ def knot_density(params: np.ndarray, points: np.ndarray, degree: int, exponent: 
     n_interior = (u.size - degree - 1) // 2
     if n_interior < 1:
         return None
-    t = np.concatenate((np.full(degree + 1, u[0]), averaging_knots(u, n_interior, degree),
-                        np.full(degree + 1, u[-1])))
-    try:
+    try:  # the averaging formula of degree 5 at most (the kernel's limit; scipy fits any)
+        interior = averaging_knots(u, n_interior, min(degree, MAX_DEGREE))
+        t = np.concatenate((np.full(degree + 1, u[0]), interior, np.full(degree + 1, u[-1])))
         pilot = make_lsq_spline(u, q, t, k=degree)
     except (ValueError, np.linalg.LinAlgError):
         return None

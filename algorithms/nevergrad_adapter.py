@@ -85,7 +85,7 @@ class NevergradOptimizer(Optimizer):
         n = encoding.n_var
         self.box = None
         if encoding.kind == "continuous":
-            self.box = KnotMap(problem.params, problem.degree)
+            self.box = KnotMap.of(problem)
             parametrization = ng.p.Array(shape=(n,), lower=0.0, upper=1.0)
         else:
             parametrization = ng.p.Array(shape=(n,), lower=float(encoding.lower.min()),

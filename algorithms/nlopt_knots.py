@@ -27,7 +27,6 @@ from collections.abc import Callable
 import nlopt
 import numpy as np
 
-from metaknot.bspline import averaging_knots
 from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
@@ -174,9 +173,8 @@ class NloptKnots(Optimizer):
         if getattr(self, "_box", None) is None:
             data_gap = self.data_gap if self.data_gap is not None else (
                 0.0 if self.variant in LOCAL_ALGORITHMS else 0.5)
-            self._box = KnotMap(self.problem.params, self.problem.degree, kind=self.map,
-                                min_gap=self.min_gap, data_gap=data_gap,
-                                span_range=self.span_range)
+            self._box = KnotMap.of(self.problem, kind=self.map, min_gap=self.min_gap,
+                                   data_gap=data_gap, span_range=self.span_range)
         return self._box
 
     def gap(self, n_knots: int) -> float:
@@ -229,7 +227,7 @@ class NloptKnots(Optimizer):
         after nlopt returns (:class:`NloptObjective`).
         """
         if start is None:
-            start = self.unit(averaging_knots(self.problem.params, n_knots, self.problem.degree))
+            start = self.unit(self.problem.start_knots(n_knots))
         best = [np.inf, start.copy()]
         pad = self.problem.pad if self.problem.variable_count else (lambda x: x)
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from metaknot.bspline import averaging_knots
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Problem
@@ -89,8 +88,7 @@ class PymooOptimizer(Optimizer):
         else:
             lower, upper = np.zeros(n), np.ones(n)
         vtype = {"binary": bool, "integer": int, "keys": float}[self.genotype]
-        self.box = KnotMap(problem.params, problem.degree) if encoding.kind == "continuous" \
-            else None
+        self.box = KnotMap.of(problem) if encoding.kind == "continuous" else None
         self.n_obj = getattr(problem, "n_objectives", 1)
         self.pymoo_problem = PymooProblem(n_var=n, n_obj=self.n_obj, xl=lower, xu=upper,
                                           vtype=vtype)
@@ -141,8 +139,7 @@ class PymooOptimizer(Optimizer):
             raise ValueError("initial='averaging' needs a 0/1 mask problem (mask)")
         top = problem.data.n_points - problem.degree - 1
         counts = np.unique(np.linspace(1, top, self.population // 2).round().astype(int))
-        masks = [knots_to_candidate(problem, averaging_knots(problem.params, k, problem.degree))
-                 for k in counts]
+        masks = [knots_to_candidate(problem, problem.start_knots(k)) for k in counts]
         seed = int(self.rng.integers(2**31))
         rest = sampling.do(self.pymoo_problem, self.population - len(masks),
                            random_state=np.random.default_rng(seed)).get("X")

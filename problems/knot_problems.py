@@ -127,7 +127,7 @@ class KnotProblem(Problem):
 
     public_attributes = Problem.public_attributes | {
         "data", "points", "params", "degree", "closed", "parameterization", "objective",
-        "info", "knot_bounds", "last_candidate_point"}
+        "info", "knot_bounds", "last_candidate_point", "start_knots"}
     metric_names = ("n_control_points", "sse", "rmse", "euclidean_distance", "max_deviation")
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
@@ -299,6 +299,12 @@ class KnotProblem(Problem):
     def last_candidate_point(self) -> int:
         """The highest data index a knot can sit at: N - 2 (open), N - 1 (closed)."""
         return self.curve.max_index
+
+    def start_knots(self, count: int) -> np.ndarray:
+        """``count`` interior knots to start a search from
+        (:meth:`~metaknot.bspline.curve.Curve.start_knots`: the averaging knots, or on a
+        closed outline beyond their range evenly spread breakpoints)."""
+        return self.curve.start_knots(count)
 
 
 @register("mask")

@@ -72,6 +72,22 @@ def test_budget_is_never_exceeded(name: str, kind: str, budget: int) -> None:
 
 
 @pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
+@pytest.mark.parametrize("degree", [2, 4, 5])
+def test_small_closed_outlines_with_the_most_knots(name: str, kind: str, degree: int) -> None:
+    """A closed outline of 10 points takes up to 9 knots, beyond the N - p - 1 the averaging
+    knots reach (the starts of the baselines, nlopt, CMA-ES, nevergrad, pymoo and free_front
+    raised there), and degrees 4-5 (the equidistribution pilot is of degree p + 2): every
+    optimizer runs to the end."""
+    angle = np.linspace(0, 2 * np.pi, 10, endpoint=False)
+    points = np.column_stack((np.cos(angle), np.sin(angle) * (1 + 0.2 * np.cos(3 * angle))))
+    options = {} if kind == "binary" else {"n_knots": 9}
+    problem = {"binary": KnotSelection, "integer": KnotIndices, "continuous": FreeKnots}[kind](
+        points, closed=True, degree=degree, **options)
+    result = mk.minimize(problem, name, budget=60, seed=2)
+    assert result.status == "ok" and 1 <= result.n_evaluations <= 60
+
+
+@pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
 def test_same_seed_same_run(name: str, kind: str) -> None:
     runs = [mk.minimize(make_problem(kind), name, budget=120, seed=5) for _ in range(2)]
     a, b = runs

@@ -97,6 +97,40 @@ def test_errors_and_knot_sets_of_either_curve(closed):
     assert curve.interpolation_residuals().max() < 1e-8
 
 
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("n", [9, 10, 31, 32])
+def test_a_closed_outline_is_interpolated_at_every_degree(n, degree):
+    """Breakpoints at every data point make the periodic system singular for an even degree
+    on an even number of evenly spaced points (``metaknot fit --closed --degree 2`` failed
+    with "singular"); interpolation then breaks at the midpoints: a residual of rounding."""
+    curve = make_curve(polygon(n) * (1 + 0.1 * (np.arange(n) % 3))[:, None], degree=degree,
+                       closed=True, parameterization="uniform")
+    assert curve.interpolation_residuals().max() < 1e-9
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_start_knots_for_every_count_a_problem_allows(closed):
+    """The averaging knots (NURBS Book) wherever that formula applies, so the starts of the
+    optimizers are as before; a closed outline allows more knots (up to N - 1), and beyond
+    the formula's N - p - 1 it gets the curve's spread breakpoints: never an error."""
+    from metaknot.bspline import averaging_knots
+
+    for degree in (2, 3, 5):
+        curve = make_curve(polygon(24, gap=0.0 if closed else 0.3), degree=degree,
+                           closed=closed)
+        low, high = curve.knot_bounds
+        for count in range(1, curve.max_interior_knots + 1):
+            knots = curve.start_knots(count)
+            assert knots.shape == (count,) and (np.diff(knots) > 0).all()
+            assert low < knots[0] and knots[-1] < high
+            if count <= curve.n_points - degree - 1:
+                np.testing.assert_array_equal(knots, averaging_knots(curve.params, count,
+                                                                     degree))
+            else:
+                assert closed
+                np.testing.assert_array_equal(knots, curve.spread_knots(count))
+
+
 def test_a_closed_curve_refuses_explicit_parameters():
     with pytest.raises(ValueError, match="explicit parameters do not apply"):
         make_curve(polygon(20), closed=True, params=np.linspace(0, 1, 20))

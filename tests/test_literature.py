@@ -202,3 +202,19 @@ def test_bisection_refines_a_single_knot(degree):
         assert refined.shape == (1,)
         assert 0.55 * start[0] - 1e-12 <= refined[0] <= start[0] + 0.45 * (1.0 - start[0]) + 1e-12
         assert target.error(refined) <= target.error(start)
+
+
+@pytest.mark.parametrize("degree", [4, 5])
+def test_the_equidistribution_pilot_is_fitted_at_high_degrees(degree):
+    """The knot density's pilot spline is of degree p + 2 (6 or 7 here: scipy fits it; its
+    knots come from the averaging formula of degree 5 at most); it raised "degree must be
+    between 1 and 5" before. The density follows the data: it rises where they bend most."""
+    from metaknot.algorithms.literature import knot_density
+
+    x = np.linspace(0.0, 1.0, 120)
+    y = np.tanh(40 * (x - 0.7))  # a sharp step near 0.7, flat elsewhere
+    grid, cumulative = knot_density(x, y, degree, 1.0 / (degree + 1))
+    flat, start, end = np.interp([0.5, 0.6, 0.8], grid, cumulative)
+    assert (end - start) / 0.2 > 2 * flat / 0.5  # knots per unit length: step vs. flat part
+    found = METHODS["equidistribution"](x, y, 1e-2, degree=degree)
+    assert found.within

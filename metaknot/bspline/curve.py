@@ -198,6 +198,15 @@ class Curve(ABC):
     def spread_knots(self, count: int) -> np.ndarray:
         """``count`` interior knots spread over the data (a start for searches)."""
 
+    def start_knots(self, count: int) -> np.ndarray:
+        """``count`` interior knots for an optimizer to start from (or centre its box on): the
+        averaging knots of the data parameters (NURBS Book eqs. 9.68-9.69) while that formula
+        applies, up to ``N - p - 1`` knots, else :meth:`spread_knots` (a closed outline takes
+        up to ``N - 1`` knots)."""
+        if count <= self.n_points - self.degree - 1:
+            return averaging_knots(self.params, count, self.degree)
+        return self.spread_knots(count)
+
     @property
     @abstractmethod
     def min_interior_knots(self) -> int:
@@ -418,8 +427,13 @@ class ClosedCurve(Curve):
         return self.degree - 1
 
     def interpolation_residuals(self):
-        """Against the periodic spline with a breakpoint at every data point."""
-        return self.fit(self.candidate_params).residuals
+        """Against the periodic interpolating spline (one fit): breakpoints at every data
+        point for an odd degree; for an even degree at 0 and the midpoints between consecutive
+        data parameters, as even-degree interpolation at the data parameters is singular on
+        evenly spaced ones whenever the number of points is even."""
+        u = self.params
+        return self.fit(self.candidate_params if self.degree % 2 else
+                        0.5 * (u[:-1] + u[1:])).residuals
 
     @property
     def domain_params(self) -> np.ndarray:
