@@ -6,11 +6,14 @@ import copy
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
 
 import metaknot as mk
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
 
 DATA = get_curve("archimedean", n_points=40)
+PROBLEMS = {"binary": KnotSelection, "integer": KnotIndices, "continuous": FreeKnots}
 
 
 def make_problem(kind: str) -> mk.Problem:
@@ -81,10 +84,43 @@ def test_small_closed_outlines_with_the_most_knots(name: str, kind: str, degree:
     angle = np.linspace(0, 2 * np.pi, 10, endpoint=False)
     points = np.column_stack((np.cos(angle), np.sin(angle) * (1 + 0.2 * np.cos(3 * angle))))
     options = {} if kind == "binary" else {"n_knots": 9}
-    problem = {"binary": KnotSelection, "integer": KnotIndices, "continuous": FreeKnots}[kind](
-        points, closed=True, degree=degree, **options)
+    problem = PROBLEMS[kind](points, closed=True, degree=degree, **options)
     result = mk.minimize(problem, name, budget=60, seed=2)
     assert result.status == "ok" and 1 <= result.n_evaluations <= 60
+
+
+@settings(max_examples=400, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(case=st.sampled_from(CASES), n_points=st.integers(4, 14), degree=st.integers(1, 5),
+       closed=st.booleans(), objective=st.sampled_from(["paper", "error_bounded", "bic"]),
+       share=st.sampled_from([0.0, 0.4, 1.0]), noise=st.integers(0, 2**31),
+       budget=st.sampled_from([1, 9, 40]))
+def test_tiny_problems_run_or_are_refused_before_any_evaluation(
+        case, n_points, degree, closed, objective, share, noise, budget) -> None:
+    """Every optimizer on small open and closed point sets of every degree, with any knot
+    count the problem allows: the run ends with status ok, or the problem or the optimizer
+    refuses the setting by a ValueError before evaluating anything. An error in mid-run (it
+    carries ``partial_result``) is a fault: pymoo running out of new candidates, start knots
+    beyond the averaging formula's range, a singular closed interpolation and the
+    equidistribution pilot's degree were found this way."""
+    name, kind = case
+    angle = np.linspace(0, 2 * np.pi, n_points, endpoint=not closed)
+    rng = np.random.default_rng(noise)
+    points = np.column_stack((np.cos(angle), np.sin(angle) * (1 + 0.3 * np.cos(2 * angle))))
+    points += 0.01 * rng.standard_normal(points.shape)
+    options = {"closed": closed, "degree": degree, "objective": objective}
+    try:
+        if kind != "binary":
+            top = n_points - 1 if closed else n_points - degree - 1
+            options["n_knots"] = max(1, round(share * top))
+        problem = PROBLEMS[kind](points, **options)
+        result = mk.minimize(problem, name, budget=budget, seed=noise % 100)
+    except ValueError as error:
+        assert getattr(error, "partial_result", None) is None, f"failed in mid-run: {error}"
+        event("refused")
+        return
+    event("ran")
+    assert result.status == "ok" and 1 <= result.n_evaluations <= budget
 
 
 @pytest.mark.parametrize(("name", "kind"), CASES, ids=IDS)
