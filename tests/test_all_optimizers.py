@@ -98,8 +98,8 @@ def test_small_closed_outlines_with_the_most_knots(name: str, kind: str, degree:
 def test_tiny_problems_run_or_are_refused_before_any_evaluation(
         case, n_points, degree, closed, objective, share, noise, budget) -> None:
     """Every optimizer on small open and closed point sets of every degree, with any knot
-    count the problem allows: the run ends with status ok, or the problem or the optimizer
-    refuses the setting by a ValueError before evaluating anything. An error in mid-run (it
+    count the problem allows: the run ends with status ok, or the problem refuses too few
+    points for the degree by a ValueError before evaluating anything. An error in mid-run (it
     carries ``partial_result``) is a fault: pymoo running out of new candidates, start knots
     beyond the averaging formula's range, a singular closed interpolation and the
     equidistribution pilot's degree were found this way."""
@@ -117,6 +117,7 @@ def test_tiny_problems_run_or_are_refused_before_any_evaluation(
         result = mk.minimize(problem, name, budget=budget, seed=noise % 100)
     except ValueError as error:
         assert getattr(error, "partial_result", None) is None, f"failed in mid-run: {error}"
+        assert "fit needs at least" in str(error), str(error)  # too few points: the one refusal
         event("refused")
         return
     event("ran")

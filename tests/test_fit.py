@@ -4,12 +4,15 @@ FITPACK, locally minimal, written to files, and bad input named."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from scipy.interpolate import make_lsq_spline, splev, splprep
 
 import metaknot as mk
@@ -443,3 +446,38 @@ def test_a_loose_tolerance_on_a_tiny_outline_ends(n: int, monkeypatch) -> None:
         assert result.closed
         assert max_deviation(result.spline, result.params, result.points) <= result.tolerance
         assert result.n_control_points <= result.fitpack["n_control_points"]
+
+
+@settings(max_examples=100, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(shape=st.sampled_from(["polygon", "ring", "scatter", "line", "helix", "tiny"]),
+       n=st.integers(5, 16), degree=st.integers(1, 5), closed=st.sampled_from([None, True, False]),
+       tolerance=st.sampled_from([1e-3, 1e-2, 0.1, 0.5]),
+       metric=st.sampled_from(["max_deviation", "rmse"]), seed=st.integers(0, 2**31))
+def test_fit_on_small_odd_point_sets_answers_within_or_refuses(shape, n, degree, closed,
+                                                               tolerance, metric, seed) -> None:
+    """Small point sets of odd shapes (a regular polygon, points at random around a circle,
+    scattered, collinear, a helix, at 1e-6 scale), every degree, open, closed or decided: an
+    answer is within its tolerance by a full fit, or the input is refused with a ValueError
+    naming what is wrong with it; no other error. Random 8-point sets crashed the bisection
+    start (scipy's LSMR step on one knot), and closed outlines of an even degree raised
+    "singular" from the interpolation floor, before."""
+    rng = np.random.default_rng(seed)
+    angle = np.sort(rng.random(n)) * 2 * np.pi
+    even = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    points = {"polygon": np.column_stack((np.cos(even), np.sin(even))),
+              "ring": np.column_stack((np.cos(angle), np.sin(angle))),
+              "scatter": rng.standard_normal((n, 2)),
+              "line": np.column_stack((angle, 2 * angle)),
+              "helix": np.column_stack((np.cos(angle), np.sin(angle), 0.3 * angle)),
+              "tiny": 1e-6 * np.column_stack((np.cos(angle), np.sin(2 * angle)))}[shape]
+    try:
+        result = mk.fit(points, tolerance, relative=True, degree=degree, closed=closed,
+                        metric=metric, budget=2000)
+    except ValueError as error:  # a refusal names what is wrong with the input
+        assert re.search(r"too few for degree|below what interpolation reaches|repeats|coincide",
+                         str(error)), str(error)
+        return
+    distance = np.linalg.norm(result.spline(result.params) - result.points, axis=1)
+    error = distance.max() if metric == "max_deviation" else np.sqrt(np.mean(distance ** 2))
+    assert error <= result.tolerance * (1 + 1e-9)
