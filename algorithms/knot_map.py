@@ -19,10 +19,12 @@ data parameters, or ``min_gap`` of the range if larger, at most half the room K 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from metaknot.bspline import averaging_knots
+from metaknot.problem import Problem
 
 __all__ = ["KnotMap"]
 
@@ -65,7 +67,7 @@ class KnotMap:
         self._frames: dict[int, tuple[float, float, float]] = {}
 
     @classmethod
-    def of(cls, problem, **options) -> KnotMap:
+    def of(cls, problem: Problem, **options: Any) -> KnotMap:
         """The map of a knot problem's data parameters and degree, centred on its
         ``start_knots``."""
         return cls(problem.params, problem.degree, start=problem.start_knots, **options)
