@@ -18,7 +18,9 @@ Choices the paper leaves open (or that differ):
   bring the spline within the tolerance: after the refinement, while it is not, the knot span
   holding the largest error at a data point inside it (not at a knot) is split at its middle
   data point (no second refinement:
-  each one costs ``(K + 1) max_nfev`` fits).
+  each one costs ``(K + 1) max_nfev`` fits); a split after which the fit is singular (a data
+  point next to a refined knot can leave a span without data) is undone, and the splitting
+  ends there.
 * The refinement: ``least_squares`` (trust region reflective with LSMR, finite differences, at most
   ``max_nfev`` residual evaluations), each knot bounded to the middle 90 % between its
   neighbours, so the order holds; the refined knots are kept only if their fit is no worse.
@@ -114,13 +116,16 @@ def bisection(target: Target, max_nfev: int = 20) -> np.ndarray:
         knots = np.unique(np.concatenate((knots, target.curve.spread_knots(target.min_count))))
     knots = refine_knots(target, knots, max_nfev)
     lo, hi = target.bounds
-    while knots.size < target.max_count:
+    fitted = knots  # the last knots that could be fitted
+    while True:
         found = target.fit(knots)
-        if found is None:
+        if found is None:  # the last split left a span no basis function can be fitted on
+            knots = fitted
             break
+        fitted = knots
         d = found.residuals
         error = d.max() if target.metric == "max_deviation" else np.sqrt(np.mean(d**2))
-        if error <= target.tolerance:
+        if error <= target.tolerance or knots.size >= target.max_count:
             break
         ext = np.concatenate(([lo], knots, [hi]))
         span = np.searchsorted(ext, target.params, side="right") - 1
