@@ -91,8 +91,7 @@ class FreeKnotFront(Optimizer):
     def setup(self, problem, rng: np.random.Generator) -> None:
         check_free_knots(self.name, problem, self.min_gap)
         super().setup(problem, rng)
-        self.box = KnotMap(problem.params, problem.degree, kind="sorted",
-                           min_gap=self.min_gap, data_gap=0.0)
+        self.box = KnotMap.of(problem, kind="sorted", min_gap=self.min_gap, data_gap=0.0)
         self.pareto = getattr(problem, "n_objectives", 1) == 2
         self.variable = bool(problem.variable_count)  # check_free_knots: a FreeKnotSpace
         self.counts = list(range(1, problem.n_knots + 1)) if self.variable else \

@@ -1,9 +1,11 @@
 """The unit box ``[0, 1]^K`` as ordered knot vectors: how box-constrained continuous optimizers
 (nlopt, CMA-ES, nevergrad) search free knot positions.
 
-On the parameter range ``[a, b]`` every one of the K + 1 spans is ``gap`` plus a share of the
-free length ``(b - a) - (K + 1) gap``; ``gap`` is ``data_gap`` times the widest spacing of the
-data parameters, or ``min_gap`` of the range if larger, at most half the room K knots leave.
+On the parameter range ``[a, b]`` (the problem's knot range: an open curve's first and last
+data parameters; a closed outline's 0 and 1, the interval that closes it included) every one
+of the K + 1 spans is ``gap`` plus a share of the free length ``(b - a) - (K + 1) gap``;
+``gap`` is ``data_gap`` times the widest spacing of the data parameters, or ``min_gap`` of the
+range if larger, at most half the room K knots leave.
 
 * ``kind="spans"``: the shares are a softmax of log-weights centred on the averaging knots (NURBS
   Book eqs. 9.68-9.69): span ``j < K`` has log-weight ``log p_j + beta (y_j - 1/2)``, the last
@@ -48,15 +50,21 @@ class KnotMap:
         ``start(K)``: the K knots the ``"spans"`` box is centred on (default: the averaging
         knots of ``params``; :meth:`of` passes the knot problem's ``start_knots``, which on a
         closed outline go on beyond the averaging knots' range).
+    end
+        Where the range of knots ends (default: the last data parameter; :meth:`of` passes the
+        problem's ``knot_bounds``: a closed outline's range runs on to 1, past its last data
+        parameter, through the interval that closes it).
     """
 
     def __init__(self, params: np.ndarray, degree: int, *, kind: str = "spans",
                  min_gap: float = 1e-4, data_gap: float = 0.5,
                  span_range: float = 4.0,
-                 start: Callable[[int], np.ndarray] | None = None) -> None:
+                 start: Callable[[int], np.ndarray] | None = None,
+                 end: float | None = None) -> None:
         if kind not in ("spans", "sorted"):
             raise ValueError(f"kind must be 'spans' or 'sorted'; got {kind!r}")
         self.params = np.asarray(params, dtype=np.float64)
+        self.end = float(self.params[-1]) if end is None else float(end)
         self.degree = int(degree)
         self.kind = kind
         self.min_gap, self.data_gap, self.span_range = float(min_gap), float(data_gap), \
@@ -68,13 +76,14 @@ class KnotMap:
 
     @classmethod
     def of(cls, problem: Problem, **options: Any) -> KnotMap:
-        """The map of a knot problem's data parameters and degree, centred on its
-        ``start_knots``."""
-        return cls(problem.params, problem.degree, start=problem.start_knots, **options)
+        """The map of a knot problem's data parameters and degree over its knot range (its
+        ``knot_bounds``), centred on its ``start_knots``."""
+        return cls(problem.params, problem.degree, start=problem.start_knots,
+                   end=problem.knot_bounds[1], **options)
 
     def gap(self, n_knots: int) -> float:
         """The smallest span for ``n_knots`` knots."""
-        u = self.params
+        u = np.append(self.params, self.end)
         length = float(u[-1] - u[0])
         gap = max(self.min_gap * length, self.data_gap * float(np.diff(u).max()))
         return min(gap, 0.5 * length / (n_knots + 1))
@@ -84,7 +93,7 @@ class KnotMap:
         per count: an optimizer maps one candidate after another)."""
         frame = self._frames.get(n_knots)
         if frame is None:
-            a, b = float(self.params[0]), float(self.params[-1])
+            a, b = float(self.params[0]), self.end
             gap = self.gap(n_knots)
             frame = self._frames[n_knots] = (a, gap, (b - a) - (n_knots + 1) * gap)
         return frame
@@ -93,7 +102,7 @@ class KnotMap:
         """Log-shares of the free length of the averaging knots' spans."""
         if n_knots not in self._priors:
             a, gap, free = self._frame(n_knots)
-            ext = np.concatenate(([a], self.start(n_knots), [float(self.params[-1])]))
+            ext = np.concatenate(([a], self.start(n_knots), [self.end]))
             share = np.maximum(np.diff(ext) - gap, 1e-3 * free / (n_knots + 1))
             self._priors[n_knots] = np.log(share / share.sum())
         return self._priors[n_knots]
@@ -117,7 +126,7 @@ class KnotMap:
         if self.kind == "sorted":
             offsets = gap * np.arange(1, knots.size + 1)
             return np.clip((knots - a - offsets) / free, 0.0, 1.0)
-        ext = np.concatenate(([a], knots, [float(self.params[-1])]))
+        ext = np.concatenate(([a], knots, [self.end]))
         share = np.log(np.maximum(np.diff(ext) - gap, 1e-12 * free))
         prior = self._prior(knots.size)
         relative = (share[:-1] - share[-1]) - (prior[:-1] - prior[-1])

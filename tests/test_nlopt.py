@@ -313,6 +313,35 @@ def test_every_box_point_gives_knots_that_respect_the_data_spacing(box_map, curv
 
 
 @pytest.mark.parametrize("box_map", ["spans", "sorted"])
+@pytest.mark.parametrize("n_points", [10, 40])
+def test_a_closed_outline_s_box_covers_its_whole_range(box_map, n_points):
+    """On a closed outline knots lie anywhere in (0, 1): the box's range runs past the last
+    data parameter through the interval that closes the outline (it stopped there, a tenth
+    of the range on 10 points), its spans keep the gap and add up to the whole range, and
+    the maps still invert."""
+    angle = np.linspace(0, 2 * np.pi, n_points, endpoint=False)
+    points = np.column_stack((np.cos(angle), np.sin(angle) * (1 + 0.2 * np.cos(3 * angle))))
+    k = 5
+    problem = FreeKnots(points, n_knots=k, closed=True)
+    optimizer = NloptKnots(variant="GN_CRS2_LM", box_map=box_map)
+    optimizer.setup(problem, np.random.default_rng(0))
+    u = problem.params
+    assert problem.knot_bounds == (0.0, 1.0) and u[-1] < 1.0
+    rng = np.random.default_rng(1)
+    last = []
+    for y in np.concatenate((rng.random((300, k)), rng.integers(0, 2, size=(100, k)))):
+        spans = np.diff(np.concatenate(([0.0], optimizer.knots(y), [1.0])))
+        assert (spans >= optimizer.gap(k) * (1 - 1e-9)).all()
+        assert np.isclose(spans.sum(), 1.0)
+        last.append(spans[-1])
+    if box_map == "sorted":  # every ordered knot vector: a last knot inside the closing gap
+        assert min(last) < 1.0 - u[-1]
+    for y in 0.1 + 0.8 * rng.random((50, k)):
+        y = np.sort(y) if box_map == "sorted" else y
+        np.testing.assert_allclose(optimizer.unit(optimizer.knots(y)), y, atol=1e-9)
+
+
+@pytest.mark.parametrize("box_map", ["spans", "sorted"])
 def test_the_maps_invert(box_map):
     problem = FreeKnots("vivaldi", n_knots=15)
     optimizer = NloptKnots(box_map=box_map)
