@@ -119,11 +119,13 @@ class _KnotCountBaseline(Optimizer):
 
 @register("uniform")
 class UniformKnots(_KnotCountBaseline):
-    """K interior knots equally spaced in parameter space: ``linspace(u0, u1, K + 2)[1:-1]``."""
+    """K interior knots equally spaced over the knot range: ``linspace(a, b, K + 2)[1:-1]``
+    with ``(a, b)`` the problem's ``knot_bounds`` (the first and last data parameters of an
+    open curve; 0 and 1 on a closed outline: K + 1 equal spans round it)."""
 
     def knot_sets(self) -> Iterator[np.ndarray]:
-        u = self.problem.params
-        return (np.linspace(u[0], u[-1], k + 2)[1:-1] for k in self.counts)
+        a, b = self.problem.knot_bounds
+        return (np.linspace(a, b, k + 2)[1:-1] for k in self.counts)
 
 
 @register("averaging")

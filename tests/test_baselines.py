@@ -51,6 +51,18 @@ def test_uniform_knots_are_equally_spaced():
         np.testing.assert_allclose(row[~np.isnan(row)], np.linspace(0.0, 1.0, k + 2)[1:-1])
 
 
+def test_uniform_breakpoints_go_round_a_closed_outline():
+    """On a closed outline the K knots and 0 split the whole period into K + 1 equal spans
+    (the closing interval included; they were spread over the data parameters only, which
+    end one spacing short of 1)."""
+    angle = np.linspace(0, 2 * np.pi, 12, endpoint=False)
+    problem = FreeKnots(np.column_stack((np.cos(angle), np.sin(angle))), n_knots=5,
+                        closed=True)
+    assert problem.params[-1] < 1.0
+    result = mk.minimize(problem, "uniform", budget=5, seed=0)
+    np.testing.assert_allclose(result.best_x, np.arange(1, 6) / 6)
+
+
 @pytest.mark.parametrize(("n_points", "degree", "n_knots"), [(8, 2, 2), (10, 3, 3)])
 def test_averaging_knots_match_the_nurbs_book_by_hand(n_points, degree, n_knots):
     t = np.linspace(0.0, 2.5, n_points)
