@@ -229,7 +229,8 @@ def check_points_file(path: str | Path) -> Path:
             raise ValueError(f"{path}: not UTF-8 text (byte {exc.start:,}); a text table of "
                              "numbers is expected") from None
     else:
-        raise ValueError(f"{path}: unsupported file type {suffix!r} (use .csv or .npy)")
+        raise ValueError(f"{path}: unsupported file type {suffix!r} (use .csv, .txt or "
+                         ".npy)")
     return path
 
 
@@ -301,8 +302,11 @@ def _read_text(path: Path) -> np.ndarray:
             values.extend(map(float, cells))
         except ValueError:
             column = next(i for i, cell in enumerate(cells) if not _is_number(cell))
+            cell = cells[column].strip()
+            hint = " (a decimal comma? write decimal points)" if \
+                _is_number(cell.replace(",", ".", 1)) else ""
             raise ValueError(f"{path}: line {number}, column {column + 1}: "
-                             f"{_quote(cells[column].strip())} is not a number") from None
+                             f"{_quote(cell)} is not a number{hint}") from None
         rows += 1
     if not rows:
         raise ValueError(f"{path}: the file holds no data rows")
@@ -319,8 +323,9 @@ def _read_text(path: Path) -> np.ndarray:
 
 
 def _data_rows(path: Path) -> Iterator[tuple[int, list[str]]]:
-    """Line number and fields of each data row of a text table: blank lines, ``#`` comments
-    and a first row without a number (a header) are skipped."""
+    """Line number and fields of each data row of a text table (separated by semicolons,
+    else commas, else spaces or tabs): blank lines, ``#`` comments and a first row without a
+    number (a header) are skipped."""
     first = True
     with path.open(encoding="utf-8-sig") as file:  # a byte-order mark (spreadsheets) is dropped
         for number in itertools.count(1):
@@ -336,7 +341,8 @@ def _data_rows(path: Path) -> Iterator[tuple[int, list[str]]]:
             text = line.strip()
             if not text or text.startswith("#"):
                 continue
-            cells = text.split(",") if "," in text else text.split()
+            cells = text.split(";") if ";" in text else \
+                text.split(",") if "," in text else text.split()
             if first:
                 first = False
                 if not any(map(_is_number, cells)):

@@ -155,6 +155,22 @@ def test_load_csv_with_header(tmp_path, table):
     assert data.points.shape == (25, 3)
 
 
+def test_semicolons_separate_values_as_commas_do(tmp_path, table):
+    """A semicolon-separated export (with a header) gives the points a comma-separated one
+    does; a decimal comma there is refused with a hint, not read as two values."""
+    body = "\n".join(";".join(repr(float(v)) for v in row) for row in table)
+    (tmp_path / "semi.csv").write_text("x;y;z\n" + body + "\n")
+    np.testing.assert_array_equal(load_points(tmp_path / "semi.csv").points, table)
+    (tmp_path / "comma.csv").write_text("x;y\n1,5;2,25\n")
+    with pytest.raises(ValueError, match=r"line 2, column 1: '1,5' is not a number \(a decimal "
+                                         r"comma\? write decimal points\)"):
+        load_points(tmp_path / "comma.csv")
+    (tmp_path / "points.dat").write_text("1 2\n")
+    with pytest.raises(ValueError, match=r"unsupported file type '\.dat' \(use \.csv, \.txt or "
+                                         r"\.npy\)"):
+        load_points(tmp_path / "points.dat")
+
+
 def test_load_csv_skips_comments_and_blank_lines(tmp_path, table):
     path = tmp_path / "commented.csv"
     body = "\n".join(",".join(repr(float(v)) for v in row) for row in table)
