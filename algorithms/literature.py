@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 
 from metaknot.bspline import averaging_knots, check_degree
 from metaknot.bspline.curve import Curve, CurveFit, Metric, curve_model
-from metaknot.bspline.parameterize import MAX_DEGREE
+from metaknot.bspline.parameterize import MAX_DEGREE, check_point_count
 from metaknot.optimizer import check_param
 from metaknot.problem import Problem
 
@@ -104,9 +104,7 @@ class Target:
                              f"{u.shape}")
         if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
             raise ValueError("params must be finite and strictly increasing")
-        if q.shape[0] < p + 2:
-            raise ValueError(f"{q.shape[0]} points are too few for degree {p}: at least "
-                             f"{p + 2} needed")
+        check_point_count(q.shape[0], p)
         if metric not in ("max_deviation", "rmse"):
             raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
         if isinstance(tolerance, bool) or not isinstance(tolerance, int | float | np.floating) \

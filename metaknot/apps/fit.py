@@ -36,7 +36,7 @@ from ..bspline import check_degree, fitpack
 from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
 from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
-from ..bspline.parameterize import check_coordinates
+from ..bspline.parameterize import check_coordinates, check_point_count
 from ..compat import KEYWORDS, renamed_parameters
 from ..validate import is_integer
 
@@ -249,9 +249,7 @@ def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
             raise ValueError("function data needs at least two columns: x, then f(x)")
         params, q = q[:, 0].copy(), q[:, 1:].copy()
     check_coordinates(q, "points")
-    if q.shape[0] < degree + 2:
-        raise ValueError(f"{q.shape[0]} points are too few for degree {degree}: at least "
-                         f"{degree + 2} needed")
+    check_point_count(q.shape[0], degree)
     if params is not None:
         params = np.asarray(params, dtype=np.float64)
         if params.shape != (q.shape[0],):

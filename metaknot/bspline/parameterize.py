@@ -78,12 +78,23 @@ def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np
     if arr.shape[1] < 1:
         raise ValueError(f"{name} must have at least one coordinate; got shape {arr.shape}")
     check_coordinates(arr, name)
-    need = check_degree(degree) + 2
-    if arr.shape[0] < need:
-        raise ValueError(
-            f"{name}: a degree-{degree} fit needs at least {need} points; got {arr.shape[0]}"
-        )
+    check_point_count(arr.shape[0], check_degree(degree), name)
     return np.ascontiguousarray(arr)
+
+
+def check_point_count(n_points: int, degree: int, name: str = "points") -> None:
+    """Refuse fewer than ``degree + 2`` points, too few to place a single interior knot: the
+    one rule (and message) of every entry point.
+
+    Raises
+    ------
+    ValueError
+        ``"<name>: a degree-p fit needs at least p + 2 points; got N"``.
+    """
+    need = degree + 2
+    if n_points < need:
+        raise ValueError(f"{name}: a degree-{degree} fit needs at least {need} points; "
+                         f"got {n_points}")
 
 
 def parameterize(
