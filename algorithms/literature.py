@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike
 
 from metaknot.bspline import averaging_knots, check_degree
 from metaknot.bspline.curve import Curve, CurveFit, Metric, curve_model
-from metaknot.bspline.parameterize import MAX_DEGREE, check_point_count
+from metaknot.bspline.parameterize import MAX_DEGREE, as_points
 from metaknot.optimizer import check_param
 from metaknot.problem import Problem
 
@@ -94,17 +94,13 @@ class Target:
                  degree: int = 3, closed: bool = False,
                  metric: Metric = "max_deviation") -> None:
         p = check_degree(degree)
-        q = np.asarray(points, dtype=np.float64)
-        q = q[:, None] if q.ndim == 1 else q
-        if q.ndim != 2 or q.shape[1] < 1 or not np.isfinite(q).all():
-            raise ValueError(f"points must be a finite (N, d) array; got shape {q.shape}")
+        q = as_points(points, degree=p)  # the problems' checks and messages
         u = np.asarray(params, dtype=np.float64)
         if u.shape != (q.shape[0],):
             raise ValueError(f"params must be one value per point ({q.shape[0]}); got shape "
                              f"{u.shape}")
         if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
             raise ValueError("params must be finite and strictly increasing")
-        check_point_count(q.shape[0], p)
         if metric not in ("max_deviation", "rmse"):
             raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
         if isinstance(tolerance, bool) or not isinstance(tolerance, int | float | np.floating) \
