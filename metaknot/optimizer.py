@@ -142,9 +142,15 @@ class Optimizer(ABC):
         RuntimeError
             If :meth:`ask` returns no candidates while :meth:`finished` is false (the run would
             never end).
+        TypeError
+            If :meth:`ask` returns None.
         """
         while not evaluator.done and not self.finished():
             X = self.ask()
+            if X is None:
+                raise TypeError(f"{type(self).__name__}.ask() returned None; return an array "
+                                "of candidates (one row each), or True from finished() when "
+                                "there is nothing left to try")
             if len(X) == 0:
                 if self.finished():
                     return

@@ -97,8 +97,10 @@ class Encoding:
             )
         if X.dtype == bool:
             X = X.astype(np.int64)
-        if X.dtype.kind not in "iufc":  # np.issubdtype(X.dtype, np.number), without its cost
-            raise ValueError(f"candidates must be numeric; got dtype {X.dtype}")
+        if X.dtype.kind not in "iuf":  # real numbers (a cast would drop an imaginary part)
+            raise ValueError("candidates must be real numbers; got complex values"
+                             if X.dtype.kind == "c" else
+                             f"candidates must be numeric; got dtype {X.dtype}")
         if self.kind != "continuous":
             if X.dtype.kind not in "iu" and (
                     not np.isfinite(X).all() or not np.array_equal(X, np.round(X))):

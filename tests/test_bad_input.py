@@ -30,7 +30,7 @@ from metaknot.bspline import (
     parameterize,
 )
 from metaknot.bspline.curve import make_curve
-from metaknot.problems import KnotSelection
+from metaknot.problems import FreeKnots, KnotIndices, KnotSelection
 
 N = 10
 U = np.linspace(0.0, 1.0, N)
@@ -679,6 +679,21 @@ def test_masks_to_knots_checks_its_masks(masks, message):
     knots, offsets = masks_to_knots(U, MASKS)
     assert offsets.tolist() == np.concatenate(([0], np.cumsum(MASKS.sum(axis=1)))).tolist()
     assert np.array_equal(knots, np.concatenate([U[1:-1][m] for m in MASKS]))
+
+
+@pytest.mark.parametrize("kind", ["mask", "indices", "free"])
+def test_complex_candidates_from_an_optimizer_are_refused_by_name(kind):
+    """An optimizer's complex candidates lost their imaginary parts in the encoding's cast
+    (another candidate, silently, with only a numpy warning): the encoding refuses them."""
+    problem = {"mask": KnotSelection(points=Q), "indices": KnotIndices(Q, n_knots=2),
+               "free": FreeKnots(Q, n_knots=2)}[kind]
+    X = problem.sample(np.random.default_rng(0), 3) + 1j
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # refused before any cast could warn
+        with pytest.raises(ValueError, match="candidates must be real numbers; got complex"):
+            problem.encoding.check(X)
+        with pytest.raises(ValueError, match="candidates must be real numbers; got complex"):
+            problem.evaluate(X)
 
 
 def test_complex_knot_positions_are_refused_by_name():

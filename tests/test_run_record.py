@@ -76,6 +76,20 @@ def test_an_empty_ask_while_not_finished_is_an_error():
         mk.minimize(KnotSelection(SPIRAL), Idle(), budget=10, seed=0)
 
 
+class Forgetful(Idle):
+    """Forgets to return its candidates."""
+
+    def ask(self):
+        self.problem.sample(self.rng, 4)
+
+
+def test_an_ask_returning_none_is_named():
+    """A missing ``return`` in ``ask`` is named as such (it was "object of type 'NoneType'
+    has no len()")."""
+    with pytest.raises(TypeError, match=r"Forgetful.ask\(\) returned None; return an array"):
+        mk.minimize(KnotSelection(SPIRAL), Forgetful(), budget=10, seed=0)
+
+
 # --------------------------------------------------------------------------------------------
 # callbacks with a lifecycle
 
