@@ -17,7 +17,7 @@ from .problem import Problem
 from .progress import Progress
 from .registry import get_optimizer, get_problem
 from .result import RunResult
-from .validate import is_integer
+from .validate import check_flag, is_integer
 
 __all__ = ["ProgressBar", "make_rng", "minimize"]
 
@@ -89,6 +89,7 @@ def minimize(
         cause of a ``SystemError``), with ``partial_result`` as above.
     """
     _check_seed(seed)
+    check_flag("progress", progress)
     if isinstance(problem, str):
         problem = get_problem(problem, **(problem_kwargs or {}))
     if isinstance(optimizer, str):

@@ -1,4 +1,4 @@
-"""What counts as a whole number or a real number among the values users give metaknot.
+"""What counts as a whole number, a real number or a flag among the values users give metaknot.
 
 ``True`` is an ``int`` to Python, but a budget, a degree or a seed of ``True`` is a mistake; numpy
 integers and floats (what arrays and YAML-through-numpy give) are numbers like any other. Every
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["is_integer", "is_real"]
+__all__ = ["check_flag", "is_integer", "is_real"]
 
 
 def is_integer(value: object) -> bool:
@@ -22,3 +22,11 @@ def is_real(value: object) -> bool:
     finiteness where it matters)."""
     return isinstance(value, int | float | np.integer | np.floating) \
         and not isinstance(value, bool | np.bool_)
+
+
+def check_flag(name: str, value: object) -> bool:
+    """``value`` as a bool if it is one (Python's or numpy's), else a ``ValueError`` naming
+    ``name``: the string ``"false"`` or ``None`` would otherwise count as a truth value."""
+    if not isinstance(value, bool | np.bool_):
+        raise ValueError(f"{name} must be True or False; got {value!r}")
+    return bool(value)

@@ -29,7 +29,7 @@ from metaknot.bspline.knots import stack_positions
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
-from metaknot.validate import is_integer
+from metaknot.validate import check_flag, is_integer
 
 from .curves import PointSet, get_curve
 from .objectives import DataInfo, Objective, get_objective
@@ -408,7 +408,7 @@ class FreeKnots(KnotProblem):
                  n_knots: int = 20, variable_count: bool = False, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
         self.n_knots = _check_n_knots(n_knots, self.curve)
-        self.variable_count = bool(variable_count)
+        self.variable_count = check_flag("variable_count", variable_count)
         self.encoding = Encoding.continuous(self.n_knots, *self.curve.knot_bounds,
                                             distinct_sorted=True)
 

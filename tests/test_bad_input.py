@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+import metaknot as mk
 from metaknot.bspline import (
     BatchFit,
     Infeasibility,
@@ -723,3 +724,25 @@ def test_bit_flips_refuse_a_mask_of_other_values_than_0_and_1():
     mask[5] = 0.5
     with pytest.raises(ValueError, match="mask must contain only 0 and 1"):
         bit_flips(U, mask, [3, 4])
+
+
+@pytest.mark.parametrize("value", ["false", "no", None, 0, 1.0])
+@pytest.mark.parametrize("call", [
+    lambda v: KnotSelection(points=Q, closed=v),
+    lambda v: FreeKnots(Q, n_knots=2, variable_count=v),
+    lambda v: mk.minimize(KnotSelection(points=Q), "ga", budget=5, seed=0, progress=v),
+    lambda v: mk.fit(Q, 1e-2, relative=v),
+    lambda v: mk.fit(Q, 1e-2, function=v),
+    lambda v: mk.fit(Q, 1e-2, closed=v) if v is not None else mk.fit(Q, 1e-2, progress=v),
+], ids=["problem closed", "variable_count", "minimize progress", "fit relative",
+        "fit function", "fit closed or progress"])
+def test_flags_are_true_or_false(call, value):
+    """A flag given as the string "false" (or None, 0, 1.0) was taken for its truth value: a
+    closed outline from closed="false". Flags are Python or numpy bools."""
+    with pytest.raises(ValueError, match=r"must be True or False; got "):
+        call(value)
+
+
+def test_numpy_flags_and_reals_are_taken():
+    assert KnotSelection(points=Q, closed=np.bool_(False)).closed is False
+    assert mk.fit(Q, np.float32(1e-2), relative=np.bool_(True)).n_control_points >= 4

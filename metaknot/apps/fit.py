@@ -38,7 +38,7 @@ from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates, check_point_count
 from ..compat import KEYWORDS, renamed_parameters
-from ..validate import is_integer
+from ..validate import check_flag, is_integer, is_real
 
 __all__ = ["ToleranceFit", "fit"]
 
@@ -336,8 +336,12 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         raise ValueError(f"budget must be a positive integer; got {budget!r}")
     if metric not in ("max_deviation", "rmse"):
         raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+    relative, function, progress = (check_flag(name, value) for name, value in (
+        ("relative", relative), ("function", function), ("progress", progress)))
+    if closed is not None:
+        closed = check_flag("closed", closed)
     q, params = _check_points(points, params, p, function)
-    if not (isinstance(tolerance, int | float) and np.isfinite(tolerance) and tolerance > 0):
+    if not (is_real(tolerance) and np.isfinite(tolerance) and tolerance > 0):
         raise ValueError(f"the tolerance must be a number > 0; got {tolerance!r}")
     diagonal = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
     if relative and diagonal == 0:

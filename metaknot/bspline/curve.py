@@ -23,6 +23,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..validate import check_flag
 from ._codegen import MAX_DIMENSION
 from .fit import (
     BatchFit,
@@ -478,7 +479,7 @@ def _interior(interior_knots: ArrayLike) -> np.ndarray:
 def curve_model(closed: bool) -> type[Curve]:
     """The curve model class: :class:`ClosedCurve` for a closed outline, else
     :class:`OpenCurve` (the one place the flag picks an implementation)."""
-    return ClosedCurve if closed else OpenCurve
+    return ClosedCurve if check_flag("closed", closed) else OpenCurve
 
 
 def make_curve(points: ArrayLike, *, degree: int = 3, parameterization: str = "centripetal",
@@ -505,6 +506,7 @@ def make_curve(points: ArrayLike, *, degree: int = 3, parameterization: str = "c
         For bad points or parameters, or explicit parameters on a closed curve.
     """
     p = check_degree(degree)
+    closed = check_flag("closed", closed)
     q = as_points(points, degree=p)
     if not closed:
         if q.shape[1] > MAX_DIMENSION:
