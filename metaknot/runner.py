@@ -43,7 +43,8 @@ def minimize(
     *,
     budget: int,
     seed: int | np.random.SeedSequence | None = None,
-    callbacks: Sequence[Callback | Callable[[Progress], bool | None]] = (),
+    callbacks: Sequence[Callback | Callable[[Progress], bool | None]] | Callback
+    | Callable[[Progress], bool | None] = (),
     progress: bool = False,
     problem_kwargs: dict[str, Any] | None = None,
     optimizer_kwargs: dict[str, Any] | None = None,
@@ -64,7 +65,7 @@ def minimize(
     callbacks
         :class:`~metaknot.callbacks.Callback` objects (start / batch / end) or plain callables
         called after every evaluated batch with a :class:`~metaknot.Progress`;
-        returning ``True`` stops the run.
+        returning ``True`` stops the run. A single one may be given as it is.
     progress
         Show a progress bar over the evaluations (hidden when the output is not a terminal).
     checkpoints_per_decade
@@ -95,6 +96,8 @@ def minimize(
     if isinstance(optimizer, str):
         optimizer = get_optimizer(optimizer, **(optimizer_kwargs or {}))
     recorder = TraceRecorder(checkpoints_per_decade)
+    if isinstance(callbacks, Callback) or callable(callbacks):
+        callbacks = (callbacks,)  # one callback, not in a sequence
     hooks = [recorder, *(as_callback(c) for c in callbacks),
              *([ProgressBar()] if progress else [])]
     evaluator = Evaluator(problem, budget, hooks)

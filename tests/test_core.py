@@ -418,6 +418,11 @@ def test_callback_returning_true_stops_early():
     assert problem.n_calls == 300
     assert calls == [100, 200, 300]
     assert result.trace_evaluations[-1] == 300
+    # one callback may be given without a list (it was "'function' object is not iterable")
+    calls.clear()
+    again = mk.minimize(Counting(Sphere(3)), "random_search", budget=10_000, seed=0,
+                        callbacks=stop_at_300, optimizer_kwargs={"batch_size": 100})
+    assert again.n_evaluations == 300 and calls == [100, 200, 300]
 
 
 def test_stop_when_stalled_ends_a_run_that_no_longer_improves():
