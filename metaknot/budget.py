@@ -29,6 +29,8 @@ from .validate import is_integer
 
 __all__ = ["BudgetExhausted", "Evaluator"]
 
+_FLOAT64 = np.dtype(np.float64)
+
 
 class BudgetExhausted(Exception):
     """Raised when an optimizer asks for an evaluation after the budget is spent (or a callback
@@ -203,7 +205,9 @@ class Evaluator:
             F, metrics, delta = problem.evaluate_near(X, np.asarray(near))
         else:
             (F, metrics), delta = problem.evaluate_with_metrics(X), 0
-        F = np.asarray(F, dtype=np.float64)
+        F = np.asarray(F)
+        if F.dtype is not _FLOAT64:  # numpy's float64 dtype is one object
+            F = self._as_values(F)
         expected = (X.shape[0],) if self._front is None else (X.shape[0], 2)
         if F.shape != expected:
             raise ValueError(
@@ -245,6 +249,21 @@ class Evaluator:
             self._best_x = X[best].copy() if front is None else front.X[front.knee()].copy()
         self._after_batch(scalar, metrics)
         return F
+
+    def _as_values(self, F: np.ndarray) -> np.ndarray:
+        """Values of another dtype than float64 as float64, or a ``ValueError`` naming the
+        problem: complex values (a cast would drop their imaginary parts with only a warning)
+        and values that are not numbers."""
+        name = type(self._problem).__name__
+        if F.shape == () and F.dtype == object and F.item() is None:
+            raise ValueError(f"{name}.evaluate returned None; return one value per candidate")
+        if F.dtype.kind == "c":
+            raise ValueError(f"{name}.evaluate returned complex values; objective values must "
+                             "be real numbers")
+        if F.dtype.kind not in "biuf":
+            raise ValueError(f"{name}.evaluate returned values of dtype {F.dtype}; objective "
+                             "values must be real numbers")
+        return F.astype(np.float64)
 
     def _warn_nan(self, F: np.ndarray) -> np.ndarray:
         """``F`` with NaN counted as +inf, and a warning that the problem returned NaN."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import sys
 import textwrap
+import warnings
 
 import numpy as np
 import pytest
@@ -298,6 +299,30 @@ def test_evaluator_bad_shape_from_problem():
 
     with pytest.raises(ValueError, match="shape"):
         mk.Evaluator(Wrong(2), 10)(np.zeros((3, 2)))
+
+
+@pytest.mark.parametrize(("values", "message"), [
+    (lambda F: F + 1j, r"Odd.evaluate returned complex values; objective values must be real"),
+    (lambda F: np.array(["a"] * len(F)), r"Odd.evaluate returned values of dtype <U1"),
+    (lambda F: None, r"Odd.evaluate returned None; return one value per candidate"),
+])
+def test_evaluator_names_values_that_are_not_real_numbers(values, message):
+    """A problem's complex values lost their imaginary parts with only a numpy warning; text
+    and None got numpy's or a shape's message. Integers and lists are taken as numbers."""
+    class Odd(Sphere):
+        def evaluate(self, X):
+            return values(super().evaluate(X))
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=message):
+            mk.Evaluator(Odd(2), 10)(np.zeros((3, 2)))
+
+    class Listed(Sphere):
+        def evaluate(self, X):
+            return [1, 2, 3]
+
+    np.testing.assert_array_equal(mk.Evaluator(Listed(2), 10)(np.zeros((3, 2))), [1, 2, 3])
 
 
 # --------------------------------------------------------------------------------------------
