@@ -207,6 +207,8 @@ def check_points_file(path: str | Path) -> Path:
         Naming the file and what is wrong with it.
     """
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path}: a folder, not a point file")
     if not path.is_file():
         raise ValueError(f"point file not found: {path}")
     suffix = path.suffix.lower()

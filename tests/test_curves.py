@@ -236,8 +236,8 @@ def test_params_column_invalid(tmp_path, table):
 def test_load_missing_file(tmp_path):
     with pytest.raises(ValueError, match="not found"):
         load_points(tmp_path / "nope.csv")
-    with pytest.raises(ValueError, match="not found"):
-        load_points(tmp_path)  # a directory is not a point file
+    with pytest.raises(ValueError, match="a folder, not a point file"):
+        load_points(tmp_path)
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".npy"])

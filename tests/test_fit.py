@@ -265,6 +265,46 @@ def test_the_destination_is_checked_before_the_fit(tmp_path, capsys, out, messag
     assert (tmp_path / "taken").read_text() == "mine"
 
 
+def test_a_folder_given_as_the_points_is_named(tmp_path, capsys) -> None:
+    (tmp_path / "scan.csv").mkdir()
+    assert main(["fit", str(tmp_path / "scan.csv"), "--tol", "0.01"]) == 2
+    assert capsys.readouterr().err.strip().endswith("scan.csv: a folder, not a point file")
+
+
+def test_a_destination_that_cannot_be_made_costs_no_fit(tmp_path, capsys, monkeypatch) -> None:
+    """The folder is made before the fit (a failure there once came as a traceback after the
+    whole fit, which was lost)."""
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(Path, "mkdir", refuse)
+    assert main(["fit", str(arc_file(tmp_path)), "--tol", "0.01",
+                 "--out", str(tmp_path / "out")]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.strip().endswith("--out " + str(tmp_path / "out") +
+                                         ": cannot make the folder (Permission denied)")
+    assert captured.out == ""  # nothing was fitted
+
+
+def test_files_that_cannot_be_written_are_named_after_the_result(tmp_path, capsys,
+                                                                  monkeypatch) -> None:
+    """A full disk while writing: the result is printed before, the error names the folder,
+    and the folder the command made is not left behind empty."""
+    from metaknot.apps import fit_output
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(fit_output, "write_fit", full)
+    out = tmp_path / "out"
+    assert main(["fit", str(arc_file(tmp_path)), "--tol", "0.01", "--out", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert "result:" in captured.out
+    assert captured.err.strip().endswith(f"--out {out}: cannot write the files (No space left "
+                                         "on device)")
+    assert not out.exists()
+
+
 def test_force_replaces_a_previous_fits_files_and_only_those(tmp_path, capsys) -> None:
     out = tmp_path / "fit"
     command = ["fit", str(arc_file(tmp_path)), "--out", str(out), "--method", "fitpack"]

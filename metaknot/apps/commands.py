@@ -5,7 +5,12 @@ runs."""
 from __future__ import annotations
 
 import argparse
-from typing import Any
+import contextlib
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["SEED_CURVES", "add_demo", "add_fit", "demo", "fit"]
 
@@ -103,17 +108,36 @@ def demo(args: argparse.Namespace) -> int:
 
 def fit(args: argparse.Namespace) -> int:
     """``metaknot fit``: read the points, check the destination, fit, write the files."""
-    from pathlib import Path
 
     from metaknot.problems import load_points
 
-    from .fit import fit as fit_points
-    from .fit_output import check_destination, write_fit
+    from .fit_output import check_destination
 
+    points = load_points(args.points).points
     out = Path(args.out) if args.out else Path(args.points).with_name(
         Path(args.points).stem + "-fit")
     check_destination(out, force=args.force)
-    points = load_points(args.points).points
+    created = not out.exists()
+    try:  # made before the fit, so that a folder that cannot be made costs no fit
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out {out}: cannot make the folder ({exc.strerror or exc})") \
+            from None
+    try:
+        return _fit_into(args, points, out)
+    except BaseException:
+        if created:  # leave no empty folder behind
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
+
+
+def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path) -> int:
+    """The rest of ``metaknot fit``: fit ``points``, print the stages and the result, write
+    the files into the folder ``out`` (which exists)."""
+    from .fit import fit as fit_points
+    from .fit_output import write_fit
+
     if args.function and points.shape[1] < 2:
         raise ValueError(f"--function: {args.points} needs two or more columns (x, f(x)); it "
                          f"has {points.shape[1]}")
@@ -129,12 +153,16 @@ def fit(args: argparse.Namespace) -> int:
                  method=args.method, budget=args.budget, seed=args.seed, progress=True)
     for stage in result.stages:
         print(stage, flush=True)
-    written = write_fit(result, result.points if not args.function else points[:, 1:], out,
-                        force=args.force)
     m = result.metrics
     print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
           f"{result.fitpack['n_control_points']}), max deviation {m['max_deviation']:.4g}, "
           f"RMSE {m['rmse']:.4g} (tolerance {result.tolerance:.4g} on {result.metric}), "
-          f"{m['seconds']:.2f} s")
+          f"{m['seconds']:.2f} s", flush=True)
+    try:
+        written = write_fit(result, result.points if not args.function else points[:, 1:],
+                            out, force=args.force)
+    except OSError as exc:
+        raise ValueError(f"--out {out}: cannot write the files ({exc.strerror or exc})") \
+            from None
     print(f"wrote {len(written)} files to {out}")
     return 0
