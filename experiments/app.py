@@ -26,7 +26,15 @@ from omegaconf import OmegaConf
 
 from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
-from .spec import ENCODINGS, ConfigError, RunSpec, algorithm_defaults, plain_config, run_spec
+from .spec import (
+    ENCODINGS,
+    ConfigError,
+    RunSpec,
+    algorithm_defaults,
+    not_a_setting,
+    plain_config,
+    run_spec,
+)
 from .store import DEFAULT_STUDY, Store, default_study_note, read_record, spline_fields
 
 if TYPE_CHECKING:
@@ -366,8 +374,11 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"metaknot run: error: {exc}", file=sys.stderr)
         return 2
-    error = check_choices(args)
-    if error is None and not any(a.startswith("-") for a in args):  # a single run
+    single = not any(a.startswith("-") for a in args)
+    error = not_a_setting(args, "optimizer=ga problem=vivaldi seed=3 (a preset file goes "
+                                "after --preset)") if single else None
+    error = error or check_choices(args)
+    if error is None and single:  # a single run
         error = _check_single_run(args)  # checked before Hydra starts
     if error:
         print(f"metaknot run: error: {error}", file=sys.stderr)

@@ -86,6 +86,16 @@ def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
     return str(value)
 
 
+def not_a_setting(args: list[str], example: str) -> str | None:
+    """The first of ``args`` that is neither a setting (``key=value``, ``~key``) nor an option,
+    as a one-line error showing ``example``, or ``None``: a bare word (a file name, say) got
+    Hydra's "missing EQUAL at '<EOF>'"."""
+    for arg in args:
+        if "=" not in arg and not arg.startswith(("-", "~")):
+            return f"{arg!r} is not a setting: settings are key=value, e.g. {example}"
+    return None
+
+
 def _bool(key: str, value: Any) -> bool:
     if not isinstance(value, bool):
         raise ConfigError(f"{key}: true or false, got {value!r}")

@@ -357,6 +357,21 @@ def test_a_mistyped_config_choice_is_one_line_with_the_closest_names(tmp_path, c
     assert not (tmp_path / "default").exists()
 
 
+@pytest.mark.parametrize("command", ["run", "tune"])
+def test_a_bare_word_is_named_as_not_a_setting(tmp_path, capsys, command):
+    """A file name where a setting belongs (``metaknot run spec.yaml``) got Hydra's "missing
+    EQUAL at '<EOF>'" and a stack-trace hint; it is one line with an example now."""
+    from metaknot.experiments.app import main as run_main
+    from metaknot.experiments.tuning.app import main as tune_main
+
+    main = run_main if command == "run" else tune_main
+    assert main(["spec.yaml", f"results_dir={tmp_path}"]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith(f"metaknot {command}: error: 'spec.yaml' is not a setting: settings "
+                           "are key=value, e.g. "), line
+    assert not (tmp_path / "default").exists()
+
+
 @pytest.mark.parametrize("args", [["method=null"], ["-m", "method=null,ga_indices"]])
 def test_a_method_set_to_null_is_one_line_naming_the_default_method(tmp_path, capsys, args):
     from metaknot.experiments.app import main

@@ -16,7 +16,7 @@ from typing import Any
 from metaknot.compat import new_overrides
 
 from ..app import CONFIG_DIR, launch
-from ..spec import ConfigError
+from ..spec import ConfigError, not_a_setting
 from .spec import TuneSpec, tune_spec
 
 __all__ = ["main", "tune"]
@@ -98,6 +98,10 @@ def main(argv: list[str] | None = None) -> int:
 
     args = new_overrides(list(sys.argv[1:] if argv is None else argv))
     if not any(a.startswith("-") for a in args):
+        error = not_a_setting(args, "tune=dolphin n_trials=100 workers=2")
+        if error:
+            print(f"metaknot tune: error: {error}", file=sys.stderr)
+            return 2
         try:
             with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
                 cfg = compose("tuning", overrides=args)
