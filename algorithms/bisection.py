@@ -112,8 +112,7 @@ def remove_redundant(target: Target, knots: np.ndarray) -> np.ndarray:
 def bisection(target: Target, max_nfev: int = 20) -> np.ndarray:
     """Dung & Tjahjowidodo's bisection and refinement (see the module docstring)."""
     knots = bisect_segments(target)
-    if knots.size < target.min_count:  # a closed spline needs p - 1 breakpoints beside 0
-        knots = np.unique(np.concatenate((knots, target.curve.spread_knots(target.min_count))))
+    knots = target.with_min_count(knots)  # a closed spline needs p - 1 breakpoints beside 0
     knots = refine_knots(target, knots, max_nfev)
     lo, hi = target.bounds
     fitted = knots  # the last knots that could be fitted

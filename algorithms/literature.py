@@ -167,6 +167,13 @@ class Target:
         """The fewest interior knots a fit can have (a closed spline needs ``degree - 1``)."""
         return self.curve.min_interior_knots
 
+    def with_min_count(self, knots: np.ndarray) -> np.ndarray:
+        """``knots``, joined by the curve's spread breakpoints for :attr:`min_count` if they
+        are fewer than that (a closed spline needs ``degree - 1``; an open one none)."""
+        if knots.size >= self.min_count:
+            return knots
+        return np.union1d(knots, self.curve.spread_knots(self.min_count))
+
     def with_data_between(self, knots: np.ndarray) -> np.ndarray:
         """``knots`` less those that would leave a knot span without a data parameter (which
         no least-squares fit allows), kept from the left."""

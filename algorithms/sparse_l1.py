@@ -137,8 +137,7 @@ def sparse_l1(target: Target, threshold: float = 1e-3, rounds: int = 30) -> np.n
     if not target.within(best):  # every jump above rounding, at every other candidate
         best = knots_for(float(np.exp(lo)), share=0.0, longest=0)
         if not target.within(best):  # not even the densest selection: as found (the reason
-            # is given), with the fewest breakpoints a closed outline needs if it has fewer
-            return best if best.size >= target.min_count else np.union1d(best, start)
+            return target.with_min_count(best)  # is given), with a fit's fewest breakpoints
     within, beyond = lo, hi
     while beyond - within >= 0.05:
         mid = 0.5 * (within + beyond)
