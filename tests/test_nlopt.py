@@ -317,8 +317,8 @@ def test_every_box_point_gives_knots_that_respect_the_data_spacing(box_map, curv
 def test_a_closed_outline_s_box_covers_its_whole_range(box_map, n_points):
     """On a closed outline knots lie anywhere in (0, 1): the box's range runs past the last
     data parameter through the interval that closes the outline (it stopped there, a tenth
-    of the range on 10 points), its spans keep the gap and add up to the whole range, and
-    the maps still invert."""
+    of the range on 10 points; the sorted map reaches every ordered knot vector), every knot
+    lies inside (0, 1) with spans of at least the gap, and the maps still invert."""
     angle = np.linspace(0, 2 * np.pi, n_points, endpoint=False)
     points = np.column_stack((np.cos(angle), np.sin(angle) * (1 + 0.2 * np.cos(3 * angle))))
     k = 5
@@ -331,8 +331,7 @@ def test_a_closed_outline_s_box_covers_its_whole_range(box_map, n_points):
     last = []
     for y in np.concatenate((rng.random((300, k)), rng.integers(0, 2, size=(100, k)))):
         spans = np.diff(np.concatenate(([0.0], optimizer.knots(y), [1.0])))
-        assert (spans >= optimizer.gap(k) * (1 - 1e-9)).all()
-        assert np.isclose(spans.sum(), 1.0)
+        assert (spans >= optimizer.gap(k) * (1 - 1e-9)).all()  # inside (0, 1), kept apart
         last.append(spans[-1])
     if box_map == "sorted":  # every ordered knot vector: a last knot inside the closing gap
         assert min(last) < 1.0 - u[-1]
