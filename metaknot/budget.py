@@ -20,7 +20,6 @@ from typing import Any
 import numpy as np
 
 from . import audit
-from . import problem as problem_module
 from .front import ParetoArchive
 from .problem import Problem
 from .progress import Progress
@@ -225,28 +224,29 @@ class Evaluator:
             if isinstance(delta, np.ndarray) else min(int(delta), F.size)
         self._extra_fits += max(0, audit.fits() - fits_before - X.shape[0])
         front = self._front
-        if front is None and F.size == 1 and problem_module.SINGLE_CANDIDATE_PATH:
-            # one candidate: the same steps on a float
-            value = F.item()
+        if front is None:
+            best = int(F.argmin())  # the first NaN, if there is one
+            value = F[best]
             if value != value:
                 F = self._warn_nan(F)
-                value = np.inf
-            self._n_evaluations += 1
+                best = int(F.argmin())
+                value = F[best]
+            self._n_evaluations += F.size
             if value < self._best_f:
-                self._best_f = value
-                self._best_x = X[0].copy()
+                self._best_f = float(value)
+                self._best_x = X[best].copy()
             self._after_batch(F, metrics)
             return F
         if np.isnan(F).any():
             F = self._warn_nan(F)
         self._n_evaluations += len(F)
-        scalar = F if front is None else front.add(X, F, metrics)
-        if front is not None and not len(front):
+        scalar = front.add(X, F, metrics)
+        if not len(front):
             scalar = np.full(len(F), np.inf)  # nothing feasible yet: no front, no incumbent
         best = int(np.argmin(scalar))
         if scalar[best] < self._best_f:
             self._best_f = float(scalar[best])
-            self._best_x = X[best].copy() if front is None else front.X[front.knee()].copy()
+            self._best_x = front.X[front.knee()].copy()
         self._after_batch(scalar, metrics)
         return F
 

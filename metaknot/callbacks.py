@@ -162,7 +162,6 @@ class TraceRecorder(Callback):
     def _set_grid(self, budget: int) -> None:
         self._grid = checkpoint_grid(budget, self.per_decade)
         self._grid_list = self._grid.tolist()
-        self._grid_set = frozenset(self._grid_list)
 
     def on_batch(self, progress: Progress) -> None:
         if self._grid is None:  # used without on_start (directly on an Evaluator)
@@ -171,10 +170,7 @@ class TraceRecorder(Callback):
         first = progress.n_evaluations - F.size  # evaluations before this batch
         if F.size == 0:
             return
-        if F.size == 1:
-            self._one(float(F[0]), progress)
-            return
-        if F.min() >= self._best_f:  # no improvement: rows only if a checkpoint is in it
+        if F[F.argmin()] >= self._best_f:  # no improvement: rows only if a checkpoint is in it
             checkpoint = bisect_left(self._grid_list, first + 1)  # the next one
             if checkpoint == len(self._grid_list) or \
                     self._grid_list[checkpoint] > progress.n_evaluations:
@@ -205,28 +201,6 @@ class TraceRecorder(Callback):
         self._improved.append(improved[rows])
         self._best_f = float(running[-1])
         self._n = progress.n_evaluations
-
-    def _one(self, value: float, progress: Progress) -> None:
-        """:meth:`on_batch` for a batch of one candidate (a (1+1) EA's): the same rows, without
-        array arithmetic."""
-        n = progress.n_evaluations
-        improved = value < self._best_f
-        if improved or n in self._grid_set:
-            for name in ordered_names(self._metrics, progress.batch_metrics):
-                values = progress.batch_metrics.get(name)
-                current = np.nan if values is None else float(values[0])
-                if name not in self._metrics:  # first seen now: earlier rows get NaN
-                    self._metrics[name] = [np.full(len(r), np.nan) for r in self._evals]
-                self._metrics[name].append(np.array(
-                    [current if improved else self._incumbent.get(name, np.nan)]))
-                if improved:
-                    self._incumbent[name] = current
-            self._evals.append(np.array([n], dtype=np.int64))
-            self._best.append(np.array([min(value, self._best_f)]))
-            self._improved.append(np.array([improved]))
-        if improved:
-            self._best_f = value
-        self._n = n
 
     def trace(self) -> Trace:
         """The trace so far; the last evaluation is always a checkpoint row."""

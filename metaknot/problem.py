@@ -12,11 +12,6 @@ __all__ = ["Encoding", "Problem"]
 
 EncodingKind = Literal["binary", "integer", "continuous"]
 
-#: Batches of one candidate take scalar paths (the evaluator's bookkeeping, the knot problems'
-#: objective and metrics): the same results, bit for bit, without array arithmetic on arrays of
-#: one element. False sends them through the general batch path (the tests compare the two).
-SINGLE_CANDIDATE_PATH = True
-
 _compiled: dict[str, Any] = {}
 
 
@@ -205,7 +200,11 @@ class Problem(ABC):
     def evaluate_with_metrics(self, X: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Objective values plus per-candidate metrics for the run's trace (for knot problems:
         ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``). The default has
-        no metrics; override to provide some without a second evaluation."""
+        no metrics; override to provide some without a second evaluation.
+
+        The evaluator calls this (and :meth:`evaluate_near`) with a batch it has checked by
+        :meth:`Encoding.check`: shape ``(B, n_var)``, the encoding's dtype and bounds; a problem
+        need not check it again. :meth:`evaluate`, which users call directly, checks."""
         return self.evaluate(X), {}
 
     def evaluate_near(self, X: np.ndarray, near: np.ndarray

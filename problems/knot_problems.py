@@ -14,14 +14,12 @@ code and score it with an objective chosen by name (see :mod:`metaknot.problems.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from metaknot import problem as problem_module
 from metaknot.bspline import BatchFit, CurveFit
 from metaknot.bspline._moves import mask_replacements
 from metaknot.bspline.curve import Curve, make_curve
@@ -31,8 +29,11 @@ from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
 from metaknot.validate import check_flag, is_integer
 
+from . import _objective_kernels
 from .curves import PointSet, get_curve
 from .objectives import DataInfo, Objective, get_objective
+
+_NO_VALUES = np.empty(0)
 
 __all__ = ["FreeKnotSpace", "FreeKnots", "KnotIndices", "KnotProblem", "KnotSelection",
            "KnotSolution", "KnotSpace"]
@@ -176,15 +177,16 @@ class KnotProblem(Problem):
 
     def evaluate_with_metrics(self, X: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """Objective values plus ``rmse``, ``n_control_points`` (and ``max_deviation`` when the
-        objective computes it) per candidate; NaN for infeasible candidates.
+        objective computes it) per candidate; NaN for infeasible candidates. ``X`` is a batch
+        checked by the encoding, as the evaluator passes it.
 
         A subclass that overrides :meth:`evaluate` is respected: its values are returned,
         without metrics.
         """
         if type(self).evaluate is not KnotProblem.evaluate:
             return self.evaluate(X), {}
-        values, fit = self.evaluate_details(X)
-        return values, self._metrics(fit)
+        fit = self._fit_batch(X)  # checked by the evaluator
+        return self._values(fit), self._metrics(fit)
 
     def evaluate_near(self, X: np.ndarray, near: np.ndarray
                       ) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
@@ -206,8 +208,7 @@ class KnotProblem(Problem):
             and type(self).evaluate is KnotProblem.evaluate else None
         if moves is None:
             return (*self.evaluate_with_metrics(X), 0)
-        X = self.encoding.check(X)
-        fit, path = self._evaluate_moves(moves, X, near)
+        fit, path = self._evaluate_moves(moves, X, near)  # X checked by the evaluator
         delta = int(path[0] == PATH_DELTA) if path.size == 1 else path == PATH_DELTA
         return self._values(fit), self._metrics(fit), delta
 
@@ -232,37 +233,20 @@ class KnotProblem(Problem):
         return moves.evaluate(*self._stack(X), max_deviation=self.objective.needs_max_deviation)
 
     def _values(self, fit: BatchFit) -> np.ndarray:
-        """The objective's values of the fitted candidates (of a single one from plain numbers,
-        when the objective can: :meth:`Objective.single`)."""
-        if len(fit) == 1 and problem_module.SINGLE_CANDIDATE_PATH:
-            value = self.objective.single(fit, self.info)
-            if value is not None:
-                return np.array([value])
+        """The objective's values of the fitted candidates."""
         return self.objective(fit, self.info)
 
     def _metrics(self, fit: BatchFit) -> dict[str, np.ndarray]:
-        if len(fit) == 1 and problem_module.SINGLE_CANDIDATE_PATH:
-            return self._single_metrics(fit)
-        ok = fit.feasible
-        metrics = {
-            "rmse": np.where(ok, np.sqrt(fit.sse / self.data.n_points), np.nan),
-            "n_control_points": np.where(ok, fit.n_control_points, np.nan),
-        }
-        if fit.max_deviation is not None:
-            metrics["max_deviation"] = np.where(ok, fit.max_deviation, np.nan)
-        return metrics
-
-    def _single_metrics(self, fit: BatchFit) -> dict[str, np.ndarray]:
-        """:meth:`_metrics` of a single candidate, from plain numbers."""
-        if fit.reason[0] != 0:
-            metrics = {"rmse": np.array([math.nan]), "n_control_points": np.array([math.nan])}
-            if fit.max_deviation is not None:
-                metrics["max_deviation"] = np.array([math.nan])
-            return metrics
-        metrics = {"rmse": np.array([math.sqrt(fit.sse.item() / self.data.n_points)]),
-                   "n_control_points": np.array([float(fit.n_control_points.item())])}
-        if fit.max_deviation is not None:
-            metrics["max_deviation"] = np.array([fit.max_deviation.item()])
+        """``rmse``, ``n_control_points`` (and ``max_deviation`` when computed) per candidate;
+        NaN for an infeasible one."""
+        size, deviation = fit.sse.size, fit.max_deviation
+        metrics = {"rmse": np.empty(size), "n_control_points": np.empty(size)}
+        if deviation is not None:
+            metrics["max_deviation"] = np.empty(size)
+        _objective_kernels.metrics(
+            fit.sse, fit.sse if deviation is None else deviation, fit.n_control_points,
+            fit.reason, self.data.n_points, metrics["rmse"], metrics["n_control_points"],
+            metrics.get("max_deviation", _NO_VALUES))
         return metrics
 
     def decode(self, x: ArrayLike) -> KnotSolution:

@@ -16,6 +16,8 @@ from numpy.typing import ArrayLike
 
 from metaknot.bspline import BatchFit
 
+from . import _objective_kernels
+
 __all__ = ["BIC", "OBJECTIVES", "RMSE", "DataInfo", "ErrorBounded", "Objective", "Paper", "Pareto",
            "get_objective"]
 
@@ -49,23 +51,6 @@ class Objective(ABC):
 
     @abstractmethod
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray: ...
-
-    def value(self, sse: float, max_deviation: float, n_control_points: int,
-              data: DataInfo) -> float:
-        """The value of one feasible candidate from plain numbers: :meth:`__call__`'s formula
-        on floats, giving the same value bit for bit. Optional: an objective that has it makes
-        a sequential optimizer's single evaluations cheaper (:meth:`single`)."""
-        raise NotImplementedError
-
-    def single(self, fit: BatchFit, data: DataInfo) -> float | None:
-        """The value of the one candidate of ``fit`` (``+inf`` if infeasible) by :meth:`value`,
-        or None if the objective has no :meth:`value` (then :meth:`__call__` decides)."""
-        if type(self).value is Objective.value:
-            return None
-        if fit.reason[0] != 0:
-            return math.inf
-        deviation = math.nan if fit.max_deviation is None else fit.max_deviation.item()
-        return self.value(fit.sse.item(), deviation, fit.n_control_points.item(), data)
 
     def options(self) -> dict[str, Any]:
         """The objective's options (its constructor arguments)."""
@@ -107,13 +92,11 @@ class Paper(Objective):
         self.error_floor = _check_nonneg("error_floor", error_floor)
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
-        floor = self.error_floor * data.scale * np.sqrt(data.n_points)
-        distance = np.maximum(np.sqrt(fit.sse), floor)
-        return np.where(fit.feasible, fit.n_control_points * distance, np.inf)
-
-    def value(self, sse, max_deviation, n_control_points, data):
         floor = self.error_floor * data.scale * math.sqrt(data.n_points)
-        return n_control_points * max(math.sqrt(sse), floor)
+        values = np.empty(fit.sse.size)
+        _objective_kernels.paper(fit.sse, fit.n_control_points, fit.reason, floor, values)
+        return values
+
 
 
 class BIC(Objective):
@@ -140,13 +123,6 @@ class BIC(Objective):
             value = n * np.log(sse / n) + np.log(n) * k
         return np.where(fit.feasible, value, np.inf)
 
-    def value(self, sse, max_deviation, n_control_points, data):
-        n = data.n_points * data.dim
-        floor = (self.error_floor * data.scale) ** 2 * n
-        sse = max(sse, max(floor, np.finfo(float).tiny))
-        n_interior = n_control_points - data.extra_control_points
-        k = data.dim * n_control_points + n_interior
-        return float(n * np.log(sse / n) + np.log(n) * k)  # numpy's log, as for a batch
 
 
 class ErrorBounded(Objective):
@@ -186,18 +162,15 @@ class ErrorBounded(Objective):
             self.relative_tolerance * data.scale
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
-        tol = self.bound(data)
-        err = fit.max_deviation if self.metric == "max_deviation" else \
-            np.sqrt(fit.sse / data.n_points)
-        ratio = err / tol
-        value = np.where(ratio <= 1.0, fit.n_control_points + ratio, data.n_points + 2 + ratio)
-        return np.where(fit.feasible, value, np.inf)
+        by_max_deviation = self.metric == "max_deviation"
+        if by_max_deviation and fit.max_deviation is None:
+            raise ValueError("error_bounded by max_deviation needs fits with max_deviation")
+        values = np.empty(fit.sse.size)
+        _objective_kernels.error_bounded(
+            fit.sse, fit.max_deviation if by_max_deviation else fit.sse, fit.n_control_points,
+            fit.reason, data.n_points, self.bound(data), by_max_deviation, values)
+        return values
 
-    def value(self, sse, max_deviation, n_control_points, data):
-        err = max_deviation if self.metric == "max_deviation" else \
-            math.sqrt(sse / data.n_points)
-        ratio = err / self.bound(data)
-        return n_control_points + ratio if ratio <= 1.0 else data.n_points + 2 + ratio
 
 
 class RMSE(Objective):
@@ -213,10 +186,10 @@ class RMSE(Objective):
     ratio_scale = True
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
-        return np.where(fit.feasible, np.sqrt(fit.sse / data.n_points), np.inf)
+        values = np.empty(fit.sse.size)
+        _objective_kernels.rmse(fit.sse, fit.reason, data.n_points, values)
+        return values
 
-    def value(self, sse, max_deviation, n_control_points, data):
-        return math.sqrt(sse / data.n_points)
 
 
 class Pareto(Objective):

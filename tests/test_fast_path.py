@@ -1,10 +1,10 @@
-"""The small-batch paths give the results of the general batch path, bit for bit.
+"""Small batches give the results of large ones, bit for bit.
 
-Batches of one candidate take scalar paths (the evaluator's bookkeeping, the knot problems'
-objective and metrics) and batches of a few candidates are fitted on the calling thread. The
-general path is forced by ``metaknot.problem.SINGLE_CANDIDATE_PATH = False`` and
-``metaknot.bspline.fit.SERIAL_BATCH = 0``; every registered optimizer must then leave the same
-run: best candidate, best value, trace and metrics.
+Batches of a few candidates are fitted on the calling thread; ``metaknot.bspline.fit.
+SERIAL_BATCH = 0`` sends every batch to the kernel's thread pool, and every registered
+optimizer must then leave the same run: best candidate, best value, trace and metrics. The
+objectives and metrics have one path for a batch of any size; their values are checked here
+against the documented formulas, written with numpy.
 """
 
 from __future__ import annotations
@@ -15,11 +15,10 @@ import numpy as np
 import pytest
 
 import metaknot as mk
-from metaknot import problem as problem_module
 from metaknot.bspline import fit as fit_module
 from metaknot.bspline.curve import make_curve
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
-from metaknot.problems.objectives import OBJECTIVES, DataInfo, get_objective
+from metaknot.problems.objectives import DataInfo, get_objective
 from tests.test_all_optimizers import CASES, IDS
 
 SPIRAL = get_curve("archimedean", n_points=60)
@@ -28,13 +27,13 @@ OUTLINE = get_curve("epitrochoid", n_points=80)
 
 @contextlib.contextmanager
 def general_path():
-    """Every batch through the general path: array arithmetic, the kernel's thread pool."""
-    single, serial = problem_module.SINGLE_CANDIDATE_PATH, fit_module.SERIAL_BATCH
-    problem_module.SINGLE_CANDIDATE_PATH, fit_module.SERIAL_BATCH = False, 0
+    """Every batch through the kernel's thread pool."""
+    serial = fit_module.SERIAL_BATCH
+    fit_module.SERIAL_BATCH = 0
     try:
         yield
     finally:
-        problem_module.SINGLE_CANDIDATE_PATH, fit_module.SERIAL_BATCH = single, serial
+        fit_module.SERIAL_BATCH = serial
 
 
 def make(kind: str, closed: bool, **options) -> mk.Problem:
@@ -109,16 +108,60 @@ def random_batch(rng: np.random.Generator, size: int) -> fit_module.BatchFit:
     return fit_module.BatchFit(sse, deviation, rng.integers(4, 60, size), reason)
 
 
-@pytest.mark.parametrize("name", [n for n in OBJECTIVES if OBJECTIVES[n].n_objectives == 1])
-def test_each_objective_values_one_candidate_as_its_batch_does(name):
-    objective = get_objective(name)
+def reference_values(name: str, fit: fit_module.BatchFit, data: DataInfo,
+                     options: dict) -> np.ndarray:
+    """The objectives' formulas as their docstrings state them, in numpy."""
+    ok = fit.reason == 0
+    rmse = np.sqrt(fit.sse / data.n_points)
+    if name == "paper":
+        floor = options.get("error_floor", 1e-5) * data.scale * np.sqrt(data.n_points)
+        value = fit.n_control_points * np.maximum(np.sqrt(fit.sse), floor)
+    elif name == "rmse":
+        value = rmse
+    elif name == "error_bounded":
+        error = rmse if options.get("metric") == "rmse" else fit.max_deviation
+        ratio = error / (options.get("relative_tolerance", 1e-3) * data.scale)
+        value = np.where(ratio <= 1.0, fit.n_control_points + ratio,
+                         data.n_points + 2 + ratio)
+    else:
+        n = data.n_points * data.dim
+        sse = np.maximum(fit.sse, max((options.get("error_floor", 1e-9) * data.scale) ** 2 * n,
+                                      np.finfo(float).tiny))
+        k = data.dim * fit.n_control_points + fit.n_control_points - data.extra_control_points
+        with np.errstate(invalid="ignore", over="ignore"):
+            value = n * np.log(sse / n) + np.log(n) * k
+    return np.where(ok, value, np.inf)
+
+
+@pytest.mark.parametrize(("name", "options"), [
+    *OBJECTIVE_OPTIONS, ("error_bounded", {"relative_tolerance": 1e-8})], ids=str)
+def test_each_objective_values_a_batch_and_each_candidate_by_its_formula(name, options):
+    objective = get_objective(name, **options)
     data = DataInfo(n_points=361, dim=2, scale=7.5, degree=3, extra_control_points=4)
     batch = random_batch(np.random.default_rng(4), 2000)
     values = objective(batch, data)
-    for b in range(len(batch)):
+    np.testing.assert_array_equal(values, reference_values(name, batch, data, options))
+    assert values.dtype == np.float64 and np.isinf(values[batch.reason != 0]).all()
+    for b in range(0, len(batch), 7):
         one = fit_module.BatchFit(batch.sse[b:b + 1], batch.max_deviation[b:b + 1],
                                   batch.n_control_points[b:b + 1], batch.reason[b:b + 1])
-        assert objective.single(one, data) == values[b]
+        assert objective(one, data)[0] == values[b]
+
+
+def test_run_metrics_are_those_of_the_fits_and_nan_where_infeasible():
+    problem = make("binary", False, objective="error_bounded")
+    X = np.random.default_rng(5).integers(0, 2, (300, problem.encoding.n_var))
+    X[:40] = 1  # more control points than a fit allows: infeasible
+    _, fit = problem.evaluate_details(X)
+    _, metrics = problem.evaluate_with_metrics(X)
+    ok = fit.reason == 0
+    assert 0 < ok.sum() < len(ok)
+    expected = {"rmse": np.sqrt(fit.sse / problem.data.n_points),
+                "n_control_points": fit.n_control_points.astype(float),
+                "max_deviation": fit.max_deviation}
+    assert metrics.keys() == expected.keys()
+    for name, column in expected.items():
+        np.testing.assert_array_equal(metrics[name], np.where(ok, column, np.nan), err_msg=name)
 
 
 def test_the_serial_kernel_fits_as_the_thread_pool_does():
