@@ -4,9 +4,9 @@ The evaluator counts the candidates it scores; this module counts, independently
 model layer computes. metaknot's B-spline layer (the batched kernels, the move evaluator, the
 periodic kernel and the single fits of :mod:`metaknot.bspline`) adds every fit it makes with
 :func:`add_fits`, whoever calls it. :func:`metaknot.minimize` compares the fits tallied during a
-run with those the run accounts for (its evaluations, the fits its evaluator made on their behalf
-and the fits the optimizer declared with :meth:`metaknot.Task.count_fits`); more fits than that
-mark the run ``status="budget_violation"``.
+run with those the run accounts for (its evaluations, further fits made during its evaluator's
+calls, and the fits the optimizer declared with :meth:`metaknot.Task.count_fits`); more fits
+than that mark the run ``status="budget_violation"``.
 
 The tally is per thread, so runs in different threads of one process audit only their own fits.
 A problem whose model is not metaknot's spline layer can take part by calling :func:`add_fits`

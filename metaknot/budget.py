@@ -78,10 +78,11 @@ class Evaluator:
         Evaluations the problem decided by exact delta evaluation (batches passed with
         ``near``; see :meth:`__call__`).
     accounted_fits
-        The model fits this evaluator accounts for (see :mod:`metaknot.audit`): its
-        evaluations, the fits the problem made beyond one per candidate while evaluating them
-        (a move evaluator moved to a new incumbent), fits made by callbacks, and the declared
-        external fits.
+        The model fits this evaluator accounts for (see :mod:`metaknot.audit`): one per
+        evaluation, the fits made during its calls beyond those (rows scored and dropped
+        after an accepted one, a move evaluator moved to a new incumbent, the callbacks'),
+        and the declared external fits. Evaluations made beyond the budget by tampering
+        with the count are fits it does not account for.
 
     Every attribute is read-only: the budget is fixed when the evaluator is made, and the
     counters change only by evaluating.
@@ -98,8 +99,7 @@ class Evaluator:
         self._best_f = np.inf
         self._external_fits = 0
         self._delta_evaluations = 0
-        self._extra_fits = 0  # fits beyond one per candidate, made inside evaluations
-        self._callback_fits = 0
+        self._extra_fits = 0  # fits made during its calls beyond one per evaluation counted
         self._stop_requested = False
         n_objectives = getattr(problem, "n_objectives", 1)
         if n_objectives not in (1, 2):
@@ -139,9 +139,9 @@ class Evaluator:
 
     @property
     def accounted_fits(self) -> int:
-        """Model fits this evaluator accounts for (evaluations, fits made inside them beyond one
-        per candidate, fits made by callbacks, declared external fits)."""
-        return self._n_evaluations + self._extra_fits + self._callback_fits + self._external_fits
+        """Model fits this evaluator accounts for: one per evaluation, those made during its
+        calls beyond that, and the declared external fits."""
+        return self._n_evaluations + self._extra_fits + self._external_fits
 
     @property
     def remaining(self) -> int:
@@ -199,7 +199,17 @@ class Evaluator:
         X = X[: self.remaining]
         if X.shape[0] == 0:
             return np.empty(0)
-        fits_before = audit.fits()
+        fits_before, evaluations_before = audit.fits(), self._n_evaluations
+        try:
+            return self._score(X, near, accept)
+        finally:  # the call's fits (the problem's and the callbacks') beyond its evaluations
+            self._extra_fits += max(0, audit.fits() - fits_before
+                                    - (self._n_evaluations - evaluations_before))
+
+    def _score(self, X: np.ndarray, near: np.ndarray | None, accept: np.ndarray | None
+               ) -> np.ndarray:
+        """:meth:`__call__` on a checked, non-empty batch within the budget."""
+        problem = self._problem
         if near is not None:
             F, metrics, delta = problem.evaluate_near(X, np.asarray(near))
         else:
@@ -222,7 +232,6 @@ class Evaluator:
         # delta: which rows the delta path decided (an array), or how many (at most the kept)
         self._delta_evaluations += int(np.count_nonzero(delta[: F.size])) \
             if isinstance(delta, np.ndarray) else min(int(delta), F.size)
-        self._extra_fits += max(0, audit.fits() - fits_before - X.shape[0])
         front = self._front
         if front is None:
             best = int(F.argmin())  # the first NaN, if there is one
@@ -268,7 +277,7 @@ class Evaluator:
     def _warn_nan(self, F: np.ndarray) -> np.ndarray:
         """``F`` with NaN counted as +inf, and a warning that the problem returned NaN."""
         warnings.warn(f"{type(self._problem).__name__}.evaluate returned NaN; counted as +inf",
-                      RuntimeWarning, stacklevel=3)
+                      RuntimeWarning, stacklevel=4)
         return np.where(np.isnan(F), np.inf, F)
 
     def _after_batch(self, scalar: np.ndarray, metrics: dict[str, np.ndarray]) -> None:
@@ -276,11 +285,9 @@ class Evaluator:
         the run."""
         progress = Progress(self._n_evaluations, self._budget, self._best_f, scalar,
                             time.perf_counter() - self._start, metrics)
-        fits_before = audit.fits()
         for on_batch in self._on_batch:
             if on_batch(progress):
                 self._stop_requested = True
-        self._callback_fits += audit.fits() - fits_before
 
 
 def _batch_hook(callback: Any) -> Callable[[Progress], bool | None]:

@@ -76,9 +76,10 @@ def minimize(
     RunResult
         Best solution, its decoded spline, the trace and the timings. The run is audited: if
         the model layer made more fits while the optimizer was set up and ran than the run
-        accounts for (its evaluations, fits made inside them, declared external fits), or the
-        budget changed, the result has ``status="budget_violation"``, the reason in ``error``
-        and both counts (``audited_fits``, ``accounted_fits``).
+        accounts for (its evaluations, further fits made during the evaluator's calls,
+        declared external fits), or the budget changed, the result has
+        ``status="budget_violation"``, the reason in ``error`` and both counts
+        (``audited_fits``, ``accounted_fits``).
 
     Raises
     ------
@@ -182,7 +183,7 @@ class _Audit:
                 f"for {self.accounted_fits} ({evaluator.n_evaluations} evaluations, "
                 f"{evaluator.external_fits} declared external fits and "
                 f"{self.accounted_fits - evaluator.n_evaluations - evaluator.external_fits} "
-                "made by the evaluator and callbacks)")
+                "more made during the evaluator's calls)")
         self.violation = "; ".join(problems) or None
 
 
