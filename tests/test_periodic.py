@@ -227,7 +227,7 @@ def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> Non
         bad_range = ~((safe > 0.0) & (safe < 1.0))
         safe[bad_range] = 0.5
         sse, max_dev, n_ctrl, reason = out = _outputs(len(rows), max_deviation)
-        _periodic_kernel.evaluate_batch(u, points, 3, safe, offsets, max_deviation, *out)
+        _periodic_kernel.evaluate_batch(u, points, 3, safe, offsets, max_deviation, *out, 4)
         row_of = np.repeat(np.arange(len(rows)), counts)
         same_row = row_of[1:] == row_of[:-1]
         coincident = np.zeros(len(rows), dtype=bool)
@@ -397,43 +397,54 @@ def test_a_breakpoint_at_every_point_of_a_seed_outline_is_fitted(name) -> None:
     assert residuals.max() < 1e-9 * curve.points.std()
 
 
-def test_the_generated_row_loops_are_current() -> None:
-    """``_periodic_rows.py`` must be what ``python -m metaknot.bspline._periodic_codegen``
-    writes."""
-    from metaknot.bspline import _periodic_codegen
-
-    assert _periodic_codegen.TARGET.read_text() == _periodic_codegen.render(), (
-        "metaknot/bspline/_periodic_rows.py is stale: run "
-        "`python -m metaknot.bspline._periodic_codegen`")
-
-
-def test_the_generated_row_loops_give_the_generic_loop_s_bits() -> None:
-    """Every generated (degree, dimension): the same SSE, reason, coefficients, basis values
-    and spans as the generic loop, to the last bit, on random data and breakpoints (few
-    breakpoints, so that basis functions wrap onto one coefficient, included)."""
-    from metaknot.bspline import _periodic_codegen
-    from metaknot.bspline._periodic_kernel import extended_knots, fit_one
+def test_every_degree_and_dimension_fits_as_dense_least_squares() -> None:
+    """The closed fit (the open kernel's generated rows for the spans from breakpoint p on,
+    the rows across the seam after them) against dense least squares on the wrapped design
+    matrix, for every degree and dimension, on random data and breakpoints: few breakpoints
+    (m = p: basis functions that wrap onto one coefficient; m = p + 1: no span without seam
+    rows but one), data at a breakpoint, spans without data (singular), many points."""
+    from metaknot.bspline._periodic_kernel import evaluate_batch
 
     rng = np.random.default_rng(3)
-    pairs = [(p, d) for p in _periodic_codegen.DEGREES for d in _periodic_codegen.DIMENSIONS]
-    assert pairs
-    for p, d in pairs:
-        for trial in range(40):
-            u = np.unique(np.concatenate(([0.0], rng.random(int(rng.integers(p + 2, 150))))))
-            q = rng.normal(size=(u.size, d))
-            m = int(rng.integers(p, max(p + 1, u.size // 2)))
-            breaks = np.concatenate(([0.0], np.sort(rng.choice(u[1:], m - 1, replace=False))))
-            t = np.empty(m + 2 * p + 1)
-            extended_knots(breaks, p, t)
-            out = []
-            for generated in (True, False):
-                coef = np.zeros((m, d))
-                basis, spans = np.zeros((u.size, p + 1)), np.zeros(u.size, dtype=np.int64)
-                out.append((fit_one(u, q, t, p, coef, basis, spans, generated), coef, basis,
-                            spans))
-            (r1, c1, b1, s1), (r2, c2, b2, s2) = out
-            assert r1 == r2, (p, d, m, trial)
-            assert np.array_equal(c1, c2) and np.array_equal(b1, b2) and np.array_equal(s1, s2)
+    checked = singular = 0
+    for p in range(1, 6):
+        for d in range(1, 4):
+            for trial in range(30):
+                u = np.unique(np.concatenate(([0.0], rng.random(int(rng.integers(p + 2, 150))))))
+                q = rng.normal(size=(u.size, d))
+                m = [p, p + 1, int(rng.integers(p, max(p + 1, u.size // 2 + 1)))][trial % 3]
+                m = min(m, u.size)
+                chosen = rng.choice(u[1:], m - 1, replace=False) if trial % 2 else \
+                    rng.uniform(0, 1, m - 1)
+                interior = np.sort(chosen)
+                outputs = (np.empty(1), np.empty(1), np.empty(1, dtype=np.int64),
+                           np.empty(1, dtype=np.int8))
+                evaluate_batch(u, q, p, interior, np.array([0, m - 1]), True, *outputs, 1)
+                sse, max_dev, n_ctrl, reason = (value[0] for value in outputs)
+                reference = dense_reference(u, q, interior, p)
+                assert n_ctrl == m
+                if reference is None:
+                    assert reason != 0, (p, d, m, trial)
+                    singular += 1
+                    continue
+                if reason != 0:  # only where dense least squares is near singular too
+                    assert dense_reference(u, q, interior, p) is None or \
+                        np.linalg.cond(_wrapped(u, interior, p)) > 1e9, (p, d, m, trial)
+                    continue
+                checked += 1
+                scale = float((q**2).sum())
+                np.testing.assert_allclose(sse, reference[0], rtol=1e-9, atol=1e-12 * scale)
+                np.testing.assert_allclose(max_dev, reference[1], rtol=1e-7, atol=1e-9)
+    assert checked > 300 and singular > 10
+
+
+def _wrapped(u: np.ndarray, interior: np.ndarray, degree: int) -> np.ndarray:
+    t = periodic_knot_vector(interior, degree)
+    m = t.size - 2 * degree - 1
+    full = BSpline.design_matrix(u, t, degree).toarray()
+    wrapped = full[:, :m].copy()
+    wrapped[:, :degree] += full[:, m:]
+    return wrapped
 
 
 def _closed_calls():
@@ -499,3 +510,15 @@ def test_fit_periodic_refuses_interior_knots_of_two_dimensions() -> None:
     u = closed_parameterize(points)
     with pytest.raises(ValueError, match="interior_knots must be 1-D"):
         fit_periodic(u, points, np.array([[0.2, 0.4, 0.6, 0.8]]))
+
+
+def test_points_of_more_than_three_coordinates_are_refused_as_on_open_curves() -> None:
+    from metaknot.bspline.curve import make_curve
+
+    points = outline(60, dim=3)
+    points = np.column_stack((points, points[:, 0]))
+    for closed in (False, True):
+        with pytest.raises(ValueError, match="1 to 3 coordinates"):
+            make_curve(points, closed=closed)
+    with pytest.raises(ValueError, match="1 to 3 coordinates"):
+        fit_periodic(closed_parameterize(points), points, [0.3, 0.6])

@@ -378,3 +378,149 @@ def masks_to_knots(u, masks):
             knots[pos] = u[i + 1]
             pos += masks[b, i]
     return knots, offsets
+
+
+# -------------------------------------------------------------------------------------------
+# Closed curves: the same factorisation with wrap-around columns
+
+
+@njit(cache=True)
+def basis_at(t, span, x, p, out, left, right):
+    """The ``p + 1`` nonzero B-splines at ``x`` in knot span ``span`` of ``t`` (NURBS Book
+    A2.2, with its divisions): for the few rows that the generated loops do not take."""
+    out[0] = 1.0
+    for j in range(1, p + 1):
+        left[j] = x - t[span + 1 - j]
+        right[j] = t[span + j] - x
+        saved = 0.0
+        for r in range(j):
+            temp = out[r] / (right[r + 1] + left[j - r])
+            out[r] = saved + right[r + 1] * temp
+            saved = left[j - r] * temp
+        out[j] = saved
+
+
+@njit(cache=True)
+def closed_workspaces(m, p, d):
+    """The workspaces of :func:`solve_closed_into` for ``m`` control points: the
+    reciprocals, the factor, its wrap-around entries, a dense row and the solution."""
+    return (np.empty((m + p + 1) * p), np.empty(m * (1 + p + d)), np.empty((m, p)),
+            np.empty(m + d), np.empty((m, d)))
+
+
+@njit(cache=True)
+def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
+    """Least-squares periodic spline on the extended knot vector ``t`` (``m + 2p + 1`` knots,
+    ``t[p:p + m + 1]`` the breakpoints from 0 to 1); the ``m`` coefficients go to ``coef`` in
+    their natural order. Returns (reason code, SSE).
+
+    The same factorisation as :func:`_solve_into`, with wrap-around columns. Unknown ``k`` of
+    the factor is coefficient ``(k + p) mod m``; a data row in natural span ``j >= p`` then
+    touches the unknowns ``j - p .. j``, a band as on an open curve, and is rotated in by the
+    generated row loop (called with ``t[p:]``). The rows of the spans ``j < p`` also touch the
+    last ``p`` unknowns (the wrap around the seam); they are rotated in afterwards, one at a
+    time, with the same square-root-free rotations: a row of the factor keeps its band, and the
+    entries it gains in the last ``p`` columns beyond its band in ``far``. An open curve is the
+    case without such rows.
+
+    A column whose pivot ``1 / sqrt(dinv)`` is at most ``pivot_ratio`` times the largest makes
+    the system singular. If ``basis`` is not empty, every row's basis values and natural span
+    are kept there. ``ws`` are the workspaces of :func:`closed_workspaces` for at least ``m``.
+    """
+    n, d = q.shape
+    m = t.size - 2 * p - 1
+    if m > n:
+        return TOO_MANY_CONTROL_POINTS, np.inf
+    iv, st, far, row, x = ws
+    width = 1 + p + d
+    shifted = t[p:]
+    reciprocals_into(shifted, p, iv)
+    st[: m * width] = 0.0
+    st[: m * width : width] = EMPTY
+    far[:m] = 0.0
+    seam = 0  # rows in the spans before breakpoint p
+    while seam < n and u[seam] < t[2 * p]:
+        seam += 1
+    keep = basis.shape[0] > 0
+    sse, _ = rows(u[seam:], q[seam:], shifted, iv, p, m, st,
+                  basis[seam:] if keep else basis, spans[seam:] if keep else spans)
+    values = row[m : m + d]  # the row's right-hand side lives behind its entries
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    h = np.empty(p + 1)
+    j = 0
+    for i in range(seam):
+        xi = u[i]
+        while j < p - 1 and xi >= t[p + j + 1]:
+            j += 1
+        basis_at(t, p + j, xi, p, h, left, right)
+        if keep:
+            spans[i] = j
+            for k in range(p + 1):
+                basis[i, k] = h[k]
+        row[:m] = 0.0
+        for k in range(p + 1):  # extended function j + k is unknown (j + k - p) mod m
+            e = j + k
+            row[e - p if e >= p else m - p + e] += h[k]
+        for c in range(d):
+            values[c] = q[i, c]
+        big_w = 1.0
+        absorbed = False
+        for col in range(m):
+            hc = row[col]
+            if hc == 0.0:  # a rotation by a zero entry changes nothing
+                continue
+            o = col * width
+            di = st[o]
+            if di == EMPTY:  # an empty column takes the row, scaled: nothing of it is left
+                inv = 1.0 / hc
+                st[o] = big_w * inv * inv
+                for a in range(1, min(p, m - 1 - col) + 1):
+                    st[o + a] = row[col + a] * inv
+                for k in range(max(0, col + 2 * p + 1 - m), p):
+                    far[col, k] = row[m - p + k] * inv
+                for c in range(d):
+                    st[o + p + 1 + c] = values[c] * inv
+                absorbed = True
+                break
+            hd = hc * di
+            bw = big_w + hc * hd
+            inv = 1.0 / bw
+            cb = big_w * inv
+            sb = hd * inv
+            st[o] = di * cb
+            for a in range(1, min(p, m - 1 - col) + 1):
+                ra = st[o + a]
+                st[o + a] = cb * ra + sb * row[col + a]
+                row[col + a] -= hc * ra
+            for k in range(max(0, col + 2 * p + 1 - m), p):  # columns beyond the band
+                ra = far[col, k]
+                far[col, k] = cb * ra + sb * row[m - p + k]
+                row[m - p + k] -= hc * ra
+            for c in range(d):
+                zk = st[o + p + 1 + c]
+                st[o + p + 1 + c] = cb * zk + sb * values[c]
+                values[c] -= hc * zk
+            row[col] = 0.0
+            big_w = bw
+        if not absorbed:
+            left_over = 0.0
+            for c in range(d):
+                left_over += values[c] * values[c]
+            sse += left_over / big_w
+    smallest_dinv, largest_dinv, _, _ = bound(st, p, width, m)
+    if not (smallest_dinv > 0.0 and smallest_dinv > pivot_ratio * pivot_ratio * largest_dinv):
+        return SINGULAR, np.inf
+    for i in range(m - 1, -1, -1):  # back substitution, band and wrap-around entries
+        o = i * width
+        for c in range(d):
+            v = st[o + p + 1 + c]
+            for a in range(1, min(p, m - 1 - i) + 1):
+                v -= st[o + a] * x[i + a, c]
+            for k in range(max(0, i + 2 * p + 1 - m), p):
+                v -= far[i, k] * x[m - p + k, c]
+            x[i, c] = v
+    for ci in range(m):
+        for c in range(d):
+            coef[ci, c] = x[ci - p if ci >= p else m - p + ci, c]
+    return FEASIBLE, sse

@@ -1,9 +1,9 @@
-"""Compiled least squares for periodic B-splines (closed outlines), a batch at a time.
+"""Periodic B-splines (closed outlines): the extended knot vector, the batch of fits, the
+maximum deviation, and the rotations the closed move evaluator (:mod:`._periodic_moves`)
+builds its factors with.
 
-The m unknowns are ordered c_p .. c_{m-1}, c_0 .. c_{p-1}: every data row then has its p + 1
-nonzeros in a band of the first m - p columns plus some of the last p columns (the wrap around
-the seam). Givens rotations row by row keep R as a band (p + 1 wide) plus a dense block of the
-last p columns and a p x p triangle at the end: O(N p^2) per candidate, like the open kernel.
+A fit is :func:`metaknot.bspline._kernel.solve_closed_into`: the open curves' factorisation
+with wrap-around columns, its rows generated for every degree and dimension.
 """
 
 from __future__ import annotations
@@ -13,53 +13,17 @@ import math
 import numba
 import numpy as np
 
-from . import _periodic_rows
 from ._kernel import (
     COINCIDENT_KNOTS,
     FEASIBLE,
     KNOT_OUT_OF_RANGE,
     SINGULAR,
-    TOO_MANY_CONTROL_POINTS,
-    reciprocals_into,
+    closed_workspaces,
+    solve_closed_into,
 )
 
 # A pivot of the factor at most this fraction of the largest one makes the system singular.
 PIVOT_RATIO = 1e-11
-
-
-@numba.njit(cache=True)
-def _basis(t: np.ndarray, span: int, x: float, p: int, out: np.ndarray,
-           left: np.ndarray, right: np.ndarray) -> None:
-    """The p + 1 nonzero B-splines at x in knot span ``span`` (NURBS Book A2.2)."""
-    out[0] = 1.0
-    for j in range(1, p + 1):
-        left[j] = x - t[span + 1 - j]
-        right[j] = t[span + j] - x
-        saved = 0.0
-        for r in range(j):
-            temp = out[r] / (right[r + 1] + left[j - r])
-            out[r] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        out[j] = saved
-
-
-@numba.njit(cache=True)
-def _basis_table(t: np.ndarray, span: int, x: float, p: int, iv: np.ndarray, out: np.ndarray,
-                 left: np.ndarray, right: np.ndarray) -> None:
-    """:func:`_basis` with the reciprocal knot differences looked up in ``iv``
-    (:func:`~metaknot.bspline._kernel.reciprocals_into` of ``t``) instead of divided."""
-    size = t.size
-    out[0] = 1.0
-    for j in range(1, p + 1):
-        left[j] = x - t[span + 1 - j]
-        right[j] = t[span + j] - x
-        saved = 0.0
-        row = (j - 1) * size + span + 1 - j
-        for r in range(j):
-            temp = out[r] * iv[row + r]
-            out[r] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        out[j] = saved
 
 
 @numba.njit(cache=True, inline="always")
@@ -148,96 +112,15 @@ def rotate_row(band: np.ndarray, tail: np.ndarray, rhs: np.ndarray, nb: int, p: 
 
 @numba.njit(cache=True)
 def fit_one(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray,
-            basis: np.ndarray, spans: np.ndarray, generated: bool = True) -> tuple:
-    """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots).
-    Writes the m distinct coefficients into ``coef[:m]`` and returns (sse, reason); unless
-    the workspaces ``basis`` (``(N, p + 1)``) and ``spans`` (``(N,)``) are empty, keeps every
-    row's basis values and span there (for :func:`deviation_from_basis`). ``generated``: the
-    row loop generated for the degree and dimension, where there is one (``_periodic_rows``:
-    the same rotations, so the same result, as the loop here, which runs otherwise)."""
-    n, d = q.shape
+            basis: np.ndarray, spans: np.ndarray) -> tuple:
+    """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots):
+    the ``m`` coefficients into ``coef[:m]``; returns (sse, reason). Unless the workspaces
+    ``basis`` (``(N, p + 1)``) and ``spans`` (``(N,)``) are empty, keeps every row's basis
+    values and natural span there (for :func:`deviation_from_basis`)."""
     m = t.size - 2 * p - 1
-    if m > n:
-        return np.inf, TOO_MANY_CONTROL_POINTS
-    keep = basis.shape[0] > 0
-    nb = m - p  # band columns
-    band = np.zeros((max(nb, 1), p + 1))  # band[r, k]: column r + k (if < nb)
-    tail = np.zeros((m, p))  # tail[r, k]: column nb + k, for every row r of R
-    has_tail = np.zeros(m, dtype=np.bool_)  # row r of R has a nonzero tail entry
-    rhs = np.zeros((m, d))
-    row = np.zeros(m)
-    row_rhs = np.zeros(d)
-    values = np.empty(p + 1)
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
-    iv = np.empty(p * t.size)
-    reciprocals_into(t, p, iv)
-    sse = _periodic_rows.rows(u, q, t, iv, p, m, band, tail, has_tail, rhs, basis, spans,
-                              keep) if generated else -1.0
-    generic = sse < 0.0
-    if generic:
-        sse = 0.0
-    j = 0
-    for i in range(n if generic else 0):
-        x = u[i]
-        while j < m - 1 and x >= t[p + j + 1]:
-            j += 1
-        _basis_table(t, p + j, x, p, iv, values, left, right)
-        if keep:
-            spans[i] = j
-            for k in range(p + 1):
-                basis[i, k] = values[k]
-        first = nb  # smallest band column touched
-        row_tail = False  # the row has a nonzero tail entry
-        for k in range(p + 1):
-            ci = j + k
-            if ci >= m:
-                ci -= m
-            col = ci - p if ci >= p else nb + ci
-            row[col] += values[k]
-            if col < first:
-                first = col
-            row_tail |= col >= nb
-        for c in range(d):
-            row_rhs[c] = q[i, c]
-        rotate_row(band, tail, rhs, nb, p, d, row, row_rhs, first, row_tail, has_tail)
-        for c in range(d):
-            sse += row_rhs[c] * row_rhs[c]
-    # conditioning: a pivot far below the largest one means a rank-deficient system
-    largest = 0.0
-    for r in range(nb):
-        largest = max(largest, abs(band[r, 0]))
-    for k in range(p):
-        largest = max(largest, abs(tail[nb + k, k]))
-    for r in range(nb):
-        if abs(band[r, 0]) <= PIVOT_RATIO * largest:
-            return np.inf, SINGULAR
-    for k in range(p):
-        if abs(tail[nb + k, k]) <= PIVOT_RATIO * largest:
-            return np.inf, SINGULAR
-    # back substitution: the triangle, then the band rows
-    x_tail = np.zeros((p, d))
-    for k in range(p - 1, -1, -1):
-        r = nb + k
-        for c in range(d):
-            s = rhs[r, c]
-            for kk in range(k + 1, p):
-                s -= tail[r, kk] * x_tail[kk, c]
-            x_tail[k, c] = s / tail[r, k]
-    x_band = np.zeros((max(nb, 1), d))
-    for r in range(nb - 1, -1, -1):
-        for c in range(d):
-            s = rhs[r, c]
-            for k in range(1, p + 1):
-                if r + k < nb:
-                    s -= band[r, k] * x_band[r + k, c]
-            for k in range(p):
-                s -= tail[r, k] * x_tail[k, c]
-            x_band[r, c] = s / band[r, 0]
-    for ci in range(m):  # back to the natural order c_0 .. c_{m-1}
-        for c in range(d):
-            coef[ci, c] = x_band[ci - p, c] if ci >= p else x_tail[ci, c]
-    return sse, FEASIBLE
+    reason, sse = solve_closed_into(u, q, t, p, coef, basis, spans,
+                                    closed_workspaces(m, p, q.shape[1]), PIVOT_RATIO)
+    return sse, reason
 
 
 @numba.njit(cache=True)
@@ -305,30 +188,41 @@ def rows_to_knots(pos: np.ndarray, nan_is_absent: bool) -> tuple:
 def evaluate_batch(u: np.ndarray, q: np.ndarray, p: int, knots: np.ndarray,
                    offsets: np.ndarray, want_max: bool, sse: np.ndarray,
                    max_dev: np.ndarray, n_control: np.ndarray, reason: np.ndarray,
-                   generated: bool = True) -> None:
+                   n_chunks: int) -> None:
     """Fit every candidate: ``knots[offsets[b]:offsets[b+1]]`` are candidate b's interior
-    knots in (0, 1), sorted and distinct (``generated``: as :func:`fit_one`)."""
+    knots in (0, 1), sorted and distinct; the batch is split into ``n_chunks`` parts for
+    the threads."""
+    n_cand = offsets.size - 1
     d = q.shape[1]
-    for b in numba.prange(offsets.size - 1):
-        interior = knots[offsets[b] : offsets[b + 1]]
-        m = interior.size + 1
-        n_control[b] = m
-        if m < p:
-            sse[b], reason[b] = np.inf, SINGULAR
-            if want_max:
-                max_dev[b] = np.inf
-            continue
-        breaks = np.empty(m)
-        breaks[0] = 0.0
-        breaks[1:] = interior
-        t = np.empty(m + 2 * p + 1)
-        extended_knots(breaks, p, t)
-        coef = np.zeros((m, d))
+    m_max = 1
+    for b in range(n_cand):
+        m_max = max(m_max, offsets[b + 1] - offsets[b] + 1)
+    n_chunks = min(n_cand, max(n_chunks, 1))
+    for chunk in numba.prange(n_chunks):
+        # one set of workspaces per chunk, sized for the largest candidate
+        ws = closed_workspaces(m_max, p, d)
         rows = u.size if want_max else 0
         basis = np.empty((rows, p + 1))
         spans = np.empty(rows, dtype=np.int64)
-        value, code = fit_one(u, q, t, p, coef, basis, spans, generated)
-        sse[b], reason[b] = value, code
-        if want_max:
-            max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
-                if code == FEASIBLE else np.inf
+        breaks = np.empty(m_max)
+        t_ws = np.empty(m_max + 2 * p + 1)
+        coef_ws = np.empty((m_max, d))
+        for b in range(chunk * n_cand // n_chunks, (chunk + 1) * n_cand // n_chunks):
+            interior = knots[offsets[b] : offsets[b + 1]]
+            m = interior.size + 1
+            n_control[b] = m
+            if m < p:
+                sse[b], reason[b] = np.inf, SINGULAR
+                if want_max:
+                    max_dev[b] = np.inf
+                continue
+            breaks[0] = 0.0
+            breaks[1:m] = interior
+            t = t_ws[: m + 2 * p + 1]
+            extended_knots(breaks[:m], p, t)
+            coef = coef_ws[:m]
+            code, value = solve_closed_into(u, q, t, p, coef, basis, spans, ws, PIVOT_RATIO)
+            sse[b], reason[b] = value, code
+            if want_max:
+                max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
+                    if code == FEASIBLE else np.inf

@@ -58,11 +58,11 @@ from ._kernel import (
     KNOT_OUT_OF_RANGE,
     SINGULAR,
     TOO_MANY_CONTROL_POINTS,
+    basis_at,
 )
 from ._moves import CERTIFY, PATH_CHECKS, PATH_DELTA, PATH_FULL, check_offsets
 from ._periodic_kernel import (
     PIVOT_RATIO,
-    _basis,
     deviation_from_basis,
     extended_knots,
     fit_one,
@@ -239,7 +239,7 @@ def bind(u, q, t, p, cuts):
             j += 1
             row_start[j] = r
         spans[r] = j
-        _basis(t, p + j, x, p, basis[r], left, right)
+        basis_at(t, p + j, x, p, basis[r], left, right)
         for i in range(p + 1):
             column_sums[(j + i) % m] += basis[r, i]
     while j < m - 1:  # spans without rows (not in a feasible fit, but kept consistent)
@@ -455,7 +455,7 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
                 while j2 < m2 - 1 and x >= tb[p + j2 + 1]:
                     j2 += 1
                 hj = window_basis[r]
-                _basis(tb, p + j2, x, p, hj, left, right)
+                basis_at(tb, p + j2, x, p, hj, left, right)
                 k = j2 - s2
                 if k < 0:
                     k += m2

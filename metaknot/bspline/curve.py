@@ -508,11 +508,10 @@ def make_curve(points: ArrayLike, *, degree: int = 3, parameterization: str = "c
     p = check_degree(degree)
     closed = check_flag("closed", closed)
     q = as_points(points, degree=p)
+    if q.shape[1] > MAX_DIMENSION:
+        raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
+                         f"kernel's loops are generated for those); got {q.shape[1]}")
     if not closed:
-        if q.shape[1] > MAX_DIMENSION:
-            raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates for an open "
-                             f"curve (the compiled kernel's loops are generated for those); "
-                             f"got {q.shape[1]}")
         u = parameterize(q, params if params is not None else parameterization, degree=p)
         return OpenCurve(u, q, p)
     if params is not None:

@@ -18,12 +18,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
 from .. import audit
 from . import _kernel, _periodic_kernel
+from ._codegen import MAX_DIMENSION
 from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors, check_metric
 from .knots import as_positions, padded_rows, stack_rows
 from .parameterize import check_coordinates, check_degree
@@ -110,6 +112,9 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int
         raise ValueError(f"points must have shape (N, d); got an array with shape {q.shape}")
     if q.shape[1] < 1:
         raise ValueError(f"points must have at least one coordinate; got shape {q.shape}")
+    if q.shape[1] > MAX_DIMENSION:
+        raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
+                         f"kernel's loops are generated for those); got shape {q.shape}")
     if q.shape[0] < 3:
         raise ValueError(f"a closed curve needs at least 3 points; got {q.shape[0]}")
     check_coordinates(q, "points")
@@ -186,7 +191,8 @@ def _fit_flat(p: int, u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: 
     (nothing is checked; a row of coincident knots fits as singular): SSE, maximum deviation,
     control points, reason."""
     out = _outputs(offsets.size - 1, max_deviation)
-    _periodic_kernel.evaluate_batch(u, q, p, knots, offsets, max_deviation, *out)
+    _periodic_kernel.evaluate_batch(u, q, p, knots, offsets, max_deviation, *out,
+                                    8 * numba.get_num_threads())
     return out
 
 
