@@ -29,9 +29,8 @@ from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
 from metaknot.validate import check_flag, is_integer
 
-from . import _objective_kernels
 from .curves import PointSet, get_curve
-from .objectives import DataInfo, Objective, get_objective
+from .objectives import DataInfo, Objective, _metrics_kernel, get_objective
 
 _NO_VALUES = np.empty(0)
 
@@ -243,7 +242,7 @@ class KnotProblem(Problem):
         metrics = {"rmse": np.empty(size), "n_control_points": np.empty(size)}
         if deviation is not None:
             metrics["max_deviation"] = np.empty(size)
-        _objective_kernels.metrics(
+        _metrics_kernel(
             fit.sse, fit.sse if deviation is None else deviation, fit.n_control_points,
             fit.reason, self.data.n_points, metrics["rmse"], metrics["n_control_points"],
             metrics.get("max_deviation", _NO_VALUES))

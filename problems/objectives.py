@@ -12,11 +12,10 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike
 
 from metaknot.bspline import BatchFit
-
-from . import _objective_kernels
 
 __all__ = ["BIC", "OBJECTIVES", "RMSE", "DataInfo", "ErrorBounded", "Objective", "Paper", "Pareto",
            "get_objective"]
@@ -33,6 +32,55 @@ class DataInfo:
     scale: float
     degree: int
     extra_control_points: int
+
+
+# The formulas, compiled: one pass over a batch of fits, so a batch of one candidate costs one
+# call and a sequential optimizer takes the same code as a population. The caller allocates
+# the outputs (an array numpy made is returned faster than one made in compiled code). An
+# infeasible fit (reason not 0) scores +inf and has NaN metrics.
+
+
+@njit(cache=True)
+def _paper_kernel(sse, n_control_points, reason, floor, values):
+    """Control points x ``max(sqrt(SSE), floor)`` (:class:`~.objectives.Paper`)."""
+    for b in range(sse.size):
+        values[b] = n_control_points[b] * max(math.sqrt(sse[b]), floor) \
+            if reason[b] == 0 else math.inf
+
+
+@njit(cache=True)
+def _rmse_kernel(sse, reason, n_points, values):
+    """Root-mean-square point distance (:class:`~.objectives.RMSE`)."""
+    for b in range(sse.size):
+        values[b] = math.sqrt(sse[b] / n_points) if reason[b] == 0 else math.inf
+
+
+@njit(cache=True)
+def _error_bounded_kernel(sse, max_deviation, n_control_points, reason, n_points, tolerance,
+                  by_max_deviation, values):
+    """Control points plus error / tolerance within the tolerance, ``N + 2`` plus it beyond
+    (:class:`~.objectives.ErrorBounded`); the error is the maximum deviation or, unless
+    ``by_max_deviation``, the RMSE."""
+    beyond = n_points + 2
+    for b in range(sse.size):
+        error = max_deviation[b] if by_max_deviation else math.sqrt(sse[b] / n_points)
+        ratio = error / tolerance
+        value = n_control_points[b] + ratio if ratio <= 1.0 else beyond + ratio
+        values[b] = value if reason[b] == 0 else math.inf
+
+
+@njit(cache=True)
+def _metrics_kernel(sse, max_deviation, n_control_points, reason, n_points, rmse_values,
+            control_points, deviations):
+    """RMSE, control points and maximum deviation (unless ``deviations`` is empty) per fit
+    into the last three arrays, NaN for an infeasible fit."""
+    with_max_deviation = deviations.size > 0
+    for b in range(sse.size):
+        feasible = reason[b] == 0
+        rmse_values[b] = math.sqrt(sse[b] / n_points) if feasible else math.nan
+        control_points[b] = n_control_points[b] if feasible else math.nan
+        if with_max_deviation:
+            deviations[b] = max_deviation[b] if feasible else math.nan
 
 
 class Objective(ABC):
@@ -94,7 +142,7 @@ class Paper(Objective):
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
         floor = self.error_floor * data.scale * math.sqrt(data.n_points)
         values = np.empty(fit.sse.size)
-        _objective_kernels.paper(fit.sse, fit.n_control_points, fit.reason, floor, values)
+        _paper_kernel(fit.sse, fit.n_control_points, fit.reason, floor, values)
         return values
 
 
@@ -166,7 +214,7 @@ class ErrorBounded(Objective):
         if by_max_deviation and fit.max_deviation is None:
             raise ValueError("error_bounded by max_deviation needs fits with max_deviation")
         values = np.empty(fit.sse.size)
-        _objective_kernels.error_bounded(
+        _error_bounded_kernel(
             fit.sse, fit.max_deviation if by_max_deviation else fit.sse, fit.n_control_points,
             fit.reason, data.n_points, self.bound(data), by_max_deviation, values)
         return values
@@ -187,7 +235,7 @@ class RMSE(Objective):
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
         values = np.empty(fit.sse.size)
-        _objective_kernels.rmse(fit.sse, fit.reason, data.n_points, values)
+        _rmse_kernel(fit.sse, fit.reason, data.n_points, values)
         return values
 
 
