@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 __all__ = ["OnePlusOneEA", "distinct_positions", "flip_at_least_one", "step_at_least_one"]
 
@@ -171,7 +171,7 @@ class OnePlusOneEA(Optimizer):
     #: with one step per call: same draws, children, values and trace.
     lookahead = 64
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         n_var = problem.encoding.n_var
         self._rate = 1.0 / n_var if self.rate is None else self.rate

@@ -246,7 +246,11 @@ class Evaluator:
         best = int(np.argmin(scalar))
         if scalar[best] < self._best_f:
             self._best_f = float(scalar[best])
-            self._best_x = X[best].copy() if front is None else front.X[front.knee()].copy()
+            if front is None:
+                self._best_x = X[best].copy()
+            else:
+                assert front.X is not None  # a front with members (above)
+                self._best_x = front.X[front.knee()].copy()
         self._after_batch(scalar, metrics)
         return F
 

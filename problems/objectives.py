@@ -33,6 +33,15 @@ class DataInfo:
     extra_control_points: int
 
 
+def _error(fit: BatchFit, metric: str, n_points: int) -> np.ndarray:
+    """The error ``metric`` (``max_deviation`` or ``rmse``) of every candidate of a batch (an
+    objective that needs ``max_deviation`` says so: the problem has it computed)."""
+    if metric != "max_deviation":
+        return np.sqrt(fit.sse / n_points)
+    assert fit.max_deviation is not None  # needs_max_deviation
+    return fit.max_deviation
+
+
 class Objective(ABC):
     """Maps batch fit statistics to objective values (lower is better)."""
 
@@ -187,8 +196,7 @@ class ErrorBounded(Objective):
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
         tol = self.bound(data)
-        err = fit.max_deviation if self.metric == "max_deviation" else \
-            np.sqrt(fit.sse / data.n_points)
+        err = _error(fit, self.metric, data.n_points)
         ratio = err / tol
         value = np.where(ratio <= 1.0, fit.n_control_points + ratio, data.n_points + 2 + ratio)
         return np.where(fit.feasible, value, np.inf)
@@ -268,8 +276,7 @@ class Pareto(Objective):
         return np.column_stack((cp / data.n_points, f1))
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
-        err = fit.max_deviation if self.metric == "max_deviation" else \
-            np.sqrt(fit.sse / data.n_points)
+        err = _error(fit, self.metric, data.n_points)
         values = self.scale(fit.n_control_points, err, data)
         return np.where(fit.feasible[:, None], values, np.inf)
 
