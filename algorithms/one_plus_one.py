@@ -195,7 +195,10 @@ class OnePlusOneEA(Optimizer):
             children = step_at_least_one(self.parent, self._rate, self.offspring,
                                          self.max_step, self.rng)
             return encoding.repair(children)
-        ahead = min(self.lookahead, max(1, self._rejected), self.problem.remaining)
+        # a task knows the evaluations left; a problem set up directly does not (the
+        # evaluator cuts the batch at the budget)
+        remaining = getattr(self.problem, "remaining", self.lookahead)
+        ahead = min(self.lookahead, max(1, self._rejected), remaining)
         if self._draws[0].size < ahead:  # the next steps' draws, a lookahead at a time
             more, n_var = max(ahead - self._draws[0].size, self.lookahead), self.parent.size
             drawn = _flip_draws(n_var, self._rate, more, self.rng) if binary else \
