@@ -19,7 +19,7 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 from metaknot.task import ProblemView
 
-from ._adapters import FinitePenalty, optional_import, refuse_variable_count
+from ._adapters import FinitePenalty, free_knots, optional_import, refuse_variable_count
 from .knot_map import KnotMap
 
 __all__ = ["NevergradOptimizer"]
@@ -85,7 +85,7 @@ class NevergradOptimizer(Optimizer):
         n = encoding.n_var
         self.box = None
         if encoding.kind == "continuous":
-            self.box = KnotMap.of(problem)
+            self.box = KnotMap.of(free_knots(problem, "nevergrad"))
             parametrization = ng.p.Array(shape=(n,), lower=0.0, upper=1.0)
         else:
             parametrization = ng.p.Array(shape=(n,), lower=float(encoding.lower.min()),

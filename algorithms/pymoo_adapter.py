@@ -31,7 +31,13 @@ from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 from metaknot.task import ProblemView
 
-from ._adapters import FinitePenalty, check_choice, optional_import, refuse_variable_count
+from ._adapters import (
+    FinitePenalty,
+    check_choice,
+    free_knots,
+    optional_import,
+    refuse_variable_count,
+)
 from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 
@@ -88,7 +94,8 @@ class PymooOptimizer(Optimizer):
         else:
             lower, upper = np.zeros(n), np.ones(n)
         vtype = {"binary": bool, "integer": int, "keys": float}[self.genotype]
-        self.box = KnotMap.of(problem) if encoding.kind == "continuous" else None
+        self.box = KnotMap.of(free_knots(problem, "pymoo")) if encoding.kind == "continuous" \
+            else None
         self.n_obj = getattr(problem, "n_objectives", 1)
         self.pymoo_problem = PymooProblem(n_var=n, n_obj=self.n_obj, xl=lower, xu=upper,
                                           vtype=vtype)
