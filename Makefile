@@ -16,7 +16,7 @@ demo: $(STAMP)  ## a small study (DE, GA, random search on the seed curves), the
 	$(BIN)/metaknot run -m experiment=smoke launcher=joblib
 	$(BIN)/metaknot report results/smoke
 
-test: $(STAMP) chromium postgres  ## the whole test suite (slow studies at CI size)
+test: $(STAMP) typecheck chromium postgres  ## the type check, then the whole test suite (slow studies at CI size)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -q
 
 typecheck: $(STAMP)  ## the static type check: mypy as configured in pyproject.toml, 0 errors
