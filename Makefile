@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test docs chromium postgres lint bench seed-paper clean
+.PHONY: demo test typecheck docs chromium postgres lint bench seed-paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,8 +16,12 @@ demo: $(STAMP)  ## a small study (DE, GA, random search on the seed curves), the
 	$(BIN)/metaknot run -m experiment=smoke launcher=joblib
 	$(BIN)/metaknot report results/smoke
 
-test: $(STAMP) chromium postgres  ## the whole test suite (slow studies at CI size)
+test: $(STAMP) typecheck chromium postgres  ## the type check, then the whole test suite (slow studies at CI size)
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -q
+
+typecheck: $(STAMP)  ## the static type check: mypy as configured in pyproject.toml, 0 errors
+	$(BIN)/python .ci/mypy-packages
+	$(BIN)/mypy
 
 docs: $(STAMP)  ## the documentation site into site/, strict: a broken link or reference fails
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --site-dir site

@@ -10,8 +10,10 @@ from types import ModuleType
 import numpy as np
 
 from metaknot.problems import FreeKnotSpace
+from metaknot.task import ProblemView
 
-__all__ = ["FinitePenalty", "check_choice", "optional_import", "refuse_variable_count"]
+__all__ = ["FinitePenalty", "check_choice", "free_knots", "optional_import",
+           "refuse_variable_count"]
 
 
 def optional_import(module: str, optimizer: str) -> ModuleType:
@@ -36,6 +38,15 @@ def refuse_variable_count(problem: object, optimizer: str) -> None:
     if isinstance(problem, FreeKnotSpace) and problem.variable_count:
         raise ValueError(f"optimizer {optimizer!r} searches a fixed number of knots; use "
                          "variable_count=False (or nlopt, which also searches K)")
+
+
+def free_knots(problem: ProblemView, optimizer: str) -> FreeKnotSpace:
+    """``problem`` as the FreeKnots problem whose knots the adapters map their unit box to, or
+    a ``ValueError`` naming it: another continuous problem has no knots to map to."""
+    if not isinstance(problem, FreeKnotSpace):
+        raise ValueError(f"optimizer {optimizer!r} needs a FreeKnots problem for continuous "
+                         f"candidates; got {problem.name!r}")
+    return problem
 
 
 class FinitePenalty:

@@ -29,8 +29,8 @@ def _floyd(rng: np.random.Generator, n: int, count: int, out: np.ndarray,
     for k in range(count):
         taken[out[k]] = False
     for i in range(count - 1, 0, -1):
-        j = rng.integers(0, i + 1)
-        out[i], out[j] = out[j], out[i]
+        swap = rng.integers(0, i + 1)
+        out[i], out[swap] = out[swap], out[i]
 
 
 @njit(cache=True)

@@ -15,14 +15,16 @@ from __future__ import annotations
 import itertools
 from abc import abstractmethod
 from collections.abc import Iterator
+from typing import Any, cast
 
 import numpy as np
 
 from metaknot.bspline import fit_spline, fitpack
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Encoding, Problem
+from metaknot.problem import Encoding
 from metaknot.problems import FreeKnotSpace, KnotSpace
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 __all__ = ["AveragingKnots", "FitpackKnots", "UniformKnots", "knots_to_candidate", "with_count"]
 
@@ -41,14 +43,15 @@ def with_count(knots: np.ndarray, k: int, lower: float, upper: float) -> np.ndar
     return t
 
 
-def knots_to_candidate(problem: Problem, knots: np.ndarray) -> np.ndarray:
+def knots_to_candidate(problem: KnotSpace, knots: np.ndarray) -> np.ndarray:
     """The candidate of a knot problem (or its task) for these interior knots: the positions
     (NaN-padded with ``variable_count``), or the nearest data indices (made distinct), or the
     0/1 mask of those data points."""
     encoding = problem.encoding
     if encoding.kind == "continuous":
-        variable = isinstance(problem, FreeKnotSpace) and problem.variable_count
-        return problem.pad(knots) if variable else np.sort(knots)
+        if isinstance(problem, FreeKnotSpace) and problem.variable_count:
+            return problem.pad(knots)
+        return np.sort(knots)
     u = problem.params
     last = problem.last_candidate_point
     j = np.clip(np.searchsorted(u, knots), 1, u.size - 1)
@@ -74,25 +77,28 @@ class _KnotCountBaseline(Optimizer):
     """
 
     multi_objective = True  # a scan over K builds a front under the objective pareto
+    problem: KnotSpace  # setup refuses any other
 
     def __init__(self, max_knots: int | None = None, batch_size: int = 64) -> None:
         self.max_knots = None if max_knots is None else \
             check_param("max_knots", max_knots, low=1, integer=True)
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         if not isinstance(problem, KnotSpace):
             raise ValueError(f"optimizer {self.name!r} needs a knot problem; got {problem.name!r}")
+        # the problems of fixed K (KnotIndices, FreeKnots) and FreeKnots have n_knots
+        counted = cast(Any, problem)
         kind = problem.encoding.kind
         self.free_count = kind == "binary" or (isinstance(problem, FreeKnotSpace)
                                                and problem.variable_count)
         if self.free_count:
-            cap = problem.n_knots if kind == "continuous" else \
+            cap = counted.n_knots if kind == "continuous" else \
                 problem.data.n_points - problem.degree - 1
             self.counts = list(range(1, min(cap, self.max_knots or cap) + 1))
         else:
-            self.counts = [problem.n_knots]
+            self.counts = [counted.n_knots]
         self._pending = (self.candidate(t) for t in self.knot_sets())
         self._scanned = False
 
@@ -168,8 +174,9 @@ class FitpackKnots(_KnotCountBaseline):
         self.tolerance = None if tolerance is None else \
             check_param("tolerance", tolerance, low=0, low_open=True)
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
+        problem = self.problem  # a knot problem (the base's setup checks)
         if self.target == "tolerance" and not self.free_count:
             raise ValueError("target='tolerance' lets FITPACK choose the knot count, but this "
                              "problem fixes it; use target='count'")
@@ -209,6 +216,7 @@ class FitpackKnots(_KnotCountBaseline):
     def knot_sets(self) -> Iterator[np.ndarray]:
         u = self.problem.params
         if self.target == "tolerance":
+            assert self.tolerance is not None  # given with target="tolerance" (__init__)
             knots = self._knots(u.size * self.tolerance**2)
             yield with_count(knots, min(knots.size, self.counts[-1]), u[0], u[-1])
             return
@@ -218,12 +226,12 @@ class FitpackKnots(_KnotCountBaseline):
                 found = self.search(set(chunk))
                 yield from (found[k][1] for k in chunk if k in found)
             return
-        found = {c: knots for c, (_, knots) in self.search(set(self.counts)).items()}
+        knots_at = {c: knots for c, (_, knots) in self.search(set(self.counts)).items()}
         (k,) = self.counts
-        if k in found:
-            yield found[k]
+        if k in knots_at:
+            yield knots_at[k]
             return
-        for near in (min((c for c in found if c > k), default=None),
-                     max((c for c in found if c < k), default=None)):
+        for near in (min((c for c in knots_at if c > k), default=None),
+                     max((c for c in knots_at if c < k), default=None)):
             if near is not None:
-                yield with_count(found[near], k, u[0], u[-1])
+                yield with_count(knots_at[near], k, u[0], u[-1])

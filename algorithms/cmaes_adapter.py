@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.problems import FreeKnotSpace
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 from ._adapters import FinitePenalty, optional_import, refuse_variable_count
 from .knot_map import KnotMap
@@ -48,7 +48,7 @@ class CMAESKnots(Optimizer):
         self.span_range = check_param("span_range", span_range, low=1, low_open=True)
         self.data_gap = check_param("data_gap", data_gap, low=0)
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         if not isinstance(problem, FreeKnotSpace):
             raise ValueError(f"optimizer 'cmaes' needs a FreeKnots problem; got {problem.name!r}")
         refuse_variable_count(problem, "cmaes")

@@ -37,8 +37,8 @@ import warnings
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 __all__ = ["DolphinEcholocation", "accumulative_fitness", "alternative_probabilities",
            "binary_probabilities", "fitness_values", "pp_schedule", "reflect",
@@ -87,7 +87,7 @@ def accumulative_fitness(alternatives: np.ndarray, fitness: np.ndarray,
     weight = np.asarray(fitness, dtype=np.float64)[:, None, None] * ((re - np.abs(k)) / re)
     rows = int(n_alt.max())
     flat = target * n_var + np.arange(n_var)[:, None]
-    af = np.bincount(flat.ravel(), np.broadcast_to(weight, target.shape).ravel(),
+    af: np.ndarray = np.bincount(flat.ravel(), np.broadcast_to(weight, target.shape).ravel(),
                      minlength=rows * n_var).reshape(rows, n_var)
     af += epsilon * (np.arange(rows)[:, None] < n_alt)
     if best is not None:
@@ -186,7 +186,7 @@ class DolphinEcholocation(Optimizer):
             raise ValueError(f"fitness must be 'auto', 'inverse' or 'rank'; got {fitness!r}")
         self.fitness = fitness
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         self._lower = np.asarray(problem.encoding.lower).astype(np.int64)
         self._n_alt = np.asarray(problem.encoding.upper).astype(np.int64) - self._lower + 1

@@ -42,7 +42,9 @@ import numpy as np
 from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
+from metaknot.problems import FreeKnotSpace
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 from ._adapters import FinitePenalty, check_choice
 from .knot_map import KnotMap
@@ -75,6 +77,7 @@ class FreeKnotFront(Optimizer):
     """
 
     encodings = ("continuous",)
+    problem: FreeKnotSpace  # setup refuses any other (check_free_knots)
     multi_objective = True  # each count's error is minimised; the archive keeps the front
 
     @renamed_parameters("free_front")
@@ -88,9 +91,10 @@ class FreeKnotFront(Optimizer):
         self.density_exponent = check_param("density_exponent", density_exponent, low=0)
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
 
-    def setup(self, problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         check_free_knots(self.name, problem, self.min_gap)
         super().setup(problem, rng)
+        problem = self.problem  # a FreeKnotSpace (check_free_knots)
         self.box = KnotMap.of(problem, kind="sorted", min_gap=self.min_gap, data_gap=0.0)
         self.pareto = getattr(problem, "n_objectives", 1) == 2
         self.variable = bool(problem.variable_count)  # check_free_knots: a FreeKnotSpace

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 __all__ = ["GeneticAlgorithm", "flip_mutation", "index_mutation", "tournament_selection",
            "two_point_crossover", "uniform_crossover"]
@@ -143,7 +143,7 @@ class GeneticAlgorithm(Optimizer):
         self.index_mutation = index_mutation
         self.max_step = check_param("max_step", max_step, low=1, integer=True)
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         n_var = problem.encoding.n_var
         self.rate = 1.0 / n_var if self.mutation_rate is None else self.mutation_rate

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from metaknot.bspline import averaging_knots
-from metaknot.problem import Problem
+from metaknot.problems import KnotSpace
 
 __all__ = ["KnotMap"]
 
@@ -75,7 +75,7 @@ class KnotMap:
         self._frames: dict[int, tuple[float, float, float]] = {}
 
     @classmethod
-    def of(cls, problem: Problem, **options: Any) -> KnotMap:
+    def of(cls, problem: KnotSpace, **options: Any) -> KnotMap:
         """The map of a knot problem's data parameters and degree over its knot range (its
         ``knot_bounds``), centred on its ``start_knots``."""
         return cls(problem.params, problem.degree, start=problem.start_knots,

@@ -36,7 +36,7 @@ from metaknot.bspline import averaging_knots, check_degree
 from metaknot.bspline.curve import Curve, CurveFit, Metric, curve_model
 from metaknot.bspline.parameterize import MAX_DEGREE, as_points
 from metaknot.optimizer import check_param
-from metaknot.problem import Problem
+from metaknot.task import ProblemView
 
 from .baselines import _KnotCountBaseline, with_count
 
@@ -216,8 +216,8 @@ class Target:
             if k >= self.max_count:
                 ok = [c for c, (_, t) in found.items() if t is not None]
                 best = min(ok, key=lambda c: found[c][0]) if ok else None
-                return found[best][1] if best is not None else \
-                    self.curve.spread_knots(self.max_count)
+                knots = None if best is None else found[best][1]  # not None: one of ok
+                return knots if knots is not None else self.curve.spread_knots(self.max_count)
             beyond, k = k, min(max(2 * k, k + 1), self.max_count)
         within = k
         while within - beyond > 1:
@@ -226,7 +226,9 @@ class Target:
                 within = mid
             else:
                 beyond = mid
-        return found[within][1]
+        knots = found[within][1]
+        assert knots is not None  # within the tolerance: knots were found
+        return knots
 
     def result(self, knots: np.ndarray, reason: str = "") -> LiteratureKnots:
         """The method's answer, checked by the curve model's evaluator."""
@@ -362,7 +364,7 @@ class ToleranceMethod(_KnotCountBaseline):
         """Options passed to the method (a subclass's own hyperparameters, :attr:`options`)."""
         return {name: getattr(self, name) for name in self.options}
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         #: the method's answer at each tolerance so far
         self.results: list[LiteratureKnots] = []
@@ -372,7 +374,7 @@ class ToleranceMethod(_KnotCountBaseline):
         if self.tolerance is not None:
             return [(self.tolerance, self.metric)]
         objective, info = self.problem.objective, self.problem.info
-        if hasattr(objective, "bound"):  # error_bounded
+        if hasattr(objective, "bound") and hasattr(objective, "metric"):  # error_bounded
             return [(float(objective.bound(info)), objective.metric)]
         return [(r * info.scale, "max_deviation") for r in RELATIVE_LADDER]
 

@@ -28,9 +28,9 @@ import itertools
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.problems import KnotSpace
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 from .baselines import AveragingKnots
 
@@ -113,7 +113,7 @@ class LocalSearch(Optimizer):
         self.iterated = bool(iterated)
         self.kick = check_param("kick", kick, low=1, integer=True)
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         if not isinstance(problem, KnotSpace):
             raise ValueError(f"optimizer {self.name!r} needs a knot problem; got {problem.name!r}")
@@ -142,6 +142,7 @@ class LocalSearch(Optimizer):
     def _kicked_best(self) -> np.ndarray | None:
         """The best solution after ``kick`` random moves (None if it has no neighbour)."""
         x = self.best_x
+        assert x is not None  # asked for after a best was found
         encoding = self.problem.encoding
         positions = encoding.n_var if encoding.kind == "binary" else \
             int(encoding.upper.max() - encoding.lower.min()) + 1
@@ -178,6 +179,7 @@ class LocalSearch(Optimizer):
                 return kicked
         if self._stuck:
             return empty
+        assert self.incumbent is not None  # not stuck: a feasible incumbent (checks above)
         moves = self._neighbours(self.incumbent)
         if len(moves) == 0:
             self._stuck = True

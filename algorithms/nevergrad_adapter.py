@@ -16,10 +16,10 @@ import numpy as np
 
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
-from ._adapters import FinitePenalty, optional_import, refuse_variable_count
+from ._adapters import FinitePenalty, free_knots, optional_import, refuse_variable_count
 from .knot_map import KnotMap
 
 __all__ = ["NevergradOptimizer"]
@@ -43,7 +43,7 @@ def _patch_metamodel() -> None:
         except TypeError as exc:
             raise metamodel.MetaModelFailure(f"surrogate failed: {exc}") from exc
 
-    learn_on_k_best.metaknot_patched = True
+    setattr(learn_on_k_best, "metaknot_patched", True)  # noqa: B010 (not typed on a function)
     optimizerlib.learn_on_k_best = learn_on_k_best
 
 
@@ -70,7 +70,7 @@ class NevergradOptimizer(Optimizer):
         self.variant = variant
         self.batch_size = check_param("batch_size", batch_size, low=1, integer=True)
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         ng = optional_import("nevergrad", "nevergrad")
         _patch_metamodel()
         if self.variant not in ng.optimizers.registry:
@@ -85,7 +85,7 @@ class NevergradOptimizer(Optimizer):
         n = encoding.n_var
         self.box = None
         if encoding.kind == "continuous":
-            self.box = KnotMap.of(problem)
+            self.box = KnotMap.of(free_knots(problem, "nevergrad"))
             parametrization = ng.p.Array(shape=(n,), lower=0.0, upper=1.0)
         else:
             parametrization = ng.p.Array(shape=(n,), lower=float(encoding.lower.min()),

@@ -65,9 +65,10 @@ def newknt(target: Target, iterations: int = 3) -> np.ndarray:
         knots = target.curve.spread_knots(k)
         best, best_error = knots, target.error(knots)
         for _ in range(iterations):
-            knots = newnot(target, knots)
-            if knots is None:
+            refined = newnot(target, knots)
+            if refined is None:
                 break
+            knots = refined
             error = target.error(knots)
             if error < best_error:
                 best, best_error = knots, error

@@ -23,6 +23,7 @@ discrete methods.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import nlopt
 import numpy as np
@@ -30,8 +31,9 @@ import numpy as np
 from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problems import FreeKnots, FreeKnotSpace
+from metaknot.problems import FreeKnotSpace
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 from ._adapters import FinitePenalty, check_choice
 from .knot_map import KnotMap
@@ -45,7 +47,7 @@ ALGORITHMS = LOCAL_ALGORITHMS + GLOBAL_ALGORITHMS
 NLOPT_STOPS = (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError)
 
 
-def check_free_knots(name: str, problem: FreeKnots, min_gap: float) -> None:
+def check_free_knots(name: str, problem: ProblemView, min_gap: float) -> None:
     """Refuse a problem that is not a FreeKnots (a :class:`FreeKnotSpace`: duck-typed, so
     wrappers of one, counting or logging, work as well) or has no room for its knots at gaps of
     ``min_gap``."""
@@ -78,6 +80,7 @@ class NloptObjective:
                 self.cache[key] = self.evaluate(y)
             except Exception as exc:  # handed back by optimize after nlopt returns
                 self.caught.append(exc)
+                assert self.opt is not None  # set by optimize, which nlopt calls this from
                 self.opt.force_stop()
                 return self.penalty.value
         return self.penalty.one(self.cache[key])
@@ -136,6 +139,7 @@ class NloptKnots(Optimizer):
     variant_parameter = "variant"
 
     encodings = ("continuous",)
+    problem: FreeKnotSpace  # setup refuses any other (check_free_knots)
 
     @renamed_parameters("nlopt")
     def __init__(self, variant: str = "LN_BOBYQA", local_variant: str = "LN_BOBYQA",
@@ -154,11 +158,11 @@ class NloptKnots(Optimizer):
         self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
         self.k_grid = check_param("k_grid", k_grid, low=2, integer=True)
 
-    def setup(self, problem: FreeKnots, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         check_free_knots(self.name, problem, self.min_gap)
         super().setup(problem, rng)
         self.penalty = FinitePenalty()
-        self._box = None
+        self._box: KnotMap | None = None
 
     @property
     def map(self) -> str:
@@ -170,12 +174,13 @@ class NloptKnots(Optimizer):
     @property
     def box(self) -> KnotMap:
         """The box-to-knots map (see :mod:`metaknot.algorithms.knot_map`) for this problem."""
-        if getattr(self, "_box", None) is None:
+        box = getattr(self, "_box", None)
+        if box is None:
             data_gap = self.data_gap if self.data_gap is not None else (
                 0.0 if self.variant in LOCAL_ALGORITHMS else 0.5)
-            self._box = KnotMap.of(self.problem, kind=self.map, min_gap=self.min_gap,
-                                   data_gap=data_gap, span_range=self.span_range)
-        return self._box
+            box = self._box = KnotMap.of(self.problem, kind=self.map, min_gap=self.min_gap,
+                                         data_gap=data_gap, span_range=self.span_range)
+        return box
 
     def gap(self, n_knots: int) -> float:
         """The smallest knot span for ``n_knots`` knots (:meth:`KnotMap.gap`)."""
@@ -228,7 +233,7 @@ class NloptKnots(Optimizer):
         """
         if start is None:
             start = self.unit(self.problem.start_knots(n_knots))
-        best = [np.inf, start.copy()]
+        best: list[Any] = [np.inf, start.copy()]  # the best value and its point
         pad = self.problem.pad if self.problem.variable_count else (lambda x: x)
 
         def evaluate(y: np.ndarray) -> float:

@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
 __all__ = ["OnePlusOneEA", "distinct_positions", "flip_at_least_one", "step_at_least_one"]
 
@@ -171,7 +171,7 @@ class OnePlusOneEA(Optimizer):
     #: with one step per call: same draws, children, values and trace.
     lookahead = 64
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
         n_var = problem.encoding.n_var
         self._rate = 1.0 / n_var if self.rate is None else self.rate
@@ -195,7 +195,10 @@ class OnePlusOneEA(Optimizer):
             children = step_at_least_one(self.parent, self._rate, self.offspring,
                                          self.max_step, self.rng)
             return encoding.repair(children)
-        ahead = min(self.lookahead, max(1, self._rejected), self.problem.remaining)
+        # a task knows the evaluations left; a problem set up directly does not (the
+        # evaluator cuts the batch at the budget)
+        remaining = getattr(self.problem, "remaining", self.lookahead)
+        ahead = min(self.lookahead, max(1, self._rejected), remaining)
         if self._draws[0].size < ahead:  # the next steps' draws, a lookahead at a time
             more, n_var = max(ahead - self._draws[0].size, self.lookahead), self.parent.size
             drawn = _flip_draws(n_var, self._rate, more, self.rng) if binary else \

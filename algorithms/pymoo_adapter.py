@@ -28,10 +28,16 @@ import numpy as np
 
 from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problem import Problem
 from metaknot.registry import register
+from metaknot.task import ProblemView
 
-from ._adapters import FinitePenalty, check_choice, optional_import, refuse_variable_count
+from ._adapters import (
+    FinitePenalty,
+    check_choice,
+    free_knots,
+    optional_import,
+    refuse_variable_count,
+)
 from .baselines import knots_to_candidate
 from .knot_map import KnotMap
 
@@ -73,7 +79,7 @@ class PymooOptimizer(Optimizer):
         self.initial = initial
         self.population = check_param("population", population, low=4, integer=True)
 
-    def setup(self, problem: Problem, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         optional_import("pymoo", "pymoo")
         refuse_variable_count(problem, "pymoo")
         super().setup(problem, rng)
@@ -88,7 +94,8 @@ class PymooOptimizer(Optimizer):
         else:
             lower, upper = np.zeros(n), np.ones(n)
         vtype = {"binary": bool, "integer": int, "keys": float}[self.genotype]
-        self.box = KnotMap.of(problem) if encoding.kind == "continuous" else None
+        self.box = KnotMap.of(free_knots(problem, "pymoo")) if encoding.kind == "continuous" \
+            else None
         self.n_obj = getattr(problem, "n_objectives", 1)
         self.pymoo_problem = PymooProblem(n_var=n, n_obj=self.n_obj, xl=lower, xu=upper,
                                           vtype=vtype)
@@ -160,7 +167,9 @@ class PymooOptimizer(Optimizer):
             lo, hi = encoding.lower, encoding.upper
             X = np.minimum(lo + np.floor(G * (hi - lo + 1)).astype(np.int64), hi)
             return encoding.repair(X) if encoding.distinct_sorted else X
-        return np.array([self.box.knots(g) for g in G])
+        box = self.box
+        assert box is not None  # continuous candidates: the map made in setup
+        return np.array([box.knots(g) for g in G])
 
     def finished(self) -> bool:
         """True once pymoo has ended the search: its mating made no new candidate (with

@@ -71,7 +71,8 @@ def jump_matrices(target: Target):
         tk, k = tk[1:-1], k - 1
     # a degree-0 spline on tk: one value per span; the jumps between consecutive spans
     rows = derivative.shape[0]
-    diff = sparse.diags([-np.ones(rows - 1), np.ones(rows - 1)], [0, 1],
+    # scipy-stubs take a sequence of diagonals as scalars or nested sequences, not 1-D arrays
+    diff = sparse.diags([-np.ones(rows - 1), np.ones(rows - 1)], [0, 1],  # type: ignore[call-overload]
                         shape=(rows - 1, rows), format="csr")
     # open: the spans of [u_0, u_N-1]; closed: of [0, 1), the jump at 0 left free
     jumps = diff @ derivative @ fold

@@ -112,8 +112,9 @@ def execute(spec: RunSpec, *, multirun: bool = False,
                 "error": _reason(exc), "detail": str(exc)}
     threads = spec.threads
     if threads == "auto":
-        threads = 1 if multirun else numba.config.NUMBA_NUM_THREADS
-    numba.set_num_threads(min(int(threads), numba.config.NUMBA_NUM_THREADS))
+        # numba's stubs do not declare the settings numba.config sets at import
+        threads = 1 if multirun else numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+    numba.set_num_threads(min(int(threads), numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
     progress = spec.progress
     if progress == "auto":
         progress = not multirun and sys.stderr.isatty()

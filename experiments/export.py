@@ -33,7 +33,7 @@ import re
 import zlib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -125,8 +125,8 @@ def export_iohprofiler(study_path: str | os.PathLike, out_dir: str | os.PathLike
     # algorithm -> function name -> dimension -> list of (run, instance, rows)
     grouped: dict[str, dict[str, dict[int, list[tuple[Any, int, Any]]]]] = {}
     info: dict[str, str] = {}
-    for record in runs.sort_values(["label", "seed", "run_id"], kind="stable").to_dict(
-            "records"):
+    records = runs.sort_values(["label", "seed", "run_id"], kind="stable").to_dict("records")
+    for record in cast(list[dict[str, Any]], records):  # pandas-stubs: Hashable keys
         rows = rows_of.get(record["run_id"])
         if rows is None or not len(rows):
             continue  # evaluated nothing: no best value to report
@@ -164,7 +164,7 @@ def _write_function(folder: Path, algorithm: str, info: str, name: str,
         path = data_dir / f"IOHprofiler_f{fid}_DIM{dimension}.dat"
         lines, meta_runs = [], []
         for record, instance, rows in scenarios[dimension]:
-            best = {"evals": int(rows["evaluations"].iloc[-1]),
+            best: dict[str, Any] = {"evals": int(rows["evaluations"].iloc[-1]),
                     "y": float(rows["best_f"].iloc[-1])}
             logged = list(zip(rows["evaluations"], rows["best_f"], strict=True))
             if int(record["n_evaluations"]) > best["evals"]:  # ioh logs a run's last one too

@@ -21,7 +21,7 @@ import typing
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 from hydra.errors import CompactHydraException
@@ -51,6 +51,12 @@ class ConfigError(ValueError, CompactHydraException):
 # small checks
 
 
+@overload
+def _int(key: str, value: Any, *, low: int | None = ..., high: int | None = ...,
+         optional: Literal[False] = ...) -> int: ...
+@overload
+def _int(key: str, value: Any, *, low: int | None = ..., high: int | None = ...,
+         optional: bool) -> int | None: ...
 def _int(key: str, value: Any, *, low: int | None = None, high: int | None = None,
          optional: bool = False) -> int | None:
     if value is None and optional:
@@ -64,6 +70,12 @@ def _int(key: str, value: Any, *, low: int | None = None, high: int | None = Non
     return int(value)
 
 
+@overload
+def _float(key: str, value: Any, *, low: float | None = ..., high: float | None = ...,
+           optional: Literal[False] = ...) -> float: ...
+@overload
+def _float(key: str, value: Any, *, low: float | None = ..., high: float | None = ...,
+           optional: bool) -> float | None: ...
 def _float(key: str, value: Any, *, low: float | None = None, high: float | None = None,
            optional: bool = False) -> float | None:
     if value is None and optional:
@@ -120,7 +132,7 @@ def _unknown(key: str, given: Mapping[str, Any], known: set[str]) -> None:
 # optimizers: hyperparameters and their types from the optimizer's signature
 
 
-def _optimizer_class(name: str) -> type:
+def _optimizer_class(name: str) -> Any:  # a registered optimizer class
     from metaknot.registry import _lookup
 
     try:
@@ -209,7 +221,7 @@ def _optimizer(cfg: dict[str, Any]) -> tuple[str, dict[str, Any], type]:
     return name, _check_signature("optimizer", cls, cfg), cls
 
 
-def _check_signature(group: str, cls: type, cfg: dict[str, Any]) -> dict[str, Any]:
+def _check_signature(group: str, cls: type[Any], cfg: dict[str, Any]) -> dict[str, Any]:
     """``cfg`` checked against the keyword arguments of ``cls``: no unknown keys, values of the
     annotated types, defaults filled in."""
     signature = inspect.signature(cls.__init__)
@@ -435,6 +447,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
                                   "fingerprint", "closed", "instance", "task"})
     from metaknot.problems import CURVES
 
+    points: Any  # a file name (checked below)
     curve, points = problem.get("curve"), problem.get("points")
     instance = _suite_instance(problem)
     if instance is not None:
@@ -562,7 +575,7 @@ def plain_config(cfg: Mapping[str, Any]) -> dict[str, Any]:
     """A resolved plain-dict copy of a DictConfig (or mapping), without Hydra's own node."""
     from omegaconf import DictConfig, OmegaConf
 
-    out: dict[str, Any]
+    out: dict[Any, Any]
     if isinstance(cfg, DictConfig):
         from omegaconf.errors import MissingMandatoryValue
 

@@ -85,7 +85,7 @@ def spline_fields(fit: CurveFit) -> dict[str, Any]:
             "spline.degree": int(fit.spline.k), "spline.closed": isinstance(fit, PeriodicFit)}
 
 
-def stored_fit(record: Mapping[str, Any], params: np.ndarray,
+def stored_fit(record: Mapping[str, Any] | pd.Series, params: np.ndarray,
                points: np.ndarray) -> CurveFit | None:
     """The fitted spline a record stores, as a fit of the run's data (parameters ``params``,
     points ``points``), or ``None`` if the record holds none (written before records stored
@@ -162,7 +162,7 @@ class Store:
             meta = pq.read_metadata(path)
             schema = meta.schema.to_arrow_schema()
         except (OSError, ValueError, pa.ArrowException) as exc:  # a damaged file
-            problem = f"cannot be read as a Parquet run record ({_short(exc)})"
+            problem: str | None = f"cannot be read as a Parquet run record ({_short(exc)})"
         else:
             problem = _problem(schema, meta.num_rows)
         if problem is None:

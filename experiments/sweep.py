@@ -24,7 +24,7 @@ import threading
 from collections import Counter
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from hydra.core.override_parser.overrides_parser import OverridesParser
 from hydra.errors import HydraException
@@ -164,15 +164,18 @@ class _Composer:
         self._groups: dict[str, list[str]] = {}
 
     def __call__(self, job: list[str]) -> Any:
-        structural, values = [], []
+        structural: list[str] = []
+        values = []
         for override in self.parser.parse_overrides(job):
+            line = override.input_line
+            assert line is not None  # an override parsed from text keeps it
             simple = not (override.is_add() or override.is_delete() or override.is_force_add()
-                          or override.package is not None or "$" in override.input_line)
+                          or override.package is not None or "$" in line)
             key = override.key_or_group
             if simple and not key.startswith("hydra") and not self._is_group(key):
                 values.append(override)
             else:
-                structural.append(override.input_line)
+                structural.append(line)
         base_key = tuple(structural)
         if base_key not in self._bases:
             cfg = self._load(structural)
@@ -197,13 +200,13 @@ class _Composer:
 
 
 def _has_interpolations(cfg: Any) -> bool:
-    container = OmegaConf.to_container(cfg, resolve=False)
+    container = cast(dict[str, Any], OmegaConf.to_container(cfg, resolve=False))  # a mapping
     container.pop("hydra", None)
     return "${" in repr(container)
 
 
 def _plain_copy(cfg: Any) -> dict[str, Any]:
-    container = dict(OmegaConf.to_container(cfg, resolve=True))
+    container = dict(cast(dict[str, Any], OmegaConf.to_container(cfg, resolve=True)))
     container.pop("hydra", None)
     return container
 
@@ -384,8 +387,8 @@ def _warm_joblib_workers(config: Any) -> threading.Thread | None:
         return None
     from joblib import Parallel, delayed
 
-    settings = {k: v for k, v in OmegaConf.to_container(launcher, resolve=True).items()
-                if k != "_target_"}
+    options = cast(dict[str, Any], OmegaConf.to_container(launcher, resolve=True))  # a mapping
+    settings = {k: v for k, v in options.items() if k != "_target_"}
     settings["backend"] = "loky"
     for key in ("pre_dispatch", "batch_size", "max_nbytes"):  # "100": a count, as the
         value = settings.get(key)                                # launcher reads it
@@ -447,8 +450,8 @@ def batch_jobs(to_run: list[tuple[list[str], RunSpec]], per_job: int) -> list[li
             if len(chunk) == 1:
                 job = chunk[0][0]
             else:
-                seeds = ",".join(str(spec.seed) for _, spec in chunk)
-                job = [*key, f"seed=[{seeds}]"]
+                seed_list = ",".join(str(spec.seed) for _, spec in chunk)
+                job = [*key, f"seed=[{seed_list}]"]
             launched.append((sum(spec.budget for _, spec in chunk), job))
     launched.sort(key=lambda item: -item[0])
     return [job for _, job in launched]

@@ -255,6 +255,7 @@ class Evaluator:
         best = int(np.argmin(scalar))
         if scalar[best] < self._best_f:
             self._best_f = float(scalar[best])
+            assert front.X is not None  # a front with members (above)
             self._best_x = front.X[front.knee()].copy()
         self._after_batch(scalar, metrics)
         return F

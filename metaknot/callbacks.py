@@ -166,6 +166,8 @@ class TraceRecorder(Callback):
     def on_batch(self, progress: Progress) -> None:
         if self._grid is None:  # used without on_start (directly on an Evaluator)
             self._set_grid(progress.budget)
+        grid = self._grid
+        assert grid is not None  # set just above
         F = np.asarray(progress.batch_f, dtype=np.float64)
         first = progress.n_evaluations - F.size  # evaluations before this batch
         if F.size == 0:
@@ -182,8 +184,8 @@ class TraceRecorder(Callback):
         # index in the batch of the incumbent after each evaluation (-1: an earlier batch)
         incumbent = np.maximum.accumulate(np.where(improved, at, -1))
         on_grid = np.zeros(F.size, dtype=bool)
-        lo, hi = np.searchsorted(self._grid, [first + 1, progress.n_evaluations + 1])
-        on_grid[self._grid[lo:hi] - first - 1] = True
+        lo, hi = np.searchsorted(grid, [first + 1, progress.n_evaluations + 1])
+        on_grid[grid[lo:hi] - first - 1] = True
         rows = np.flatnonzero(improved | on_grid)
         for name in ordered_names(self._metrics, progress.batch_metrics):
             values = np.asarray(progress.batch_metrics.get(name, np.full(F.size, np.nan)),

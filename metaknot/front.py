@@ -42,15 +42,15 @@ def hypervolume_2d(F: ArrayLike, reference: ArrayLike) -> float:
     """Area dominated by the points ``F`` (shape ``(n, 2)``, minimised) and bounded by
     ``reference``; points not strictly better than the reference in both objectives add
     nothing. Exact (a sum of rectangles over the sorted staircase)."""
-    F = np.asarray(F, dtype=np.float64).reshape(-1, 2)
+    points = np.asarray(F, dtype=np.float64).reshape(-1, 2)
     ref = np.asarray(reference, dtype=np.float64)
-    F = F[(F < ref).all(axis=1)]
-    if not len(F):
+    points = points[(points < ref).all(axis=1)]
+    if not len(points):
         return 0.0
-    F = F[nondominated_mask(F)]
-    F = F[np.argsort(F[:, 0])]
-    widths = np.diff(np.append(F[:, 0], ref[0]))
-    return float(np.sum(widths * (ref[1] - F[:, 1])))
+    points = points[nondominated_mask(points)]
+    points = points[np.argsort(points[:, 0])]
+    widths = np.diff(np.append(points[:, 0], ref[0]))
+    return float(np.sum(widths * (ref[1] - points[:, 1])))
 
 
 class ParetoArchive:

@@ -27,8 +27,7 @@ import numpy as np
 
 from .budget import BudgetExhausted, Evaluator
 from .compat import deprecated
-from .problem import Problem
-from .task import Task
+from .task import ProblemView
 from .validate import is_real
 
 __all__ = ["Optimizer", "check_param"]
@@ -68,10 +67,10 @@ class Optimizer(ABC):
     encodings: ClassVar[tuple[str, ...]] = ("binary", "integer", "continuous")
     multi_objective: bool = False
 
-    problem: Problem | Task
+    problem: ProblemView
     rng: np.random.Generator
 
-    def setup(self, problem: Problem | Task, rng: np.random.Generator) -> None:
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         """Bind to a problem (normally its :class:`~metaknot.Task`) and a random generator;
         subclasses extend to build their state."""
         if problem.encoding.kind not in self.encodings:

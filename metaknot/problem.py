@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["Encoding", "Problem"]
 
@@ -49,6 +50,10 @@ class Encoding:
     lower: np.ndarray
     upper: np.ndarray
     distinct_sorted: bool = False
+    if TYPE_CHECKING:  # set by __post_init__; typed here only (no fields at run time)
+        _low: Any = field(init=False)
+        _high: Any = field(init=False)
+        _uniform_bounds: bool = field(init=False)
 
     @classmethod
     def binary(cls, n_var: int) -> Encoding:
@@ -80,7 +85,7 @@ class Encoding:
     def dtype(self) -> type:
         return np.float64 if self.kind == "continuous" else np.int64
 
-    def check(self, X: np.ndarray) -> np.ndarray:
+    def check(self, X: ArrayLike) -> np.ndarray:
         """Return ``X`` as a 2-D array of this encoding, or raise a ``ValueError`` naming why."""
         X = np.asarray(X)
         if X.ndim == 1 and X.size == self.n_var:
@@ -175,8 +180,12 @@ class Problem(ABC):
 
     name: ClassVar[str] = "problem"
     encoding: Encoding
-    #: Objectives per candidate: 1, or 2 for a front (see :mod:`metaknot.front`).
-    n_objectives: int = 1
+    if TYPE_CHECKING:  # read-only to users of a problem: a subclass may make it a property
+        @property
+        def n_objectives(self) -> int: ...
+    else:
+        #: Objectives per candidate: 1, or 2 for a front (see :mod:`metaknot.front`).
+        n_objectives: int = 1
     #: Ideal and reference points of the hypervolume of a two-objective problem.
     hypervolume_box: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (1.0, 1.0))
     #: What an optimizer may read through its :class:`~metaknot.Task`, besides the encoding,

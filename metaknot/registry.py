@@ -17,7 +17,7 @@ import functools
 import importlib
 from collections.abc import Callable
 from importlib.metadata import entry_points
-from typing import Any, Literal, TypeVar
+from typing import Any, Literal, TypeVar, cast
 
 from .compat import new_problem_name
 from .optimizer import Optimizer
@@ -99,8 +99,8 @@ def _lookup(kind: Kind, name: str) -> Callable[..., Any]:
             raise TypeError(f"entry point {name!r} in group {_GROUPS[kind]!r} loads {obj!r}, "
                             f"which is not a {_BASE[kind].__name__}")
         _REGISTRY[kind].setdefault(name, obj)
-        if isinstance(obj, type):
-            obj.name = name
+        if isinstance(obj, type):  # a subclass of _BASE[kind] (checked above)
+            cast("type[Optimizer | Problem]", obj).name = name
         return _REGISTRY[kind][name]
     if ":" in name:  # "family:variant", e.g. "nevergrad:NGOpt"
         base, variant = name.split(":", 1)

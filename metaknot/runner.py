@@ -120,13 +120,13 @@ def minimize(
         if evaluator.n_evaluations:
             result = _record(problem, optimizer, seed, evaluator, recorder, clock, audit,
                              error=f"{type(exc).__name__}: {exc}")
-            exc.partial_result = result
+            setattr(exc, "partial_result", result)  # noqa: B010 (not an attribute of the type)
             exc.add_note(f"metaknot: the run stopped after {evaluator.n_evaluations} "
                          "evaluations; the exception's `partial_result` holds the best so far")
         interrupt = interrupt_behind(exc)
         if interrupt is not None:  # Ctrl-C, not a fault of the run
             if result is not None:
-                interrupt.partial_result = result
+                setattr(interrupt, "partial_result", result)  # noqa: B010 (as above)
             raise interrupt from None
         raise
     finally:
@@ -140,11 +140,12 @@ def interrupt_behind(exc: BaseException) -> KeyboardInterrupt | None:
     there is one: Ctrl-C that arrives while compiled code runs comes back as a ``SystemError``
     ("returned a result with an exception set") whose cause is the interrupt."""
     seen: set[int] = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        if isinstance(current, KeyboardInterrupt):
+            return current
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
     return None
 
 

@@ -24,11 +24,33 @@ import numpy as np
 
 from .problem import Encoding, Problem
 
-__all__ = ["Task"]
+__all__ = ["ProblemView", "Task"]
 
 #: Problem members whose absence from a task deserves its own explanation: ``evaluate*`` and
 #: ``decode*`` (``evaluate``, ``evaluate_with_metrics``, ``evaluate_near``, ``decode``, ...).
 EVALUATING = ("evaluate", "decode")
+
+
+class ProblemView(Protocol):
+    """What an optimizer reads of the problem it is set up on, whichever it is given: a
+    :class:`Task` (what :func:`metaknot.minimize` and :class:`~metaknot.Evaluator` hand it), or
+    the :class:`~metaknot.Problem` itself. Both satisfy this protocol; an optimizer typed
+    against it works with either.
+
+    A knot problem's settings (``params``, ``degree``, ...) are a further protocol,
+    :class:`metaknot.problems.KnotSpace`, that an optimizer for knot problems narrows to.
+    """
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def encoding(self) -> Encoding: ...
+
+    @property
+    def n_objectives(self) -> int: ...
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray: ...
 
 
 class BudgetOwner(Protocol):

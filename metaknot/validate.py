@@ -7,17 +7,19 @@ check of an integer or real setting asks these two functions, so all agree.
 
 from __future__ import annotations
 
+from typing import TypeGuard
+
 import numpy as np
 
 __all__ = ["check_flag", "is_integer", "is_real"]
 
 
-def is_integer(value: object) -> bool:
+def is_integer(value: object) -> TypeGuard[int | np.integer]:
     """True for a Python or numpy integer, not for a bool (nor a float such as ``3.0``)."""
     return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
 
 
-def is_real(value: object) -> bool:
+def is_real(value: object) -> TypeGuard[int | float | np.integer | np.floating]:
     """True for a Python or numpy integer or float, not for a bool (NaN and inf included: check
     finiteness where it matters)."""
     return isinstance(value, int | float | np.integer | np.floating) \

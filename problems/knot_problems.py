@@ -27,6 +27,7 @@ from metaknot.bspline.knots import stack_positions
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
+from metaknot.task import ProblemView
 from metaknot.validate import check_flag, is_integer
 
 from .curves import PointSet, get_curve
@@ -39,19 +40,44 @@ __all__ = ["FreeKnotSpace", "FreeKnots", "KnotIndices", "KnotProblem", "KnotSele
 
 
 @runtime_checkable
-class KnotSpace(Protocol):
+class KnotSpace(ProblemView, Protocol):
     """What an optimizer may rely on of a knot problem, seen directly or through its
-    :class:`~metaknot.Task`: the data parameters and points, the degree, whether the curve is
-    closed, the open interval interior knots lie in, and the highest data index a knot may sit
-    at. ``isinstance(problem, KnotSpace)`` is
+    :class:`~metaknot.Task`: besides what it sees of any problem (a
+    :class:`~metaknot.task.ProblemView`), the data parameters and points, the degree, whether
+    the curve is closed, the open interval interior knots lie in, and the highest data index a
+    knot may sit at, the objective and what it knows of the data (``info``), and the start
+    knots of a count. ``isinstance(problem, KnotSpace)`` is
     the one test of "a knot problem" (duck-typed: wrappers of one pass too)."""
 
-    params: np.ndarray
-    points: np.ndarray
-    degree: int
-    closed: bool
-    knot_bounds: tuple[float, float]
-    last_candidate_point: int
+    # read-only settings (properties: a task's are)
+    @property
+    def data(self) -> PointSet: ...
+
+    @property
+    def params(self) -> np.ndarray: ...
+
+    @property
+    def points(self) -> np.ndarray: ...
+
+    @property
+    def degree(self) -> int: ...
+
+    @property
+    def closed(self) -> bool: ...
+
+    @property
+    def objective(self) -> Objective: ...
+
+    @property
+    def info(self) -> DataInfo: ...
+
+    @property
+    def knot_bounds(self) -> tuple[float, float]: ...
+
+    @property
+    def last_candidate_point(self) -> int: ...
+
+    def start_knots(self, count: int) -> np.ndarray: ...
 
 
 @runtime_checkable
@@ -59,8 +85,11 @@ class FreeKnotSpace(KnotSpace, Protocol):
     """A knot problem over continuous knot positions (:class:`FreeKnots`): ``n_knots``
     positions, NaN-padded to fewer with ``variable_count`` (:meth:`FreeKnots.pad`)."""
 
-    n_knots: int
-    variable_count: bool
+    @property
+    def n_knots(self) -> int: ...
+
+    @property
+    def variable_count(self) -> bool: ...
 
     def pad(self, positions: ArrayLike) -> np.ndarray: ...
 
@@ -256,14 +285,15 @@ class KnotProblem(Problem):
         ValueError
             If the candidate's knots cannot be fitted (the message names the reason).
         """
-        x = self.encoding.check(x)
-        if x.shape[0] != 1:
+        X = self.encoding.check(x)
+        if X.shape[0] != 1:
             raise ValueError(f"decode takes one candidate, shape ({self.encoding.n_var},); got "
-                             f"{x.shape}")
-        x = x[0]
-        value = self.evaluate_details(x[None, :])[0][0]
+                             f"{X.shape}")
+        row: np.ndarray = X[0]
+        value = self.evaluate_details(row[None, :])[0][0]
         value = float(value) if np.ndim(value) == 0 else value
-        return KnotSolution(x=x, objective_value=value, fit=self.curve.fit(self._interior_knots(x)))
+        return KnotSolution(x=row, objective_value=value,
+                            fit=self.curve.fit(self._interior_knots(row)))
 
     def describe(self) -> dict[str, Any]:
         """Problem name, encoding and every setting: the data (name, fingerprint, size, noise),

@@ -57,7 +57,7 @@ def _rmse_kernel(sse, reason, n_points, values):
 
 @njit(cache=True)
 def _error_bounded_kernel(sse, max_deviation, n_control_points, reason, n_points, tolerance,
-                  by_max_deviation, values):
+                          by_max_deviation, values):
     """Control points plus error / tolerance within the tolerance, ``N + 2`` plus it beyond
     (:class:`~.objectives.ErrorBounded`); the error is the maximum deviation or, unless
     ``by_max_deviation``, the RMSE."""
@@ -71,7 +71,7 @@ def _error_bounded_kernel(sse, max_deviation, n_control_points, reason, n_points
 
 @njit(cache=True)
 def _metrics_kernel(sse, max_deviation, n_control_points, reason, n_points, rmse_values,
-            control_points, deviations):
+                    control_points, deviations):
     """RMSE, control points and maximum deviation (unless ``deviations`` is empty) per fit
     into the last three arrays, NaN for an infeasible fit."""
     with_max_deviation = deviations.size > 0
@@ -81,6 +81,15 @@ def _metrics_kernel(sse, max_deviation, n_control_points, reason, n_points, rmse
         control_points[b] = n_control_points[b] if feasible else math.nan
         if with_max_deviation:
             deviations[b] = max_deviation[b] if feasible else math.nan
+
+
+def _error(fit: BatchFit, metric: str, n_points: int) -> np.ndarray:
+    """The error ``metric`` (``max_deviation`` or ``rmse``) of every candidate of a batch (an
+    objective that needs ``max_deviation`` says so: the problem has it computed)."""
+    if metric != "max_deviation":
+        return np.sqrt(fit.sse / n_points)
+    assert fit.max_deviation is not None  # needs_max_deviation
+    return fit.max_deviation
 
 
 class Objective(ABC):
@@ -289,8 +298,7 @@ class Pareto(Objective):
         return np.column_stack((cp / data.n_points, f1))
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
-        err = fit.max_deviation if self.metric == "max_deviation" else \
-            np.sqrt(fit.sse / data.n_points)
+        err = _error(fit, self.metric, data.n_points)
         values = self.scale(fit.n_control_points, err, data)
         return np.where(fit.feasible[:, None], values, np.inf)
 

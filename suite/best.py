@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from metaknot.problems import KnotProblem
+from metaknot.problems.objectives import Pareto
 
 from .tasks import Task
 
@@ -184,9 +185,10 @@ def _front_entry(task: Task, problem: KnotProblem, X: np.ndarray, method: str,
     from metaknot.front import ParetoArchive
 
     objective = problem.objective
+    assert isinstance(objective, Pareto)  # a front task's objective
     archive = ParetoArchive(objective.reference, objective.ideal)
     archive.add(X, problem.evaluate(X))
-    if not len(archive):
+    if not len(archive) or archive.X is None:
         return None
     entry = _entry(task, problem, archive.X[archive.knee()], archive.gap, method, budget, None)
     entry.front = [np.packbits(x.astype(np.uint8)).tobytes().hex() for x in archive.X]
@@ -208,10 +210,10 @@ def search_front(task: Task, *, stored: Iterable[BestKnown] = (),
     knots = [averaging_knots(u, k, degree) for k in counts if k <= u.size - degree - 1]
     knots += [np.linspace(lower, upper, k + 2)[1:-1] for k in counts]
     knots += [np.asarray(e.knots) for e in stored if e.front is None]
-    X = [knots_to_candidate(problem, t) for t in knots]
+    candidates = [knots_to_candidate(problem, t) for t in knots]
     if previous is not None and previous.front is not None:
-        X += list(front_candidates(previous, problem))
-    X = np.unique(np.array(X, dtype=np.int64), axis=0)
+        candidates += list(front_candidates(previous, problem))
+    X = np.unique(np.array(candidates, dtype=np.int64), axis=0)
     return _front_entry(task, problem, X, "averaging + uniform + suite knots", len(X))
 
 
@@ -294,6 +296,7 @@ def improve(instance_ids: Iterable[str], *, budget: int, seeds: Sequence[int] = 
                 continue
             key = (task.instance, task.id)
             old = entries.get(key)
+            found: BestKnown | None
             if task.kind == "front":  # after the other tasks: their knots are members too
                 fronts.append((task, key, old))
                 continue
@@ -397,7 +400,7 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
             counts["kept"] += 1
             continue
         problem = task.problem()
-        x = np.asarray(run["best_x"], dtype=problem.encoding.dtype)
+        x: np.ndarray = np.asarray(run["best_x"], dtype=problem.encoding.dtype)
         value = float(problem.evaluate(x[None, :])[0])
         recorded = float(run["best_f"])
         if not abs(value - recorded) <= RECHECK * abs(recorded):

@@ -8,6 +8,9 @@ glyph instance is one closed outline.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from typing import cast
+
 import numpy as np
 
 __all__ = ["GLYPH_POINTS", "digit_outline"]
@@ -18,6 +21,7 @@ GLYPH_POINTS = 200
 
 def _contours(character: str) -> list[np.ndarray]:
     """The closed contours of ``character`` as dense polylines (first point not repeated)."""
+    from matplotlib.bezier import BezierSegment
     from matplotlib.font_manager import FontProperties
     from matplotlib.path import Path
     from matplotlib.textpath import TextPath
@@ -25,7 +29,8 @@ def _contours(character: str) -> list[np.ndarray]:
     path = TextPath((0.0, 0.0), character, size=1.0,
                     prop=FontProperties(family="DejaVu Sans Mono"))
     contours: list[list[np.ndarray]] = []
-    for segment, code in path.iter_bezier():
+    # matplotlib's stubs type the items as segments; they are (segment, code) pairs
+    for segment, code in cast(Iterator[tuple[BezierSegment, int]], path.iter_bezier()):
         if code == Path.MOVETO:
             contours.append([])
             continue

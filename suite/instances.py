@@ -16,7 +16,7 @@ import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from importlib.metadata import entry_points
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -63,7 +63,7 @@ class Instance:
     id: str
     family: str
     kind: Kind
-    generate: Callable[[], object] = field(repr=False)
+    generate: Callable[[], Any] = field(repr=False)
     noise: float = 0.0
     noise_seed: int = NOISE_SEED
 

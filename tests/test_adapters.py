@@ -77,6 +77,26 @@ def test_cmaes_settings_matter():
         assert not np.array_equal(other.trace_best, base.trace_best), options
 
 
+@pytest.mark.parametrize("optimizer", ["nevergrad", "pymoo"])
+def test_a_continuous_problem_without_knots_is_refused_by_name(optimizer):
+    """The adapters map their unit box to knots: on another continuous problem they failed
+    with "... 'params' is not one of them" (cmaes and nlopt refused it by name)."""
+
+    class Sphere(mk.Problem):
+        name = "sphere"
+        encoding = mk.Encoding.continuous(3, 0.0, 1.0)
+
+        def evaluate(self, X):
+            return (np.asarray(X) ** 2).sum(axis=1)
+
+        def decode(self, x):
+            return x
+
+    with pytest.raises(ValueError, match=f"optimizer '{optimizer}' needs a FreeKnots problem "
+                                         "for continuous candidates; got 'sphere'"):
+        mk.minimize(Sphere(), optimizer, budget=20, seed=0)
+
+
 def test_cmaes_refuses_a_variable_knot_count():
     with pytest.raises(ValueError, match="fixed number of knots"):
         mk.minimize(FreeKnots(SPIRAL, n_knots=5, variable_count=True), "cmaes", budget=10)

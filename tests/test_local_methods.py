@@ -181,6 +181,18 @@ def test_the_ea_solves_onemax():
     assert result.best_f == 0
 
 
+def test_the_ea_runs_on_a_problem_set_up_directly():
+    """An optimizer may be set up on the problem itself (not its task): the (1+1) EA read the
+    evaluations left, which only a task has ("'OneMax' object has no attribute 'remaining'")."""
+    problem = OneMax(20)
+    ea = OnePlusOneEA()
+    ea.setup(problem, np.random.default_rng(3))
+    evaluator = mk.Evaluator(problem, 300)
+    ea.run(evaluator)
+    assert evaluator.n_evaluations == 300
+    assert evaluator.best_f < 10
+
+
 def test_equal_children_are_accepted_on_a_plateau():
     ea = OnePlusOneEA()
     evaluator = mk.Evaluator(Flat(12), 50)

@@ -10,7 +10,7 @@ import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -198,7 +198,7 @@ def _draw(comparison: Comparison, friedman: dict[str, FriedmanResult], metrics: 
 
     from . import figures as f
 
-    plans: list[tuple[str, str, str, Callable[[], Any]]] = []
+    plans: list[tuple[str, str, str, Callable[..., Any]]] = []  # drawn with no argument
     if suite is not None:
         from .suite import ALL, LEVELS
 
@@ -521,7 +521,8 @@ def _suite_sections(suite: _Suite, tables: dict[str, pd.DataFrame],
         table=_plain(solved, {c: _share for c in solved.columns if c != "method"}))]
     gap = tables["suite_gap"]
     if len(gap):
-        shares = {c: _share for c in ("within 1%", "at best-known")}
+        shares: dict[str, Callable[[Any], str]] = {
+            c: _share for c in ("within 1%", "at best-known")}
         sections.append(_Section(
             "Gap to the best-known value", level=3,
             paragraphs=["Per problem the median over seeds of (f − f*)/|f*|; per method the "
@@ -532,7 +533,7 @@ def _suite_sections(suite: _Suite, tables: dict[str, pd.DataFrame],
     ranks = tables["suite_ranks"]
     tests = tables["suite_friedman"]
     verdicts = [f"{row.scope}: " + (f"χ² = {row.chi2:.3g}, p = {_p(row.p)} ({row.note})"
-                                    if np.isfinite(row.p) else row.note)
+                                    if np.isfinite(cast(float, row.p)) else str(row.note))
                 + f"; {row.problems} problems" for row in tests.itertuples()]
     cds = [by_name[n] for n in by_name if n == "suite-cd" or n.startswith("suite-cd-")]
     sections.append(_Section(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import pandas as pd
@@ -126,7 +127,8 @@ def _mixture_note(runs: pd.DataFrame, study_name: str) -> str | None:
     """Why the runs may not be one experiment (``None`` if nothing suggests it): the methods
     were not all run on the same instances and budgets, or the study is the default one
     (every run made without ``study=``) and spans several instances or budgets."""
-    cells = runs.groupby("method")[["instance", "budget"]].apply(
+    # pandas-stubs: apply's function may return any object (a frozenset here), not only scalars
+    cells = runs.groupby("method")[["instance", "budget"]].apply(  # type: ignore[call-overload]
         lambda group: frozenset(zip(group["instance"], group["budget"], strict=True)))
     n_cells = len(frozenset().union(*cells))
     notes = []
@@ -160,10 +162,11 @@ def _instances(runs: pd.DataFrame) -> pd.Series:
         return bool((text.groupby(runs["data"]).nunique(dropna=False) > 1).any())
 
     varying = [c for c in INSTANCE_SETTINGS[1:] if c in runs and varies(c)]
-    options = [c for c in runs if c.startswith("objective.") and varies(c)]
+    columns = cast(list[str], list(runs))  # pandas-stubs: Hashable column names
+    options = [c for c in columns if c.startswith("objective.") and varies(c)]
     names = runs["data"].astype(str)
     for column in varying + options:
-        values = runs[column]
+        values: pd.Series = runs[column]
         prefix = SHORT.get(column, column.split(".", 1)[-1])
         text = values.map(lambda v, p=prefix: "" if _missing(v) else
                           f"{p}={_fmt(v)}" if p else _fmt(v))

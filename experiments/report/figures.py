@@ -205,7 +205,8 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
         data = run_curve(run)
         fit = run_fit(run, data)
         points = data.points
-        u = np.linspace(*data.knot_bounds, 1500)  # a closed curve's whole period
+        lower, upper = data.knot_bounds
+        u = np.linspace(lower, upper, 1500)  # a closed curve's whole period
         curve = fit.spline(u)
         knots = fit.spline(fit.interior_knots) if len(fit.interior_knots) else np.empty(
             (0, points.shape[1]))

@@ -17,7 +17,9 @@ in words in the ``note`` column; its p-value is left empty.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any, cast
 
 import numpy as np
 import pandas as pd
@@ -134,18 +136,22 @@ def pairwise_tests(comparison: Comparison, metric: str = "best_f",
     runs = comparison.runs
     wide = (runs.groupby(["instance", "budget", "seed", "method"], sort=False)[metric].first()
             .unstack("method"))
-    for (instance, budget), values in wide.groupby(level=["instance", "budget"], sort=False):
+    groups = wide.groupby(level=["instance", "budget"], sort=False)
+    # pandas-stubs type a group's key as Hashable: here (instance, budget)
+    for (instance, budget), values in cast(Iterable[tuple[tuple[str, int], pd.DataFrame]],
+                                           groups):
         values = values.droplevel(["instance", "budget"]).dropna(axis=1, how="all")
         methods = [m for m in comparison.methods if m in values]
         cell_rows = []
         for a, b in itertools.combinations(methods, 2):
             pair = values[[a, b]].dropna()
             x, y = pair[a].to_numpy(), pair[b].to_numpy()
-            row = {"instance": instance, "budget": int(budget), "metric": metric, "A": a,
-                   "B": b, "n": len(pair), "median A": np.median(x) if len(x) else np.nan,
-                   "median B": np.median(y) if len(y) else np.nan, "A12": a12(x, y),
-                   "wins": int((x < y).sum()), "ties": int((x == y).sum()),
-                   "losses": int((x > y).sum()), "p": np.nan, "note": ""}
+            row: dict[str, Any] = {
+                "instance": instance, "budget": int(budget), "metric": metric, "A": a,
+                "B": b, "n": len(pair), "median A": np.median(x) if len(x) else np.nan,
+                "median B": np.median(y) if len(y) else np.nan, "A12": a12(x, y),
+                "wins": int((x < y).sum()), "ties": int((x == y).sum()),
+                "losses": int((x > y).sum()), "p": np.nan, "note": ""}
             row["effect"] = magnitude(row["A12"])
             differing = row["wins"] + row["losses"]
             finite = np.isfinite(x - y) if len(x) else np.array([], dtype=bool)
@@ -211,7 +217,7 @@ def friedman_blocks(medians: pd.DataFrame, metric: str = "best_f", alpha: float 
     complete = medians.dropna()
     ranks = (complete.rank(axis=1).mean().sort_values(kind="stable") if len(complete)
              else pd.Series(dtype=float))
-    base = {"metric": metric, "blocks": len(complete), "ranks": ranks,
+    base: dict[str, Any] = {"metric": metric, "blocks": len(complete), "ranks": ranks,
             "statistic": np.nan, "p": np.nan, "posthoc": None}
     if len(methods) < 2:
         return FriedmanResult(**{**base, "ranks": pd.Series(1.0, index=methods)},
@@ -390,8 +396,8 @@ def _range(values: list[float]) -> str:
 
 
 def _ordered(table: pd.DataFrame, comparison: Comparison) -> pd.DataFrame:
-    order = {"instance": comparison.instances, "budget": comparison.budgets,
-             **dict.fromkeys(("method", "A", "B"), comparison.methods)}
+    order: dict[str, Any] = {"instance": comparison.instances, "budget": comparison.budgets,
+                             **dict.fromkeys(("method", "A", "B"), comparison.methods)}
     keys = []
     for column, values in order.items():
         if column in table:

@@ -4,8 +4,9 @@ file, the trials as a table, Optuna's figures, the held-out comparison and a sho
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -72,13 +73,14 @@ def write_figures(spec: TuneSpec, study: Any) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import optuna
+    from matplotlib.figure import Figure
     from optuna.trial import TrialState
     from optuna.visualization import matplotlib as ovm
 
     folder = spec.study_dir / "figures"
     folder.mkdir(exist_ok=True)
     complete = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE,))
-    plots = [("history", ovm.plot_optimization_history)]
+    plots: list[tuple[str, Callable[..., Any]]] = [("history", ovm.plot_optimization_history)]
     if len(complete) >= 2 and len(spec.space.names()) >= 2:
         plots.append(("importances", ovm.plot_param_importances))
     if complete:
@@ -95,7 +97,9 @@ def write_figures(spec: TuneSpec, study: Any) -> list[Path]:
         except (ValueError, RuntimeError) as exc:  # e.g. importances of a constant value
             print(f"tune: figure {name} skipped: {exc}")
             continue
-        figure = np.ravel(axes)[0].figure if isinstance(axes, np.ndarray) else axes.figure
+        # Optuna draws on a figure of its own (matplotlib's stubs allow a subfigure too)
+        figure = cast(Figure, np.ravel(axes)[0].figure if isinstance(axes, np.ndarray)
+                      else axes.figure)
         path = folder / f"{name}.png"
         figure.savefig(path, dpi=110, bbox_inches="tight")
         plt.close(figure)

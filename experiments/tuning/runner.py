@@ -12,7 +12,7 @@ import threading
 import time
 import warnings
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -287,7 +287,7 @@ def work(spec: TuneSpec, worker_index: int = 0, progress: bool = False,
     objective = trial_objective(spec, references(spec, study))
     if ready is not None:
         ready.set()
-    callbacks = [_StopWhenDone(spec.n_trials)]
+    callbacks: list[Any] = [_StopWhenDone(spec.n_trials)]
     if progress:
         callbacks.append(_Progress(spec.n_trials, finished_trials(study)))
     deadline = None if spec.timeout is None else time.monotonic() + spec.timeout
@@ -394,7 +394,7 @@ class _Progress:
                         disable=not sys.stderr.isatty())
 
     def __call__(self, study: Any, trial: Any) -> None:
-        self.bar.n = min(self.bar.total, finished_trials(study))
+        self.bar.n = min(cast(int, self.bar.total), finished_trials(study))  # given above
         best = study.best_value if finished_trials(study) else float("nan")
         self.bar.set_postfix(best=f"{best:.4g}", refresh=True)
 
@@ -428,5 +428,6 @@ def run_workers(spec: TuneSpec, progress: bool = True) -> list[tuple[int, int, i
     finally:
         for process, _ in others:
             process.join()
-    return [(spec.worker_index + i, process.pid, process.exitcode)
+    # started and joined: every pid and exit code is set
+    return [(spec.worker_index + i, cast(int, process.pid), cast(int, process.exitcode))
             for i, (process, _) in enumerate(others, start=1)]

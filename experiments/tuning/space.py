@@ -48,6 +48,7 @@ class Parameter:
         if self.type == "categorical":
             return trial.suggest_categorical(self.name, list(self.choices))
         if self.type == "int":
+            assert self.low is not None and self.high is not None  # numbers have bounds
             return trial.suggest_int(self.name, int(self.low), int(self.high), log=self.log,
                                      step=int(self.step or 1))
         return trial.suggest_float(self.name, self.low, self.high, log=self.log, step=self.step)
@@ -89,7 +90,8 @@ def _parameter(name: str, entry: Any, earlier: dict[str, Parameter]) -> Paramete
         raise ConfigError(f"{key}.type: int, float or categorical, got {kind!r}")
     if "choices" in entry:
         raise ConfigError(f"{key}.choices: only for type categorical")
-    low, high = entry.get("low"), entry.get("high")
+    low: Any = entry.get("low")  # checked below: finite numbers
+    high: Any = entry.get("high")
     for bound, value in (("low", low), ("high", high)):
         if not is_real(value) or not math.isfinite(value):
             raise ConfigError(f"{key}.{bound}: a finite number, got {value!r}")
@@ -124,7 +126,7 @@ class SearchSpace:
         The optimizer's name, for messages.
     """
 
-    def __init__(self, space: Mapping[str, Any], hyperparameters: set[str],
+    def __init__(self, space: object, hyperparameters: set[str],
                  algorithm: str) -> None:
         if not isinstance(space, Mapping) or not space:
             raise ConfigError("tune.space: empty; list at least one parameter to search")
@@ -144,7 +146,7 @@ class SearchSpace:
                                   f"{list(ENCODING_CHOICES)}")
         knots = self.parameters.get("n_knots")
         if knots is not None:
-            if knots.type != "int" or knots.low < 1:
+            if knots.type != "int" or knots.low is None or knots.low < 1:
                 raise ConfigError("tune.space.n_knots: type int with low >= 1")
             if encoding is not None and dict(knots.when).get("encoding") != "indices":
                 raise ConfigError("tune.space.n_knots: add when: {encoding: indices} (K only "

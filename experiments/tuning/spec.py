@@ -107,7 +107,7 @@ class TuneSpec:
         """The settings that define the study's trials (a resumed study must match them)."""
         keys = ("tune", "budget", "objective", "reference", "train", "degree",
                 "parameterization")
-        identity = {k: self.raw.get(k) for k in keys}
+        identity: dict[str, Any] = {k: self.raw.get(k) for k in keys}
         new, old = OPTIMIZER_KEY  # under its former name, so that studies begun with it resume
         identity["tune"] = {old if k == new else k: v for k, v in identity["tune"].items()}
         return identity

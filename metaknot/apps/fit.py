@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -194,7 +195,8 @@ class _Search:
 
 
 #: The searches tried at each knot count: local search, then a GA (name, options, budget).
-FIXED_COUNT_SEARCHES = (("local_search", {}, 5000), ("ga", {"population": 100}, 20000))
+FIXED_COUNT_SEARCHES: tuple[tuple[str, dict[str, Any], int], ...] = (
+    ("local_search", {}, 5000), ("ga", {"population": 100}, 20000))
 #: A search at a fixed count stops after this many evaluations without improving its best.
 STALL_EVALUATIONS = 5000
 
@@ -394,8 +396,9 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     stages.append(f"knot removal: {search.evaluations:,} fits")
     method_name = "knot removal"
     if best is not None and method == "auto":
-        searches = ((FIXED_COUNT_SEARCHES[0][0], {}, max(1, budget // 4)),
-                    (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], budget))
+        searches: tuple[tuple[str, dict[str, Any], int], ...] = (
+            (FIXED_COUNT_SEARCHES[0][0], {}, max(1, budget // 4)),
+            (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], budget))
         fewer, fits = _fewer_at_fixed_counts(curve, params, tol_abs, metric, parameterization,
                                              len(best), searches, seed, progress)
         stages.append(f"search at fixed counts: {fits:,} fits, "

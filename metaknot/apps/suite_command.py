@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import Any, cast
 
 __all__ = ["add_suite"]
 
@@ -115,7 +115,7 @@ def _absorb(args: argparse.Namespace) -> int:
         runs = load_study(folder).runs
         if "suite.instance" not in runs:
             raise ValueError(f"{folder}: no run of this study is on a suite task")
-        rows += runs.to_dict("records")
+        rows += cast(list[dict[str, Any]], runs.to_dict("records"))  # pandas-stubs: Hashable keys
     counts = absorb(rows, path=args.file or BEST_KNOWN_FILE)
     print(f"{counts['tasks']} tasks with runs: {counts['improved']} improved, {counts['new']} "
           f"new, {counts['kept']} kept, {counts['refused']} refused")

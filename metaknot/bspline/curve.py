@@ -259,7 +259,7 @@ class Curve(ABC):
         coefficients over its coefficients (the identity on an open curve; a closed one's
         first ``degree`` coefficients come again at the end)."""
 
-    def errors(self, knot_sets: list[np.ndarray], metric: Metric) -> np.ndarray:
+    def errors(self, knot_sets: list[np.ndarray] | np.ndarray, metric: Metric) -> np.ndarray:
         """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
         it cannot be fitted."""
         check_metric(metric)

@@ -113,7 +113,12 @@ def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_po
                  ) -> np.ndarray:
     """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
     check_metric(metric)
-    err = batch.max_deviation if metric == "max_deviation" else np.sqrt(batch.sse / n_points)
+    if metric == "rmse":
+        err = np.sqrt(batch.sse / n_points)
+    elif batch.max_deviation is None:
+        raise ValueError("the batch was fitted without its maximum deviations")
+    else:
+        err = batch.max_deviation
     return np.where(batch.feasible, err, np.inf)
 
 
@@ -141,7 +146,8 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
 SERIAL_BATCH = 16
 
 
-def _outputs(b: int, max_deviation: bool) -> tuple[np.ndarray, ...]:
+def _outputs(b: int, max_deviation: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The kernel's output arrays for ``b`` candidates (SSE, maximum deviation, control
     points, reason); the audit's tally counts the ``b`` fits they are for."""
     audit.add_fits(b)
@@ -168,8 +174,8 @@ def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
     if masks.dtype.kind not in "biu":
         masks = masks.astype(bool)
     if len(masks) > SERIAL_BATCH:
-        return _evaluate(u, q, *masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool)), p,
-                         max_deviation)
+        knots, offsets = masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool))
+        return _evaluate(u, q, knots, offsets, p, max_deviation)
     sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
     _kernel.evaluate_masks_serial(u, q, p, masks, *out)
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -112,10 +112,12 @@ def smoothing_spline(u: ArrayLike, points: ArrayLike, degree: int, s: float, *,
     if closed:
         q, u = np.vstack((q, q[:1])), np.append(u, 1.0)
     try:
-        tck, _ = splprep(q.T, u=u, k=degree, s=s, per=int(closed), full_output=1, quiet=1)[0]
+        tck, _ = splprep(q.T, u=u, k=degree, s=s, per=1 if closed else 0, full_output=1,
+                            quiet=1)[0]
     except Exception as exc:  # FITPACK raises ValueError, TypeError or its own errors
         raise FitpackError(f"FITPACK refused s = {s:g}: {exc}") from None
-    t, c, k = tck
+    # scipy-stubs type tck as a list of a union; it is [knots, coefficient arrays, degree]
+    t, c, k = tck[0], cast(list[np.ndarray], tck[1]), cast(int, tck[2])
     return SmoothingSpline((np.asarray(t), [np.asarray(ci) for ci in c], int(k)), closed,
                            float(s))
 
@@ -205,7 +207,7 @@ def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tolerance: float
         distance = spline.distances(u, q)
         return spline, float(distance.max()), float(np.sqrt(np.mean(distance**2)))
 
-    index = 1 if metric == "max_deviation" else 2
+    index: Literal[1, 2] = 1 if metric == "max_deviation" else 2
     best = None
     within, beyond = None, None  # log s of the answer, of the nearest larger factor beyond
     last_beyond = None

@@ -115,7 +115,7 @@ def _offsets(counts: np.ndarray) -> np.ndarray:
     return offsets
 
 
-def stack_rows(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+def stack_rows(rows: list[np.ndarray] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Flatten rows of interior knots (of any lengths) to knots plus row offsets; a
     ``ValueError`` naming the first row that is not 1-D."""
     for b, row in enumerate(rows):

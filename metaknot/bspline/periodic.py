@@ -17,6 +17,7 @@ matrix.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numba
 import numpy as np
@@ -186,7 +187,7 @@ def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLik
 
 
 def _fit_flat(p: int, u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray,
-              max_deviation: bool) -> tuple[np.ndarray, ...]:
+              max_deviation: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The compiled fits of a flattened batch whose knots lie inside (0, 1), each row sorted
     (nothing is checked; a row of coincident knots fits as singular): SSE, maximum deviation,
     control points, reason."""
@@ -207,7 +208,8 @@ def _evaluate_masks(p: int, u: np.ndarray, q: np.ndarray, masks: np.ndarray,
 
 
 def periodic_errors(u: ArrayLike, points: ArrayLike, knot_sets: list[np.ndarray],
-                    degree: int = 3, metric: str = "max_deviation") -> np.ndarray:
+                    degree: int = 3, metric: Literal["max_deviation", "rmse"] = "max_deviation"
+                    ) -> np.ndarray:
     """Error (max deviation or RMSE) of the periodic fit for each interior-knot set;
     ``inf`` where it cannot be fitted (the compiled batch evaluator)."""
     check_metric(metric)
