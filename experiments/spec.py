@@ -26,10 +26,9 @@ from typing import Any
 import numpy as np
 from hydra.errors import CompactHydraException
 
-from metaknot.compat import legacy_config, new_config
 from metaknot.validate import is_integer, is_real
 
-__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "plain_config",
+__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "optimizer_defaults", "plain_config",
            "run_spec"]
 
 #: Encoding name in the configuration -> (problem's registry name, encoding kind).
@@ -38,6 +37,8 @@ ENCODINGS = {"mask": ("mask", "binary"), "indices": ("indices", "integer"),
 #: Top-level keys that define a run (the run id hashes them, normalised).
 RUN_KEYS = ("problem", "encoding", "objective", "optimizer", "budget", "seed",
             "checkpoints_per_decade")
+#: Every top-level key of a run configuration (others are refused, not ignored).
+CONFIG_KEYS = frozenset({*RUN_KEYS, "study", "label", "results_dir", "threads", "progress"})
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 STUDY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=,+-]*")  # matched in full (fullmatch)
 FITPACK_COUNT = re.compile(r"^fitpack:(.+)$")
@@ -129,7 +130,7 @@ def _optimizer_class(name: str) -> type:
         raise ConfigError(f"optimizer._name_: {exc}") from None
 
 
-def algorithm_defaults(name: str) -> dict[str, Any]:
+def optimizer_defaults(name: str) -> dict[str, Any]:
     """Hyperparameters of a registered optimizer with their defaults (``"???"``: required),
     read from its ``__init__`` signature; the configuration of an optimizer without a YAML."""
     cls = _optimizer_class(name)
@@ -277,8 +278,6 @@ class RunSpec:
         """The optimizer's registered name."""
         return self.config["optimizer"]["_name_"]
 
-    algorithm = optimizer  # its name before "optimizer" was the one word for it
-
     @property
     def seed(self) -> int:
         return self.config["seed"]
@@ -406,8 +405,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ----------
     cfg
         The composed configuration (``DictConfig`` or mapping): ``problem``, ``encoding``,
-        ``objective``, ``optimizer`` groups (``algorithm``, the optimizer's former
-        name, is read as ``optimizer``) and the top-level ``budget``, ``seed``, ``study``,
+        ``objective``, ``optimizer`` groups and the top-level ``budget``, ``seed``, ``study``,
         ``results_dir``, ``checkpoints_per_decade``, ``threads``, ``progress``.
     check_build
         Also build the problem (without noise) and the optimizer, so their own checks run.
@@ -417,10 +415,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ConfigError
         Naming the first key whose value cannot work.
     """
-    try:  # silently: a stored record's configuration may use the former names
-        cfg = new_config(plain_config(cfg))[0]
-    except ValueError as exc:
-        raise ConfigError(str(exc)) from None
+    cfg = plain_config(cfg)
+    _unknown("", cfg, CONFIG_KEYS)
     study, results_dir = check_study(cfg)
     threads = cfg.get("threads", "auto")
     if threads != "auto":
@@ -548,12 +544,9 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
 
 
 def run_id(config: Mapping[str, Any]) -> str:
-    """Stable 16-hex-digit hash of the run-defining settings (sorted-key JSON).
-
-    The optimizer's settings are hashed under their former names (``algorithm``,
-    :func:`metaknot.compat.legacy_config`): renaming them must not change the id of any run
-    already stored, or a study would run them all again."""
-    text = json.dumps(legacy_config({k: config[k] for k in RUN_KEYS}), sort_keys=True, default=str,
+    """Stable 16-hex-digit hash of the run-defining settings (:data:`RUN_KEYS`, as sorted-key
+    JSON)."""
+    text = json.dumps({k: config[k] for k in RUN_KEYS}, sort_keys=True, default=str,
                       separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

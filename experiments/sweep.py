@@ -5,7 +5,7 @@
 2. Validate each (:func:`~metaknot.experiments.spec.run_spec`): the first bad value stops the
    sweep before any run starts, naming the key and the job.
 3. Drop the jobs whose run is already stored (resume), the duplicates, and the
-   algorithm/encoding pairs that cannot work together (listed, not run).
+   optimizer/encoding pairs that cannot work together (listed, not run).
 4. Launch the rest with the configured launcher and show a bar over the jobs, fed by the records
    appearing in the store (so it works for every launcher).
 5. Sum up (:func:`summary`): what the runs did and how many of the planned runs are stored;
@@ -186,7 +186,7 @@ class _Composer:
         return plain
 
     def _is_group(self, key: str) -> bool:
-        """Whether ``key`` (``algorithm``, ``hydra.launcher``) names a config group."""
+        """Whether ``key`` (``optimizer``, ``hydra.launcher``) names a config group."""
         parent, _, name = key.replace(".", "/").rpartition("/")
         if parent not in self._groups:
             self._groups[parent] = self.loader.list_groups(parent)
