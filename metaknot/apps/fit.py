@@ -272,8 +272,7 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         parameterization: str = "centripetal", closed: bool | None = None,
         method: str = "auto", budget: int = 20000, seed: int = 0,
         progress: bool = False) -> ToleranceFit:
-    """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points
-    (``tol=``, its former name, warns).
+    """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points.
 
     Parameters
     ----------
