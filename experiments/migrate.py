@@ -14,8 +14,11 @@ id :func:`~.spec.run_id` computes for its settings, in the current format:
 
 A migration that is stopped leaves every run with a record (former, new or both); running the
 command again completes it. Records already in the current format are left as they are, so a
-migrated study migrates to itself. Nothing else in the folder (``bad/``, ``hydra/``) changes.
-No run may write into the study while it is migrated.
+migrated study migrates to itself. A tuning study's Optuna storage in the folder
+(``optuna.db`` or ``optuna.journal``, as ``metaknot tune`` makes them without ``storage=``)
+gets the identity under the current names, so that the tuning study resumes. Nothing else in
+the folder (``bad/``, ``hydra/``) changes. No run may write into the study while it is
+migrated.
 """
 
 from __future__ import annotations
@@ -78,12 +81,15 @@ class Migration:
     set_aside
         New records not linked into place because a different record of the same run was
         there already (a run computed again by the current version): kept under ``bad/``.
+    tuning
+        The names of the tuning studies whose stored identity was carried over.
     """
 
     study_dir: Path
     run_ids: dict[str, str] = field(default_factory=dict)
     current: int = 0
     set_aside: list[Path] = field(default_factory=list)
+    tuning: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -194,10 +200,17 @@ def _study_files(store: Store) -> list[tuple[Path, Path]]:
     return files
 
 
+#: The files of a tuning study's Optuna storage in its folder (``metaknot tune``'s default).
+_TUNING_FILES = ("optuna.db", "optuna.journal")
+#: The user attribute that holds a tuning study's identity (``experiments.tuning.runner``).
+_IDENTITY = "metaknot_identity"
+
+
 def _check_study(study_dir: Path) -> None:
     if not study_dir.is_dir():
         raise StoreError(f"{study_dir}: no such study directory")
-    if (study_dir / "runs").is_dir() or (study_dir / "failed").is_dir():
+    if (study_dir / "runs").is_dir() or (study_dir / "failed").is_dir() or any(
+            (study_dir / name).is_file() for name in _TUNING_FILES):
         return
     studies = sorted(p.name for p in _entries(study_dir)
                      if (p / "runs").is_dir() or (p / "failed").is_dir())
@@ -205,8 +218,49 @@ def _check_study(study_dir: Path) -> None:
         names = ", ".join(studies)
         raise StoreError(f"{study_dir}: a results folder, not a study; migrate each of its "
                          f"studies: {names if len(names) <= 80 else names[:77] + '...'}")
-    raise StoreError(f"{study_dir}: not a metaknot study (it has no runs/ or failed/ folder); "
-                     "nothing was changed")
+    raise StoreError(f"{study_dir}: not a metaknot study (it has no runs/ or failed/ folder and "
+                     "no tuning storage); nothing was changed")
+
+
+def current_identity(identity: Mapping[str, Any]) -> dict[str, Any] | None:
+    """A tuning study's stored identity under the current names (the optimizer under
+    ``tune.optimizer``), or None if it names nothing by a former name."""
+    tune = identity.get("tune")
+    if not isinstance(tune, Mapping) or _FORMER_OPTIMIZER_KEY not in tune:
+        return None
+    if "optimizer" in tune:
+        raise ValueError("the identity has both tune.algorithm and tune.optimizer")
+    return {**identity, "tune": {("optimizer" if k == _FORMER_OPTIMIZER_KEY else k): v
+                                 for k, v in tune.items()}}
+
+
+def _migrate_tuning(study_dir: Path) -> list[str]:
+    """Carry the identities of the tuning studies in ``study_dir``'s Optuna storage over;
+    return their names."""
+    import optuna
+    from optuna.storages import JournalStorage, RDBStorage
+    from optuna.storages.journal import JournalFileBackend
+
+    done = []
+    for name in _TUNING_FILES:
+        path = study_dir / name
+        if not path.is_file():
+            continue
+        optuna.logging.set_verbosity(optuna.logging.WARNING)
+        storage = RDBStorage(f"sqlite:///{path}") if name.endswith(".db") else \
+            JournalStorage(JournalFileBackend(str(path)))
+        for study in storage.get_all_studies():
+            stored = study.user_attrs.get(_IDENTITY)
+            try:
+                identity = current_identity(json.loads(stored)) if stored else None
+            except ValueError as exc:
+                raise StoreError(f"{path}: tuning study {study.study_name!r}: {exc}") from None
+            if identity is not None:
+                study_id = storage.get_study_id_from_name(study.study_name)
+                storage.set_study_user_attr(study_id, _IDENTITY,
+                                            json.dumps(identity, sort_keys=True, default=str))
+                done.append(study.study_name)
+    return done
 
 
 def _write(store: Store, planned: _Planned) -> None:
@@ -247,6 +301,7 @@ def migrate_study(study_dir: str | os.PathLike) -> Migration:
     store = Store(study_dir)
     _check_study(store.study_dir)
     migration = Migration(store.study_dir)
+    migration.tuning = _migrate_tuning(store.study_dir)
     plans = []
     for path, new_dir in _study_files(store):
         planned = _plan(path, new_dir)

@@ -102,6 +102,9 @@ def _migrate(args: argparse.Namespace) -> int:
         moved = len(done.run_ids)
         print(f"metaknot migrate: {done.study_dir}: {moved} record(s) carried over to new run "
               f"ids, {done.current} already current", file=sys.stderr)
+        for name in done.tuning:
+            print(f"metaknot migrate: {done.study_dir}: tuning study {name!r} carried over",
+                  file=sys.stderr)
         for path in done.set_aside:
             print(f"metaknot migrate: {path}: a run the study holds a newer record of; its "
                   "carried-over record is kept here", file=sys.stderr)

@@ -159,11 +159,38 @@ def test_migrate_refuses_a_folder_that_is_not_a_study(study, tmp_path, capsys, w
     err = capsys.readouterr().err
     assert err.startswith(f"metaknot: error: {folder}: ")
     assert {"missing": "no such study directory",
-            "empty": "not a metaknot study (it has no runs/ or failed/ folder); nothing was "
-                     "changed",
+            "empty": "not a metaknot study (it has no runs/ or failed/ folder and no tuning "
+                     "storage); nothing was changed",
             "results": "a results folder, not a study; migrate each of its studies: "
                        "study-0.1.0"}[where] in err
     assert snapshot(tmp_path) == before
+
+
+def test_a_tuning_study_begun_before_resumes_once_migrated(tmp_path, capsys):
+    import json
+
+    import optuna
+    from hydra import compose, initialize_config_dir
+
+    from metaknot.experiments.spec import ConfigError, plain_config
+    from metaknot.experiments.tuning import tune_spec
+    from metaknot.experiments.tuning.app import CONFIG_DIR
+    from metaknot.experiments.tuning.runner import open_storage, open_study
+
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        cfg = plain_config(compose("tuning", overrides=["tune=ga", f"results_dir={tmp_path}",
+                                                        "study=t"]))
+    spec = tune_spec(cfg)
+    former = spec.identity()
+    former["tune"]["algorithm"] = former["tune"].pop("optimizer")  # as 0.1.0 stored it
+    study = optuna.create_study(study_name="t", storage=open_storage(spec))
+    study.set_user_attr("metaknot_identity", json.dumps(former, sort_keys=True))
+    with pytest.raises(ConfigError, match=r"already exists .* with other settings \(tune\)"):
+        open_study(spec, open_storage(spec))
+    assert main(["migrate", str(spec.study_dir)]) == 0
+    assert "tuning study 't' carried over" in capsys.readouterr().err
+    assert open_study(spec, open_storage(spec)).study_name == "t"  # resumes
+    assert migrate_study(spec.study_dir).tuning == []
 
 
 def test_migrate_changes_nothing_if_one_record_does_not_hold_its_run(study):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -105,7 +106,7 @@ class TuneSpec:
         """The settings that define the study's trials (a resumed study must match them)."""
         keys = ("tune", "budget", "objective", "reference", "train", "degree",
                 "parameterization")
-        return {k: self.raw.get(k) for k in keys}
+        return copy.deepcopy({k: self.raw.get(k) for k in keys})
 
     def run_config(self, instance: Instance, seed: int, *, optimizer: str | None = None,
                    params: Mapping[str, Any] | None = None,
