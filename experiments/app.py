@@ -36,7 +36,14 @@ from .spec import (
     plain_config,
     run_spec,
 )
-from .store import DEFAULT_STUDY, Store, default_study_note, read_record, spline_fields
+from .store import (
+    DEFAULT_STUDY,
+    Store,
+    StoreError,
+    default_study_note,
+    read_record,
+    spline_fields,
+)
 
 if TYPE_CHECKING:
     from metaknot.result import RunResult
@@ -362,7 +369,8 @@ def _check_single_run(overrides: list[str]) -> str | None:
         reason = spec.compatible()
         if reason:
             raise ConfigError(reason)
-    except ConfigError as exc:
+        Store(spec.study_dir).check_format()  # a study to migrate takes no new record
+    except (ConfigError, StoreError) as exc:
         return str(exc)
     return None
 

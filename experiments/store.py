@@ -158,6 +158,19 @@ class Store:
         """
         return {run_id for entry, run_id in _run_files(self.runs_dir) if self._sound(entry)}
 
+    def check_format(self) -> None:
+        """Raise :class:`StoreError` naming ``metaknot migrate`` if the study's records are of
+        an earlier format (:data:`FORMER_FORMATS`). A study is migrated as a whole, so the
+        first readable record file of ``runs/`` (else of ``failed/``) stands for all."""
+        for folder in (self.runs_dir, self.failed_dir):
+            for entry in _entries(folder):
+                try:
+                    schema = pq.read_schema(entry)
+                except (OSError, ValueError, pa.ArrowException):
+                    continue  # a damaged file is named when its run is read
+                _refuse_former(entry, schema)
+                return
+
     def _sound(self, path: Path) -> bool:
         """Check a record's footer, format and field types (not its data pages: cheap); if
         it fails, move the file to ``bad/``, say so on stderr and return False."""

@@ -33,7 +33,7 @@ from tqdm.auto import tqdm
 
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
 from .spec import ConfigError, RunSpec, run_spec
-from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, default_study_note
+from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, StoreError, default_study_note
 
 __all__ = ["expand", "plan", "summary", "sweep"]
 
@@ -123,7 +123,10 @@ def plan(sweeper: Any, arguments: list[str]) -> tuple[Plan, Path]:
             continue
         seen.add(spec.run_id)
         if spec.study_dir not in completed:
-            completed[spec.study_dir] = Store(spec.study_dir).completed()
+            try:
+                completed[spec.study_dir] = Store(spec.study_dir).completed()
+            except StoreError as exc:  # one line, as a bad setting is (not a traceback)
+                raise ConfigError(str(exc)) from None
         if spec.run_id in completed[spec.study_dir]:
             result.stored.append(spec)
         else:

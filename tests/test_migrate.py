@@ -79,7 +79,23 @@ def test_the_store_refuses_a_study_of_the_earlier_format_naming_the_command(stud
         load_study(study)
     with pytest.raises(StoreError, match="metaknot migrate"):
         Store(study).completed()  # as a sweep plans: refused, not moved aside as damaged
+    with pytest.raises(StoreError, match="metaknot migrate"):
+        Store(study).check_format()
     assert snapshot(study) == before and not (study / "bad").exists()
+
+
+def test_a_run_into_a_study_to_migrate_is_refused_before_it_starts(study, capsys):
+    from metaknot.experiments.app import main as run_main
+
+    before = snapshot(study)
+    assert run_main(["problem=archimedean", "optimizer=ga", "budget=100", f"study={study.name}",
+                     f"results_dir={study.parent}"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("metaknot run: error: ") and \
+        err.rstrip().endswith(f"carry the study over with: metaknot migrate {study}")
+    assert snapshot(study) == before
+    migrate_study(study)
+    Store(study).check_format()  # current: nothing to say
 
 
 def test_migrate_gives_the_run_ids_of_todays_configurations(study):
