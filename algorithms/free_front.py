@@ -40,7 +40,6 @@ import nlopt
 import numpy as np
 
 from metaknot.budget import BudgetExhausted, Evaluator
-from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problems import FreeKnotSpace
 from metaknot.registry import register
@@ -80,7 +79,6 @@ class FreeKnotFront(Optimizer):
     problem: FreeKnotSpace  # setup refuses any other (check_free_knots)
     multi_objective = True  # each count's error is minimised; the archive keeps the front
 
-    @renamed_parameters("free_front")
     def __init__(self, local_variant: str = "LN_BOBYQA", initial_step: float = 0.5,
                  perturbation: float = 0.1, min_gap: float = 1e-4,
                  density_exponent: float = 0.3, batch_size: int = 64) -> None:

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 from metaknot.task import ProblemView
@@ -63,7 +62,6 @@ class NevergradOptimizer(Optimizer):
     #: ``nevergrad:<name>`` in the registry sets this parameter.
     variant_parameter = "variant"
 
-    @renamed_parameters("nevergrad")
     def __init__(self, variant: str = "NGOpt", batch_size: int = 16) -> None:
         if not isinstance(variant, str) or not variant:
             raise ValueError(f"variant must be a nevergrad registry name; got {variant!r}")

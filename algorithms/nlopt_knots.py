@@ -29,7 +29,6 @@ import nlopt
 import numpy as np
 
 from metaknot.budget import BudgetExhausted, Evaluator
-from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problems import FreeKnotSpace
 from metaknot.registry import register
@@ -141,7 +140,6 @@ class NloptKnots(Optimizer):
     encodings = ("continuous",)
     problem: FreeKnotSpace  # setup refuses any other (check_free_knots)
 
-    @renamed_parameters("nlopt")
     def __init__(self, variant: str = "LN_BOBYQA", local_variant: str = "LN_BOBYQA",
                  restarts: int = 0, min_gap: float = 1e-4, data_gap: float | None = None,
                  box_map: str = "auto", span_range: float = 4.0, initial_step: float = 0.1,

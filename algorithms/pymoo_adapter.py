@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from metaknot.compat import renamed_parameters
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.registry import register
 from metaknot.task import ProblemView
@@ -67,7 +66,6 @@ class PymooOptimizer(Optimizer):
     encodings = ("binary", "integer", "continuous")
     variant_parameter = "variant"
 
-    @renamed_parameters("pymoo")
     def __init__(self, variant: str = "GA", population: int = 50,
                  initial: str = "random") -> None:
         self.variant = check_choice("variant", variant, ALGORITHMS)

@@ -27,15 +27,23 @@ from omegaconf import OmegaConf
 from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
 from .spec import (
+    CONFIG_KEYS,
     ENCODINGS,
     ConfigError,
     RunSpec,
-    algorithm_defaults,
     not_a_setting,
+    optimizer_defaults,
     plain_config,
     run_spec,
 )
-from .store import DEFAULT_STUDY, Store, default_study_note, read_record, spline_fields
+from .store import (
+    DEFAULT_STUDY,
+    Store,
+    StoreError,
+    default_study_note,
+    read_record,
+    spline_fields,
+)
 
 if TYPE_CHECKING:
     from metaknot.result import RunResult
@@ -69,7 +77,7 @@ def register_plugin_configs() -> None:
     for name in available_optimizers():
         if name not in shipped:
             try:
-                node = algorithm_defaults(name)
+                node = optimizer_defaults(name)
             except ConfigError:
                 continue
             store.store(group="optimizer", name=name, node=node, provider="metaknot")
@@ -273,7 +281,8 @@ def check_choices(args: list[str]) -> str | None:
     exist, as a one-line error with the closest names, or ``None`` if every choice exists;
     an optimizer (``optimizer=NAME`` or ``optimizer._name_=NAME``) is looked up in the
     optimizer registry, which names the closest. ``null`` is refused too: Hydra composes no
-    job from a group set to null. Other errors (override syntax) are left for Hydra."""
+    job from a group set to null. A top-level setting that does not exist (``optimiser=ga``)
+    is named with the known ones. Other errors (override syntax) are left for Hydra."""
     import difflib
 
     from hydra import initialize_config_dir
@@ -288,7 +297,15 @@ def check_choices(args: list[str]) -> str | None:
             [a for a in args if not a.startswith("-")])
     except HydraException:
         return None
+    roots = set(loader.list_groups("")) | CONFIG_KEYS
     for override in overrides:
+        top = override.key_or_group.partition(".")[0]
+        if top not in roots and not (override.is_add() or override.is_force_add()
+                                     or override.is_delete() or top == "hydra"):
+            close = difflib.get_close_matches(top, sorted(CONFIG_KEYS), n=1)
+            hint = f"; did you mean {close[0]}?" if close else ""
+            return (f"{top}: unknown setting{hint} (known: "
+                    f"{', '.join(sorted(CONFIG_KEYS))})")
         group = override.key_or_group.replace(".", "/")
         parent, _, name = group.rpartition("/")
         is_group = not override.is_delete() and name in loader.list_groups(parent)
@@ -353,7 +370,8 @@ def _check_single_run(overrides: list[str]) -> str | None:
         reason = spec.compatible()
         if reason:
             raise ConfigError(reason)
-    except ConfigError as exc:
+        Store(spec.study_dir).check_format()  # a study to migrate takes no new record
+    except (ConfigError, StoreError) as exc:
         return str(exc)
     return None
 

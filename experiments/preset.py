@@ -9,8 +9,7 @@ A preset names a method, as ``metaknot tune`` writes its best configuration::
 It is read as plain YAML data and becomes command-line overrides placed before the user's
 (``optimizer=dolphin ++optimizer.population=32 ...``), so the user's own overrides win. It can
 hold nothing but these settings: no Hydra ``defaults`` or ``hydra`` keys, no ``_target_``,
-no interpolation. A preset written with ``algorithm:`` (the optimizer's former name) is
-read with a note on stderr, as are such overrides. A Hydra config directory
+no interpolation. A Hydra config directory
 (``--config-dir``) is code instead: its ``hydra.callbacks`` and ``_target_`` keys call any
 Python function. See ``docs/tuning.md``.
 """
@@ -20,8 +19,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 from typing import Any
-
-from metaknot.compat import new_config, new_overrides, note
 
 from .spec import ConfigError, _unknown, run_spec
 
@@ -80,12 +77,9 @@ def check_preset(data: Any, where: str) -> dict[str, Any]:
                           "directives and _target_ run code)")
     _refuse_directives(data, where, "")
     try:
-        data, old = new_config(data)
         _unknown("", data, KEYS)
-    except (ConfigError, ValueError) as exc:
+    except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
-    for old_name, new_name in old:
-        note(old_name, new_name, f"{_short(Path(where).name)}: ")
     if "optimizer" not in data:
         raise ConfigError(f"{where}: optimizer: missing (a preset names its optimizer)")
     for section in SECTIONS:
@@ -169,8 +163,7 @@ def _override_value(value: Any) -> str:
 def expand_preset(args: list[str]) -> list[str]:
     """``args`` with ``--preset FILE`` (or ``--preset=FILE``) replaced by the preset's
     overrides, placed just before the other overrides (which therefore win) and after Hydra's
-    flags (``-m``, ``--config-dir DIR``, ...); overrides in former spellings
-    (``algorithm=ga``) are translated (:func:`metaknot.compat.new_overrides`).
+    flags (``-m``, ``--config-dir DIR``, ...).
 
     Raises
     ------
@@ -179,7 +172,7 @@ def expand_preset(args: list[str]) -> list[str]:
         given twice.
     """
     rest, files = [], []
-    items = iter(new_overrides(args))
+    items = iter(args)
     for arg in items:
         if arg == "--preset":
             file = next(items, None)

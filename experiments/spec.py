@@ -19,6 +19,7 @@ import re
 import types
 import typing
 from collections.abc import Mapping
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, overload
@@ -26,10 +27,9 @@ from typing import Any, Literal, overload
 import numpy as np
 from hydra.errors import CompactHydraException
 
-from metaknot.compat import legacy_config, new_config
 from metaknot.validate import is_integer, is_real
 
-__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "algorithm_defaults", "plain_config",
+__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "optimizer_defaults", "plain_config",
            "run_spec"]
 
 #: Encoding name in the configuration -> (problem's registry name, encoding kind).
@@ -38,6 +38,8 @@ ENCODINGS = {"mask": ("mask", "binary"), "indices": ("indices", "integer"),
 #: Top-level keys that define a run (the run id hashes them, normalised).
 RUN_KEYS = ("problem", "encoding", "objective", "optimizer", "budget", "seed",
             "checkpoints_per_decade")
+#: Every top-level key of a run configuration (others are refused, not ignored).
+CONFIG_KEYS = frozenset({*RUN_KEYS, "study", "label", "results_dir", "threads", "progress"})
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 STUDY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=,+-]*")  # matched in full (fullmatch)
 FITPACK_COUNT = re.compile(r"^fitpack:(.+)$")
@@ -121,7 +123,7 @@ def _section(cfg: Mapping[str, Any], key: str) -> dict[str, Any]:
     return dict(value)
 
 
-def _unknown(key: str, given: Mapping[str, Any], known: set[str]) -> None:
+def _unknown(key: str, given: Mapping[str, Any], known: AbstractSet[str]) -> None:
     extra = sorted(set(given) - known)
     if extra:
         name = f"{key}.{extra[0]}" if key else extra[0]
@@ -141,7 +143,7 @@ def _optimizer_class(name: str) -> Any:  # a registered optimizer class
         raise ConfigError(f"optimizer._name_: {exc}") from None
 
 
-def algorithm_defaults(name: str) -> dict[str, Any]:
+def optimizer_defaults(name: str) -> dict[str, Any]:
     """Hyperparameters of a registered optimizer with their defaults (``"???"``: required),
     read from its ``__init__`` signature; the configuration of an optimizer without a YAML."""
     cls = _optimizer_class(name)
@@ -289,8 +291,6 @@ class RunSpec:
         """The optimizer's registered name."""
         return self.config["optimizer"]["_name_"]
 
-    algorithm = optimizer  # its name before "optimizer" was the one word for it
-
     @property
     def seed(self) -> int:
         return self.config["seed"]
@@ -418,8 +418,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ----------
     cfg
         The composed configuration (``DictConfig`` or mapping): ``problem``, ``encoding``,
-        ``objective``, ``optimizer`` groups (``algorithm``, the optimizer's former
-        name, is read as ``optimizer``) and the top-level ``budget``, ``seed``, ``study``,
+        ``objective``, ``optimizer`` groups and the top-level ``budget``, ``seed``, ``study``,
         ``results_dir``, ``checkpoints_per_decade``, ``threads``, ``progress``.
     check_build
         Also build the problem (without noise) and the optimizer, so their own checks run.
@@ -429,10 +428,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ConfigError
         Naming the first key whose value cannot work.
     """
-    try:  # silently: a stored record's configuration may use the former names
-        cfg = new_config(plain_config(cfg))[0]
-    except ValueError as exc:
-        raise ConfigError(str(exc)) from None
+    cfg = plain_config(cfg)
+    _unknown("", cfg, CONFIG_KEYS)
     study, results_dir = check_study(cfg)
     threads = cfg.get("threads", "auto")
     if threads != "auto":
@@ -561,12 +558,9 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
 
 
 def run_id(config: Mapping[str, Any]) -> str:
-    """Stable 16-hex-digit hash of the run-defining settings (sorted-key JSON).
-
-    The optimizer's settings are hashed under their former names (``algorithm``,
-    :func:`metaknot.compat.legacy_config`): renaming them must not change the id of any run
-    already stored, or a study would run them all again."""
-    text = json.dumps(legacy_config({k: config[k] for k in RUN_KEYS}), sort_keys=True, default=str,
+    """Stable 16-hex-digit hash of the run-defining settings (:data:`RUN_KEYS`, as sorted-key
+    JSON)."""
+    text = json.dumps({k: config[k] for k in RUN_KEYS}, sort_keys=True, default=str,
                       separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

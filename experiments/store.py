@@ -15,7 +15,8 @@ hard-linked into place and the folder synced), so a killed run or a power cut ne
 partial record, and a record is never replaced: a run whose id already has a record is skipped,
 which is how an interrupted study resumes. A record is checked (its Parquet footer, format and
 field types) before it counts as stored; one that fails is moved to ``bad/`` and its run is
-computed again.
+computed again. A record of an earlier format (:data:`FORMER_FORMATS`) is an error that names
+the command carrying the study over, ``metaknot migrate STUDY`` (:mod:`.migrate`).
 """
 
 from __future__ import annotations
@@ -37,18 +38,20 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from metaknot.compat import new_record
-
 if TYPE_CHECKING:  # pandas loads only when a study is read (run workers do not need it)
     import pandas as pd
 
     from metaknot.bspline import CurveFit
 
-__all__ = ["COMPLETE_STATUSES", "MIN_FREE_BYTES", "SPLINE_FIELDS", "STORE_FORMAT", "Store",
-           "StoreError", "Study", "load_study", "read_record", "spline_fields", "stored_fit"]
+__all__ = ["COMPLETE_STATUSES", "FORMER_FORMATS", "MIN_FREE_BYTES", "SPLINE_FIELDS",
+           "STORE_FORMAT", "Store", "StoreError", "Study", "load_study", "read_record",
+           "record_format", "spline_fields", "stored_fit"]
 
 #: Written into every record file's Parquet metadata; files without it are foreign.
-STORE_FORMAT = "metaknot-run-record/1"
+STORE_FORMAT = "metaknot-run-record/2"
+#: The formats of records that ``metaknot migrate`` carries over (:mod:`.migrate`): read, they
+#: are an error that names the command, never moved aside as damaged.
+FORMER_FORMATS = frozenset({"metaknot-run-record/1"})
 _META_KEY = b"metaknot"
 #: File names, matched in full (``fullmatch``: no trailing newline slips through).
 RUN_FILE = re.compile(r"(?P<run_id>[0-9a-f]{16})\.parquet")
@@ -155,6 +158,19 @@ class Store:
         """
         return {run_id for entry, run_id in _run_files(self.runs_dir) if self._sound(entry)}
 
+    def check_format(self) -> None:
+        """Raise :class:`StoreError` naming ``metaknot migrate`` if the study's records are of
+        an earlier format (:data:`FORMER_FORMATS`). A study is migrated as a whole, so the
+        first readable record file of ``runs/`` (else of ``failed/``) stands for all."""
+        for folder in (self.runs_dir, self.failed_dir):
+            for entry in _entries(folder):
+                try:
+                    schema = pq.read_schema(entry)
+                except (OSError, ValueError, pa.ArrowException):
+                    continue  # a damaged file is named when its run is read
+                _refuse_former(entry, schema)
+                return
+
     def _sound(self, path: Path) -> bool:
         """Check a record's footer, format and field types (not its data pages: cheap); if
         it fails, move the file to ``bad/``, say so on stderr and return False."""
@@ -164,6 +180,7 @@ class Store:
         except (OSError, ValueError, pa.ArrowException) as exc:  # a damaged file
             problem: str | None = f"cannot be read as a Parquet run record ({_short(exc)})"
         else:
+            _refuse_former(path, schema)
             problem = _problem(schema, meta.num_rows)
         if problem is None:
             return True
@@ -324,10 +341,30 @@ def read_record(path: str | os.PathLike) -> dict[str, Any]:
     except Exception as exc:  # pyarrow raises several types for damaged files
         raise StoreError(f"{path}: cannot be read as a Parquet run record ({_short(exc)}); "
                          "move it out of the study or delete it to run that run again") from None
+    _refuse_former(path, table.schema)
     problem = _problem(table.schema, table.num_rows)
     if problem is not None:
         raise StoreError(f"{path}: {problem}; move it out of the study")
-    return new_record(table.to_pylist()[0])  # a record written before the renames too
+    return table.to_pylist()[0]
+
+
+def record_format(schema: pa.Schema) -> str | None:
+    """The format mark of a record file's schema (:data:`STORE_FORMAT` for the current one),
+    or None if it has none."""
+    mark = (schema.metadata or {}).get(_META_KEY)
+    return None if mark is None else mark.decode(errors="replace")
+
+
+def _refuse_former(path: Path, schema: pa.Schema) -> None:
+    """Raise :class:`StoreError` naming ``metaknot migrate`` if the record at ``path`` is in
+    one of the :data:`FORMER_FORMATS` (its run id is not the one the current version computes
+    for its settings)."""
+    found = record_format(schema)
+    if found in FORMER_FORMATS:
+        study = path.parent.parent
+        raise StoreError(f"{path}: a record in the earlier format {found!r}, whose run id and "
+                         f"field names are no longer current; carry the study over with: "
+                         f"metaknot migrate {study}")
 
 
 def _problem(schema: pa.Schema, num_rows: int) -> str | None:

@@ -5,7 +5,7 @@
 2. Validate each (:func:`~metaknot.experiments.spec.run_spec`): the first bad value stops the
    sweep before any run starts, naming the key and the job.
 3. Drop the jobs whose run is already stored (resume), the duplicates, and the
-   algorithm/encoding pairs that cannot work together (listed, not run).
+   optimizer/encoding pairs that cannot work together (listed, not run).
 4. Launch the rest with the configured launcher and show a bar over the jobs, fed by the records
    appearing in the store (so it works for every launcher).
 5. Sum up (:func:`summary`): what the runs did and how many of the planned runs are stored;
@@ -33,7 +33,7 @@ from tqdm.auto import tqdm
 
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
 from .spec import ConfigError, RunSpec, run_spec
-from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, default_study_note
+from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, StoreError, default_study_note
 
 __all__ = ["expand", "plan", "summary", "sweep"]
 
@@ -123,7 +123,10 @@ def plan(sweeper: Any, arguments: list[str]) -> tuple[Plan, Path]:
             continue
         seen.add(spec.run_id)
         if spec.study_dir not in completed:
-            completed[spec.study_dir] = Store(spec.study_dir).completed()
+            try:
+                completed[spec.study_dir] = Store(spec.study_dir).completed()
+            except StoreError as exc:  # one line, as a bad setting is (not a traceback)
+                raise ConfigError(str(exc)) from None
         if spec.run_id in completed[spec.study_dir]:
             result.stored.append(spec)
         else:
@@ -189,7 +192,7 @@ class _Composer:
         return plain
 
     def _is_group(self, key: str) -> bool:
-        """Whether ``key`` (``algorithm``, ``hydra.launcher``) names a config group."""
+        """Whether ``key`` (``optimizer``, ``hydra.launcher``) names a config group."""
         parent, _, name = key.replace(".", "/").rpartition("/")
         if parent not in self._groups:
             self._groups[parent] = self.loader.list_groups(parent)

@@ -1,8 +1,9 @@
 """Command line: ``metaknot run`` (Hydra runs and sweeps into the results store), ``metaknot
 tune`` (hyperparameter studies with Optuna), ``metaknot fit`` (a user's points within a
 tolerance), ``metaknot report`` (statistical comparison of a stored study), ``metaknot
-export`` (a study's traces for IOHanalyzer), ``metaknot demo`` (optimizers on the seed curves),
-``metaknot suite`` (the benchmark suite), ``metaknot list``."""
+export`` (a study's traces for IOHanalyzer), ``metaknot migrate`` (a stored study carried over
+to the current record format), ``metaknot demo`` (optimizers on the seed curves), ``metaknot
+suite`` (the benchmark suite), ``metaknot list``."""
 
 from __future__ import annotations
 
@@ -54,6 +55,16 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--force", action="store_true",
                         help="write into a folder that is not empty")
     export.set_defaults(func=_export)
+    migrate = sub.add_parser("migrate", help="carry a stored study over to the current record "
+                                             "format (new run ids), in place",
+                             description="Rewrites the records of a study stored in an earlier "
+                                         "format under the current names and run ids, in "
+                                         "place: every new record is written completely "
+                                         "before a former one is removed, and a study already "
+                                         "current is left as it is. No run may write into the "
+                                         "study meanwhile.")
+    migrate.add_argument("study", nargs="+", help="the study folder(s), RESULTS_DIR/STUDY")
+    migrate.set_defaults(func=_migrate)
     sub.add_parser("run", add_help=False,
                    help="runs and sweeps from Hydra overrides into the results store "
                         "(metaknot run --help lists the config groups)")
@@ -80,6 +91,23 @@ def _export(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else study.with_name(f"{study.name}-{args.format}")
     written = export_iohprofiler(study, out, force=args.force)
     print(f"metaknot export: {len(written)} files in {out}")
+    return 0
+
+
+def _migrate(args: argparse.Namespace) -> int:
+    from metaknot.experiments.migrate import migrate_study
+
+    for study in args.study:
+        done = migrate_study(study)
+        moved = len(done.run_ids)
+        print(f"metaknot migrate: {done.study_dir}: {moved} record(s) carried over to new run "
+              f"ids, {done.current} already current", file=sys.stderr)
+        for name in done.tuning:
+            print(f"metaknot migrate: {done.study_dir}: tuning study {name!r} carried over",
+                  file=sys.stderr)
+        for path in done.set_aside:
+            print(f"metaknot migrate: {path}: a run the study holds a newer record of; its "
+                  "carried-over record is kept here", file=sys.stderr)
     return 0
 
 

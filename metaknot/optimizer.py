@@ -26,7 +26,6 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .budget import BudgetExhausted, Evaluator
-from .compat import deprecated
 from .task import ProblemView
 from .validate import is_real
 
@@ -167,12 +166,5 @@ class Optimizer(ABC):
     def hyperparameters(self) -> dict[str, Any]:
         """Hyperparameters, for run records: the ``__init__`` arguments, read back from the
         attributes of the same name."""
-        if type(self).params is not Optimizer.params:  # a subclass written for the old name
-            return type(self).params(self)
         names = inspect.signature(type(self).__init__).parameters
         return {k: getattr(self, k) for k in names if k != "self" and hasattr(self, k)}
-
-    def params(self) -> dict[str, Any]:
-        """Deprecated name of :meth:`hyperparameters` (``params`` are the data parameters)."""
-        deprecated("Optimizer.params() is deprecated, use hyperparameters()")
-        return self.hyperparameters()

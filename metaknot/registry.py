@@ -19,7 +19,6 @@ from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Any, Literal, TypeVar, cast
 
-from .compat import new_problem_name
 from .optimizer import Optimizer
 from .problem import Problem
 
@@ -126,9 +125,8 @@ def get_optimizer(name: str, **kwargs: Any) -> Optimizer:
 
 
 def get_problem(name: str, **kwargs: Any) -> Problem:
-    """Instantiate a registered problem by name (for example ``"mask"``; the former names
-    ``"knot_selection"``, ``"knot_indices"``, ``"free_knots"`` warn)."""
-    return _lookup("problem", new_problem_name(name))(**kwargs)
+    """Instantiate a registered problem by name (for example ``"mask"``)."""
+    return _lookup("problem", name)(**kwargs)
 
 
 def available_optimizers() -> list[str]:

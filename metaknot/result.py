@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .compat import Metrics
 from .progress import Trace
 
 __all__ = ["RunResult"]
@@ -102,12 +100,11 @@ class RunResult:
         return rows
 
     @property
-    def metrics(self) -> Metrics:
+    def metrics(self) -> dict[str, float]:
         """The solution's metrics (its ``metrics``), with NaN for each of the problem's
         ``metric_names`` it lacks (all of them if there is no solution)."""
         found = getattr(self.solution, "metrics", None) or {}
-        values = found if isinstance(found, Mapping) else found()  # a plugin's method
-        return Metrics({**dict.fromkeys(self.metric_names, np.nan), **values})
+        return {**dict.fromkeys(self.metric_names, np.nan), **found}
 
     def summary(self) -> dict[str, Any]:
         """Flat dictionary of the scalar outcome: names, seed, budget, ``best_f`` (the objective

@@ -1,126 +1,79 @@
-"""One word per concept (:mod:`metaknot.compat`): the current spellings work, the former ones
-still work with a deprecation note, and renaming changes no run id and no stored study."""
+"""One word per concept: the current names work, and a name that is not current is refused as
+any misspelled name is (never translated), on every surface: configurations, presets, tuning
+configurations, command lines, Python keywords, registered names. Run ids hash the current
+names."""
 
 from __future__ import annotations
 
+import hashlib
 import json
-from pathlib import Path
 
+import numpy as np
 import pytest
 
-from metaknot import compat
-from metaknot.algorithms import NevergradOptimizer, NloptKnots, PymooOptimizer
-from metaknot.experiments.preset import check_preset, expand_preset, preset_overrides
-from metaknot.experiments.spec import run_spec
-from metaknot.experiments.store import load_study
+import metaknot as mk
+from metaknot.algorithms import FreeKnotFront, NevergradOptimizer, NloptKnots, PymooOptimizer
+from metaknot.bspline.fitpack import fewest_within
+from metaknot.experiments.app import check_choices
+from metaknot.experiments.preset import check_preset
+from metaknot.experiments.spec import ConfigError, run_id, run_spec
 
-PREVIOUS = Path(__file__).parent / "data" / "previous-study"
-
-
-@pytest.fixture(autouse=True)
-def fresh_notes(monkeypatch):
-    """Each test sees the notes of its own deprecated spellings (they are said once)."""
-    monkeypatch.setattr(compat, "_NOTED", set())
+BASE = {"study": "s", "results_dir": ".", "problem": {"curve": "archimedean"},
+        "encoding": {"kind": "free"}, "objective": {"name": "paper"}, "budget": 100, "seed": 0}
 
 
-def stored_configs() -> list[tuple[str, dict]]:
-    runs = load_study(PREVIOUS).runs
-    return [(row.run_id, json.loads(row.config)) for row in runs.itertuples()]
+def test_a_run_id_is_the_hash_of_the_current_names():
+    spec = run_spec({**BASE, "optimizer": {"_name_": "nlopt", "variant": "LN_SBPLX"}},
+                    check_build=False)
+    assert spec.config["optimizer"]["variant"] == "LN_SBPLX"
+    settings = {k: spec.config[k] for k in ("problem", "encoding", "objective", "optimizer",
+                                            "budget", "seed", "checkpoints_per_decade")}
+    text = json.dumps(settings, sort_keys=True, default=str, separators=(",", ":"))
+    assert spec.run_id == run_id(spec.config) == hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def test_stored_runs_keep_their_ids_under_either_spelling():
-    configs = stored_configs()
-    assert len(configs) == 5 and all("algorithm" in config for _, config in configs)
-    for run_id, config in configs:
-        legacy = run_spec({"study": "s", "results_dir": ".", **config}, check_build=False)
-        current, renamed = compat.new_config(config)
-        assert renamed == [("algorithm", "optimizer")] and "algorithm" not in current
-        new = run_spec({"study": "s", "results_dir": ".", **current}, check_build=False)
-        assert legacy.run_id == new.run_id == run_id
-        assert new.config["optimizer"] == legacy.config["optimizer"] == current["optimizer"]
+def test_the_optimizer_group_has_one_name():
+    with pytest.raises(ConfigError, match=r"^algorithm: unknown setting \(known: budget, "):
+        run_spec({**BASE, "algorithm": {"_name_": "nlopt"}}, check_build=False)
 
 
-@pytest.mark.parametrize(("name", "old", "new", "value"), [
-    ("nlopt", "algorithm", "variant", "LN_SBPLX"),
-    ("nlopt", "local_algorithm", "local_variant", "LN_SBPLX"),
-    ("pymoo", "algorithm", "variant", "DE"),
-    ("nevergrad", "optimizer", "variant", "CMA"),
-    ("free_front", "local_algorithm", "local_variant", "LN_SBPLX"),
+@pytest.mark.parametrize(("name", "word"), [
+    ("nlopt", "algorithm"), ("nlopt", "local_algorithm"), ("pymoo", "algorithm"),
+    ("nevergrad", "optimizer"), ("free_front", "local_algorithm"),
 ])
-def test_a_renamed_hyperparameter_hashes_under_its_former_name(name, old, new, value):
-    base = {"study": "s", "results_dir": ".", "problem": {"curve": "archimedean"},
-            "encoding": {"kind": "free"}, "objective": {"name": "paper"}, "budget": 100,
-            "seed": 0}
-    current = run_spec({**base, "optimizer": {"_name_": name, new: value}}, check_build=False)
-    former = run_spec({**base, "algorithm": {"_name_": name, old: value}}, check_build=False)
-    assert current.config["optimizer"][new] == value and old not in current.config["optimizer"]
-    assert current.run_id == former.run_id
-    # the id is the hash of the former names: what every stored run was identified by
-    assert compat.legacy_config(current.config)["algorithm"][old] == value
+def test_a_hyperparameter_has_one_name(name, word):
+    with pytest.raises(ConfigError, match=rf"^optimizer\.{word}: unknown setting \(known: .*"
+                                          r"variant"):
+        run_spec({**BASE, "optimizer": {"_name_": name, word: "X"}}, check_build=False)
 
 
-def test_both_spellings_of_one_setting_are_refused():
-    with pytest.raises(ValueError, match="algorithm and variant: the same setting twice"):
-        compat.new_config({"optimizer": {"_name_": "nlopt", "algorithm": "A", "variant": "B"}})
-
-
-def test_former_overrides_are_translated_and_noted_once(capsys):
-    old = ["-m", "algorithm=ga,dolphin", "algorithm.population=30", "+algorithm.pp1=0.2",
-           "~algorithm.loops", "algorithm.algorithm=LN_SBPLX", "algorithm.optimizer=CMA",
-           "algorithm.local_algorithm=LN_SBPLX", "tune.algorithm=ga", "label=algorithm=x"]
-    assert compat.new_overrides(old) == [
-        "-m", "optimizer=ga,dolphin", "optimizer.population=30", "+optimizer.pp1=0.2",
-        "~optimizer.loops", "optimizer.variant=LN_SBPLX", "optimizer.variant=CMA",
-        "optimizer.local_variant=LN_SBPLX", "tune.optimizer=ga", "label=algorithm=x"]
-    compat.new_overrides(["algorithm=ga"])
-    err = capsys.readouterr().err.splitlines()
-    assert err.count("metaknot: 'algorithm' is deprecated, write 'optimizer'") == 1
-    assert "metaknot: 'algorithm.algorithm' is deprecated, write 'optimizer.variant'" in err
-    new = ["optimizer=ga", "optimizer.population=30", "label=ga"]
-    assert compat.new_overrides(new) == new and capsys.readouterr().err == ""
-
-
-def test_a_preset_in_the_former_spelling_runs_as_the_current_one(tmp_path, capsys):
-    old = tmp_path / "old.yaml"
-    old.write_text("algorithm: {_name_: nlopt, algorithm: GN_CRS2_LM}\n"
-                   "encoding: {kind: free}\n")
-    new = {"optimizer": {"_name_": "nlopt", "variant": "GN_CRS2_LM"}, "encoding": {"kind": "free"}}
-    assert expand_preset(["--preset", str(old), "seed=1"]) == [
-        *preset_overrides(check_preset(new, "new")), "seed=1"]
-    err = capsys.readouterr().err
-    assert "metaknot: old.yaml: 'algorithm' is deprecated, write 'optimizer'" in err
-    assert "'optimizer.algorithm' is deprecated, write 'optimizer.variant'" in err
-    assert preset_overrides(check_preset(new, "new"))[:2] == ["optimizer=nlopt",
-                                                              "++optimizer.variant='GN_CRS2_LM'"]
-
-
-@pytest.mark.parametrize(("cls", "old", "new", "value"), [
-    (NloptKnots, "algorithm", "variant", "LN_SBPLX"),
-    (NloptKnots, "local_algorithm", "local_variant", "LN_SBPLX"),
-    (PymooOptimizer, "algorithm", "variant", "DE"),
-    (NevergradOptimizer, "optimizer", "variant", "CMA"),
+@pytest.mark.parametrize(("cls", "word"), [
+    (NloptKnots, "algorithm"), (NloptKnots, "local_algorithm"), (PymooOptimizer, "algorithm"),
+    (NevergradOptimizer, "optimizer"), (FreeKnotFront, "local_algorithm"),
 ])
-def test_a_former_keyword_of_an_optimizer_warns_where_it_is_written(cls, old, new, value):
-    with pytest.warns(DeprecationWarning, match=f"{old}= is deprecated, use {new}=") as caught:
-        optimizer = cls(**{old: value})
-    assert caught[0].filename == __file__  # the warning points at the caller
-    assert getattr(optimizer, new) == value and optimizer.hyperparameters()[new] == value
-    assert old not in optimizer.hyperparameters()
+def test_an_optimizer_takes_its_current_keywords_only(cls, word):
+    with pytest.raises(TypeError, match=f"unexpected keyword argument '{word}'"):
+        cls(**{word: "LN_SBPLX"})
 
 
-def test_a_stored_record_reads_under_the_current_names():
-    row = {"run_id": "x", "algorithm": "nevergrad", "algorithm.optimizer": "CMA",
-           "algorithm.batch_size": 4, "optimize_seconds": 1.0}
-    assert compat.new_record(row) == {"run_id": "x", "optimizer": "nevergrad",
-                                      "optimizer.variant": "CMA", "optimizer.batch_size": 4,
-                                      "optimize_seconds": 1.0}
-    runs = load_study(PREVIOUS).runs
-    assert "algorithm" not in runs and not any(c.startswith("algorithm.") for c in runs)
-    assert set(runs.optimizer) == {"ga", "random_search"}
-    assert runs.loc[runs.optimizer == "ga", "optimizer.population"].eq(50).all()
+@pytest.mark.parametrize("args", [["algorithm=ga"], ["-m", "algorithm=ga,dolphin"],
+                                  ["algorithm.population=30"]])
+def test_a_command_line_names_the_setting_it_does_not_know(args):
+    error = check_choices(args)
+    assert error is not None and error.startswith("algorithm: unknown setting (known: ")
+    assert "optimizer" in error
+    assert check_choices(["optimiser=ga"]).startswith(
+        "optimiser: unknown setting; did you mean optimizer? (known: ")
+    assert check_choices(["optimizer=ga", "+label=x", "budget=10"]) is None
 
 
-def test_a_tuning_study_in_the_former_spelling_keeps_its_identity(tmp_path, capsys):
+def test_a_preset_has_one_name_for_its_optimizer():
+    assert check_preset({"optimizer": {"_name_": "ga"}}, "p.yaml")["optimizer"]["_name_"] == "ga"
+    with pytest.raises(ConfigError, match=r"^p\.yaml: algorithm: unknown setting"):
+        check_preset({"algorithm": {"_name_": "ga"}}, "p.yaml")
+
+
+def test_a_tuning_configuration_has_one_name_for_its_optimizer(tmp_path):
     from hydra import compose, initialize_config_dir
 
     from metaknot.experiments.spec import plain_config
@@ -129,81 +82,41 @@ def test_a_tuning_study_in_the_former_spelling_keeps_its_identity(tmp_path, caps
 
     with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
         cfg = plain_config(compose("tuning", overrides=["tune=ga", f"results_dir={tmp_path}"]))
-    current = tune_spec(cfg)
+    assert tune_spec(cfg).identity()["tune"]["optimizer"] == "ga"
     cfg["tune"]["algorithm"] = cfg["tune"].pop("optimizer")
-    former = tune_spec(cfg)
-    assert "'tune.algorithm' is deprecated, write 'tune.optimizer'" in capsys.readouterr().err
-    assert current.optimizer == former.optimizer == "ga"
-    assert current.identity() == former.identity()
-    assert current.identity()["tune"]["algorithm"] == "ga"  # as studies begun before stored it
+    with pytest.raises(ConfigError, match=r"^tune\.algorithm: unknown setting"):
+        tune_spec(cfg)
 
 
-@pytest.mark.parametrize(("old", "new"), sorted(compat.PROBLEM_NAMES.items()))
-def test_a_former_problem_name_warns_at_the_line_that_names_it(old, new):
-    import metaknot as mk
-
-    options = {"points": "archimedean", **({} if new == "mask" else {"n_knots": 4})}
-    assert mk.get_problem(new, **options).name == new
-    with pytest.warns(DeprecationWarning, match=f"problem {old!r} is deprecated, use {new!r}") \
-            as caught:
-        problem = mk.get_problem(old, **options)
-    assert problem.name == new and caught[0].filename == __file__
-    with pytest.warns(DeprecationWarning) as caught:  # from deep inside minimize, too
-        result = mk.minimize(old, "random_search", budget=20, seed=0, problem_kwargs=options)
-    assert result.problem == new and caught[0].filename == __file__
+@pytest.mark.parametrize("word", ["knot_selection", "knot_indices", "free_knots"])
+def test_a_problem_is_named_by_its_encoding(word):
+    with pytest.raises(ValueError, match=f"^unknown problem '{word}'.* Available: free, "
+                                         "indices, mask$"):
+        mk.get_problem(word, points="archimedean")
 
 
-def test_stored_records_name_their_problem_by_its_encoding():
-    runs = load_study(PREVIOUS).runs
-    assert set(runs.problem) == {"mask"} and set(runs.encoding) == {"binary"}
-
-
-def test_hyperparameters_and_the_former_params():
-    optimizer = NloptKnots(variant="LN_SBPLX", restarts=2)
-    current = optimizer.hyperparameters()
-    assert current["variant"] == "LN_SBPLX" and current["restarts"] == 2
-    with pytest.warns(DeprecationWarning, match=r"use hyperparameters\(\)") as caught:
-        assert optimizer.params() == current
-    assert caught[0].filename == __file__
-
-    class OldStyle(NloptKnots):  # a plugin written for the former name
-        def params(self):
-            return {"steps": 3}
-
-    assert OldStyle().hyperparameters() == {"steps": 3}
-
-
-def test_a_tolerance_is_tolerance_and_tol_still_works(tmp_path, capsys):
-    import numpy as np
-
-    import metaknot as mk
-    from metaknot.cli import main
-
+def test_a_tolerance_is_tolerance():
     x = np.linspace(0, 3, 60)
     points = np.column_stack([x, np.sin(2 * x)])
-    current = mk.fit(points, tolerance=1e-3, method="removal")
-    with pytest.warns(DeprecationWarning, match="fit: tol= is deprecated, use tolerance=") \
-            as caught:
-        former = mk.fit(points, tol=1e-3, method="removal")
-    assert caught[0].filename == __file__
-    assert current.n_control_points == former.n_control_points
-    assert current.tolerance == former.tolerance == 1e-3
-    np.savetxt(tmp_path / "sine.csv", points, delimiter=",")
-    for option in ("--tolerance", "--tol"):
-        assert main(["fit", str(tmp_path / "sine.csv"), option, "1e-3", "--method", "removal",
-                     "--out", str(tmp_path / option.strip("-"))]) == 0
-        saved = json.loads((tmp_path / option.strip("-") / "fit.json").read_text())
-        assert saved["metrics"]["n_control_points"] == current.n_control_points
+    assert mk.fit(points, tolerance=1e-3, method="removal").tolerance == 1e-3
+    with pytest.raises(TypeError, match="unexpected keyword argument 'tol'"):
+        mk.fit(points, tol=1e-3, method="removal")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'tol'"):
+        fewest_within(x / 3, points, 3, tol=1e-3, metric="rmse")
 
 
-def test_metrics_is_a_dictionary_everywhere_and_calling_it_still_works():
-    import metaknot as mk
-
+def test_metrics_are_plain_dictionaries_and_hyperparameters_have_one_name():
     result = mk.minimize("mask", "random_search", budget=50, seed=0,
                          problem_kwargs={"points": "archimedean"})
     for metrics in (result.metrics, result.solution.metrics, result.solution.fit.metrics):
-        assert isinstance(metrics, dict) and metrics["rmse"] == result.metrics["rmse"] > 0
-    with pytest.warns(DeprecationWarning, match="metrics is a dictionary") as caught:
-        assert result.solution.fit.metrics() == result.solution.fit.metrics
-    assert caught[0].filename == __file__
+        assert type(metrics) is dict and metrics["rmse"] == result.metrics["rmse"] > 0
     assert result.record()["rmse"] == result.metrics["rmse"]
+    optimizer = NloptKnots(variant="LN_SBPLX", restarts=2)
+    assert optimizer.hyperparameters()["variant"] == "LN_SBPLX"
+    assert not hasattr(optimizer, "params")
+
+    class Custom(NloptKnots):
+        def params(self):  # a method of its own, not the optimizer's hyperparameters
+            return {"steps": 3}
+
+    assert Custom().hyperparameters()["variant"] == "LN_BOBYQA"

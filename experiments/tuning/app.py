@@ -13,8 +13,6 @@ from __future__ import annotations
 import sys
 from typing import Any
 
-from metaknot.compat import new_overrides
-
 from ..app import CONFIG_DIR, launch
 from ..spec import ConfigError, not_a_setting
 from .spec import TuneSpec, tune_spec
@@ -96,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     from hydra import compose, initialize_config_dir
     from hydra.errors import HydraException
 
-    args = new_overrides(list(sys.argv[1:] if argv is None else argv))
+    args = list(sys.argv[1:] if argv is None else argv)
     if not any(a.startswith("-") for a in args):
         error = not_a_setting(args, "tune=dolphin n_trials=100 workers=2")
         if error:

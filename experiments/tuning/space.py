@@ -122,19 +122,18 @@ class SearchSpace:
         ``{name: distribution}`` (see the module notes).
     hyperparameters
         The optimizer's hyperparameter names (its ``__init__`` arguments).
-    algorithm
+    optimizer
         The optimizer's name, for messages.
     """
 
-    def __init__(self, space: object, hyperparameters: set[str],
-                 algorithm: str) -> None:
+    def __init__(self, space: object, hyperparameters: set[str], optimizer: str) -> None:
         if not isinstance(space, Mapping) or not space:
             raise ConfigError("tune.space: empty; list at least one parameter to search")
         self.parameters: dict[str, Parameter] = {}
         for name, entry in space.items():
             if name not in hyperparameters and name not in PROBLEM_PARAMETERS:
                 raise ConfigError(
-                    f"tune.space.{name}: {algorithm!r} has no such hyperparameter; it has "
+                    f"tune.space.{name}: {optimizer!r} has no such hyperparameter; it has "
                     f"{', '.join(sorted(hyperparameters))} (and the problem's "
                     f"{', '.join(PROBLEM_PARAMETERS)})")
             self.parameters[name] = _parameter(name, entry, self.parameters)

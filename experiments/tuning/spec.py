@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
+import copy
 import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-
-from metaknot.compat import OPTIMIZER_KEY, new_config, new_hyperparameters, note
 
 from ..spec import (
     ConfigError,
@@ -107,10 +106,7 @@ class TuneSpec:
         """The settings that define the study's trials (a resumed study must match them)."""
         keys = ("tune", "budget", "objective", "reference", "train", "degree",
                 "parameterization")
-        identity: dict[str, Any] = {k: self.raw.get(k) for k in keys}
-        new, old = OPTIMIZER_KEY  # under its former name, so that studies begun with it resume
-        identity["tune"] = {old if k == new else k: v for k, v in identity["tune"].items()}
-        return identity
+        return copy.deepcopy({k: self.raw.get(k) for k in keys})
 
     def run_config(self, instance: Instance, seed: int, *, optimizer: str | None = None,
                    params: Mapping[str, Any] | None = None,
@@ -207,17 +203,7 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     raw = plain_config(cfg)
     _unknown("", raw, KEYS)
     study, results_dir = check_study(raw)
-    try:  # the former names (tune.algorithm, renamed hyperparameters), with a note
-        tune, renamed = new_config(_section(raw, "tune"))
-        for part in ("fixed", "space"):
-            if isinstance(tune.get(part), Mapping):
-                tune[part], inner = new_hyperparameters(tune.get("optimizer"), tune[part])
-                renamed += [(f"{part}.{old}", f"{part}.{new}") for old, new in inner]
-    except ValueError as exc:
-        raise ConfigError(f"tune: {exc}") from None
-    for old, new in renamed:
-        note(f"tune.{old}", f"tune.{new}")
-    raw["tune"] = tune
+    tune = raw["tune"] = _section(raw, "tune")
     _unknown("tune", tune, {"optimizer", "encoding", "fixed", "space"})
     optimizer = tune.get("optimizer")
     if not isinstance(optimizer, str):

@@ -159,8 +159,9 @@ def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path) -> int:
           f"RMSE {m['rmse']:.4g} (tolerance {result.tolerance:.4g} on {result.metric}), "
           f"{m['seconds']:.2f} s", flush=True)
     try:
-        written = write_fit(result, result.points if not args.function else points[:, 1:],
-                            out, force=args.force)
+        fitted = points[:, 1:] if args.function else \
+            points if result.points is None else result.points
+        written = write_fit(result, fitted, out, force=args.force)
     except OSError as exc:
         raise ValueError(f"--out {out}: cannot write the files ({exc.strerror or exc})") \
             from None

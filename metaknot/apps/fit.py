@@ -38,7 +38,6 @@ from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
 from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates, check_point_count
-from ..compat import KEYWORDS, renamed_parameters
 from ..validate import check_flag, is_integer, is_real
 
 __all__ = ["ToleranceFit", "fit"]
@@ -269,15 +268,13 @@ def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
     return q, params
 
 
-@renamed_parameters("fit", KEYWORDS)
 def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         metric: Metric = "max_deviation", function: bool = False,
         params: ArrayLike | None = None, degree: int = 3,
         parameterization: str = "centripetal", closed: bool | None = None,
         method: str = "auto", budget: int = 20000, seed: int = 0,
         progress: bool = False) -> ToleranceFit:
-    """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points
-    (``tol=``, its former name, warns).
+    """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points.
 
     Parameters
     ----------

@@ -13,7 +13,6 @@ from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
 from .. import audit
-from ..compat import Metrics
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from ._kernel import masks_to_knots
@@ -310,15 +309,15 @@ class CurveFit:
         return float(self.residuals.max())
 
     @property
-    def metrics(self) -> Metrics:
+    def metrics(self) -> dict[str, float]:
         """All metrics as a flat dictionary."""
-        return Metrics({
+        return {
             "n_control_points": self.n_control_points,
             "sse": self.sse,
             "rmse": self.rmse,
             "euclidean_distance": self.euclidean_distance,
             "max_deviation": self.max_deviation,
-        })
+        }
 
 
 @dataclass(frozen=True, eq=False)

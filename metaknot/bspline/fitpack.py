@@ -26,8 +26,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline, splev, splprep
 
-from ..compat import KEYWORDS, renamed_parameters
-
 __all__ = ["FitpackError", "SmoothingSpline", "fewest_within", "front", "interior_knots",
            "smoothing_spline"]
 
@@ -172,7 +170,6 @@ SCAN_STOP_FACTOR = 2.0
 SCAN_STOP_MARGIN = 10
 
 
-@renamed_parameters("fewest_within", KEYWORDS)
 def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tolerance: float,
                   metric: Literal["max_deviation", "rmse"], *, closed: bool = False
                   ) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 Before launching anything it composes and validates every job's configuration (one bad value
 fails the sweep, naming the key), skips the runs already in the results store and the
-algorithm/encoding pairs that cannot work together (listing them), then launches the rest with
+optimizer/encoding pairs that cannot work together (listing them), then launches the rest with
 the configured launcher (any ``hydra/launcher`` plugin: joblib, submitit's local and SLURM
 launchers) and shows a progress bar over the jobs. The work is done in
 :mod:`metaknot.experiments.sweep`; this module stays light, as Hydra imports every plugin.
