@@ -122,3 +122,43 @@ def test_fitpack_is_called_from_one_module():
                 if names & FITPACK_NAMES:
                     users.add(path.relative_to(ROOT).as_posix())
     assert users == {"metaknot/bspline/fitpack.py"}
+
+
+#: The most project files a short run may cross, by curve and optimizer: set-up, every
+#: evaluation (ask, the evaluator, the problem, the kernel, the objective, the trace, tell) and
+#: the run record. A ratchet: lower it when a file leaves the path, never raise it to let one
+#: in. The goal is 14 for each.
+RUN_PATH_FILES = {("open", "random_search"): 19, ("open", "one_plus_one"): 22,
+                  ("closed", "random_search"): 20, ("closed", "one_plus_one"): 24}
+
+
+def files_of_a_run(closed: bool, optimizer: str) -> set[str]:
+    """The project's source files that a short run calls into, as ``sys.setprofile`` sees
+    them (a run before it compiles the kernels)."""
+    import metaknot as mk
+    from metaknot.problems import KnotSelection, get_curve
+
+    problem = KnotSelection(get_curve("epitrochoid"), closed=closed)
+    mk.minimize(problem, mk.get_optimizer(optimizer), budget=30, seed=0)
+    run_optimizer = mk.get_optimizer(optimizer)
+    seen: set[str] = set()
+    root = str(ROOT) + "/"
+
+    def profile(frame, event, arg):
+        if event == "call" and frame.f_code.co_filename.startswith(root):
+            seen.add(frame.f_code.co_filename[len(root):])
+
+    previous = sys.getprofile()
+    sys.setprofile(profile)
+    try:
+        mk.minimize(problem, run_optimizer, budget=30, seed=0)
+    finally:
+        sys.setprofile(previous)
+    return {name for name in seen if not name.startswith((".venv/", "tests/"))}
+
+
+def test_a_run_crosses_few_files() -> None:
+    for (curve, optimizer), most in RUN_PATH_FILES.items():
+        files = files_of_a_run(curve == "closed", optimizer)
+        assert {"metaknot/budget.py", "metaknot/bspline/_kernel.py"} <= files  # it is traced
+        assert len(files) <= most, (curve, optimizer, sorted(files))
