@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike
 
 from metaknot.bspline import averaging_knots, check_degree
 from metaknot.bspline.curve import Curve, CurveFit, Metric, curve_model
+from metaknot.bspline.fit import check_metric
 from metaknot.bspline.parameterize import MAX_DEGREE, as_points
 from metaknot.optimizer import check_param
 from metaknot.task import ProblemView
@@ -101,8 +102,7 @@ class Target:
                              f"{u.shape}")
         if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
             raise ValueError("params must be finite and strictly increasing")
-        if metric not in ("max_deviation", "rmse"):
-            raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+        check_metric(metric)
         if isinstance(tolerance, bool) or not isinstance(tolerance, int | float | np.floating) \
                 or not np.isfinite(tolerance) or tolerance <= 0:
             raise ValueError(f"the tolerance must be a number > 0; got {tolerance!r}")
@@ -356,8 +356,7 @@ class ToleranceMethod(_KnotCountBaseline):
         super().__init__(max_knots, batch_size)
         self.tolerance = None if tolerance is None else \
             check_param("tolerance", tolerance, low=0, low_open=True)
-        if metric not in ("max_deviation", "rmse"):
-            raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+        check_metric(metric)
         self.metric = metric
 
     def method_options(self) -> dict[str, Any]:

@@ -16,6 +16,7 @@ from numba import njit
 from numpy.typing import ArrayLike
 
 from metaknot.bspline import BatchFit
+from metaknot.bspline.fit import check_metric
 
 __all__ = ["BIC", "OBJECTIVES", "RMSE", "DataInfo", "ErrorBounded", "Objective", "Paper", "Pareto",
            "get_objective"]
@@ -202,8 +203,7 @@ class ErrorBounded(Objective):
 
     def __init__(self, tolerance: float | None = None, relative_tolerance: float = 1e-3,
                  metric: Literal["max_deviation", "rmse"] = "max_deviation") -> None:
-        if metric not in ("max_deviation", "rmse"):
-            raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+        check_metric(metric)
         if tolerance is not None and not (np.isfinite(tolerance) and tolerance > 0):
             raise ValueError(f"tolerance must be a finite value > 0; got {tolerance}")
         if not (np.isfinite(relative_tolerance) and relative_tolerance > 0):
@@ -279,8 +279,7 @@ class Pareto(Objective):
 
     def __init__(self, metric: Literal["rmse", "max_deviation"] = "rmse",
                  error_floor: float = 1e-6) -> None:
-        if metric not in ("max_deviation", "rmse"):
-            raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+        check_metric(metric)
         error_floor = float(error_floor)
         if not 0.0 < error_floor < 1.0:
             raise ValueError(f"error_floor must lie in (0, 1); got {error_floor}")

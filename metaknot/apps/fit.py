@@ -35,6 +35,7 @@ from scipy.interpolate import BSpline
 
 from ..bspline import check_degree, fitpack
 from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
+from ..bspline.fit import check_metric
 from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates, check_point_count
@@ -333,8 +334,7 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
                          f"({', '.join(sorted(LITERATURE))}); got {method!r}")
     if not is_integer(budget) or budget < 1:
         raise ValueError(f"budget must be a positive integer; got {budget!r}")
-    if metric not in ("max_deviation", "rmse"):
-        raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+    check_metric(metric)
     relative, function, progress = (check_flag(name, value) for name, value in (
         ("relative", relative), ("function", function), ("progress", progress)))
     if closed is not None:

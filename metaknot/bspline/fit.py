@@ -101,11 +101,15 @@ class BatchFit:
         return self.sse.size
 
 
-def check_metric(metric: str) -> str:
+#: The error measures a tolerance or an objective can be stated in.
+METRICS = ("max_deviation", "rmse")
+
+
+def check_metric(metric: object) -> Literal["max_deviation", "rmse"]:
     """``metric``, or a ``ValueError`` unless it is ``"max_deviation"`` or ``"rmse"``."""
-    if metric not in ("max_deviation", "rmse"):
+    if metric not in METRICS:
         raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
-    return metric
+    return metric  # type: ignore[return-value]  # one of METRICS
 
 
 def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_points: int

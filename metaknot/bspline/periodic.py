@@ -29,12 +29,13 @@ from . import _kernel, _periodic_kernel
 from ._codegen import MAX_DIMENSION
 from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors, check_metric
 from .knots import as_positions, padded_rows, stack_rows
-from .parameterize import check_coordinates, check_degree
+from .parameterize import PARAMETERIZATIONS, check_coordinates, check_degree
 
 __all__ = ["PeriodicFit", "closed_parameterize", "evaluate_periodic", "fit_periodic",
            "periodic_errors", "periodic_knot_vector"]
 
-EXPONENTS = {"uniform": 0.0, "chord": 1.0, "centripetal": 0.5}
+#: The step between neighbours is the chord length to this power, per parameterization.
+EXPONENTS = dict(zip(PARAMETERIZATIONS, (0.0, 1.0, 0.5), strict=True))
 
 
 def closed_parameterize(points: ArrayLike, method: str = "centripetal") -> np.ndarray:
