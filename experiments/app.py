@@ -48,39 +48,38 @@ from .store import (
 if TYPE_CHECKING:
     from metaknot.result import RunResult
 
-__all__ = ["execute", "main", "register_hydra_plugins", "register_plugin_configs"]
+__all__ = ["execute", "main", "register_hydra_plugins", "register_optimizer_configs"]
 
 CONFIG_DIR = Path(__file__).resolve().parent / "conf"
 
 
 def register_hydra_plugins() -> None:
     """Make the study sweeper known to Hydra (its plugin scan misses editable installs) and
-    register the configs of plugin optimizers (:func:`register_plugin_configs`)."""
+    register every optimizer's config (:func:`register_optimizer_configs`)."""
     from hydra.core.plugins import Plugins
 
     plugins = Plugins.instance()  # the plugin scan first: it may import the sweeper module
     from hydra_plugins.metaknot_study_sweeper.study_sweeper import StudySweeper
 
     plugins.register(StudySweeper)
-    register_plugin_configs()
+    register_optimizer_configs()
 
 
-def register_plugin_configs() -> None:
-    """Give every registered optimizer without a YAML of its own (entry-point plugins) a
-    config ``optimizer=<name>`` built from its signature, so it runs like a built-in."""
+def register_optimizer_configs() -> None:
+    """Give every registered optimizer, built-in or an entry-point plugin, the config
+    ``optimizer=<name>`` in Hydra's config store: its hyperparameters and their defaults, read
+    from its signature (:func:`~.spec.optimizer_defaults`). No YAML restates them."""
     from hydra.core.config_store import ConfigStore
 
     from metaknot.registry import available_optimizers
 
-    shipped = {p.stem for p in (CONFIG_DIR / "optimizer").glob("*.yaml")}
     store = ConfigStore.instance()
     for name in available_optimizers():
-        if name not in shipped:
-            try:
-                node = optimizer_defaults(name)
-            except ConfigError:
-                continue
-            store.store(group="optimizer", name=name, node=node, provider="metaknot")
+        try:
+            node = optimizer_defaults(name)
+        except ConfigError:
+            continue
+        store.store(group="optimizer", name=name, node=node, provider="metaknot")
 
 
 def _in_multirun() -> bool:

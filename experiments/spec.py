@@ -145,7 +145,7 @@ def _optimizer_class(name: str) -> Any:  # a registered optimizer class
 
 def optimizer_defaults(name: str) -> dict[str, Any]:
     """Hyperparameters of a registered optimizer with their defaults (``"???"``: required),
-    read from its ``__init__`` signature; the configuration of an optimizer without a YAML."""
+    read from its ``__init__`` signature: the config node ``optimizer=<name>``."""
     cls = _optimizer_class(name)
     out: dict[str, Any] = {"_name_": name}
     for p in inspect.signature(cls.__init__).parameters.values():

@@ -1,6 +1,6 @@
 """The study configuration and the run spec: every bad value named by its key in one line, the
-algorithm configs matching the optimizers, stable run ids, paired seeds, FITPACK knot counts,
-algorithm/encoding compatibility, the presets, and the sweep's fast composition."""
+optimizer configs generated from their signatures, stable run ids, paired seeds, FITPACK knot
+counts, algorithm/encoding compatibility, the presets, and the sweep's fast composition."""
 
 from __future__ import annotations
 
@@ -278,7 +278,6 @@ def test_a_bad_points_file_is_reported_as_a_problem_error(tmp_path):
 # the algorithm configs are the optimizers' signatures
 
 
-ALGORITHM_YAMLS = sorted((CONFIG_DIR / "optimizer").glob("*.yaml"))
 #: The method presets that name a method (``method=default`` is none: the configured one).
 METHOD_PRESETS = sorted(p for p in (CONFIG_DIR / "method").glob("*.yaml") if p.stem != "default")
 
@@ -293,27 +292,37 @@ def algorithm_choice(name: str) -> tuple[str, ...]:
     return f"optimizer={name}", f"encoding={first_encoding(name)}", "problem=archimedean"
 
 
-@pytest.mark.parametrize("path", ALGORITHM_YAMLS, ids=lambda p: p.stem)
-def test_algorithm_yaml_lists_the_constructor_parameters_and_defaults(path):
-    node = yaml_of(path)
-    assert node.pop("_name_") == path.stem
-    cls = type(mk.get_optimizer(path.stem))
-    defaults = signature_defaults(cls)
-    assert set(node) == set(defaults)
-    assert node == defaults
-    for name, value in node.items():  # 1 is not 1.0 in a run id
-        assert type(value) is type(defaults[name]), name
-    assert optimizer_defaults(path.stem) == {"_name_": path.stem, **defaults}
-    assert optimizer_defaults(path.stem) == yaml_of(path)
+@pytest.mark.parametrize("name", sorted(mk.available_optimizers()))
+def test_optimizer_choice_composes_the_signature_defaults(name):
+    """``optimizer=NAME`` is generated from the constructor: no file restates it."""
+    assert not (CONFIG_DIR / "optimizer").exists()
+    node = OmegaConf.to_container(compose_cfg(f"optimizer={name}").optimizer)
+    defaults = signature_defaults(type(mk.get_optimizer(name)))
+    assert node == {"_name_": name, **defaults}
+    for pname, value in defaults.items():  # 1 is not 1.0 in a run id
+        assert type(node[pname]) is type(value), pname
 
 
-def test_every_registered_optimizer_has_a_yaml():
-    shipped = {p.stem for p in ALGORITHM_YAMLS}
-    assert set(mk.available_optimizers()) <= shipped
-    assert shipped <= set(mk.available_optimizers())
+def test_an_override_of_an_optimizer_default_changes_the_run():
+    default = spec_of("optimizer=ga", "problem=archimedean")
+    given = spec_of("optimizer=ga", "problem=archimedean", "optimizer.population=30")
+    assert given.config["optimizer"]["population"] == 30
+    assert given.build_optimizer().population == 30
+    assert default.build_optimizer().population == 50
+    assert given.run_id != default.run_id
+    assert spec_of("optimizer=ga", "problem=archimedean",
+                   "optimizer.population=50").run_id == default.run_id
 
 
-@pytest.mark.parametrize("name", [p.stem for p in ALGORITHM_YAMLS])
+def test_an_unknown_optimizer_setting_is_named_with_the_known_ones():
+    with pytest.raises(ConfigError, match=r"^optimizer\.populaton: unknown setting \(known: "
+                                          r".*\bpopulation\b.*\)$"):
+        spec_of("optimizer=ga", "+optimizer.populaton=30")
+    with pytest.raises(ConfigError, match=r"^optimizer\.population: unknown setting"):
+        spec_of("optimizer=nlopt", "encoding=free", "+optimizer.population=30")
+
+
+@pytest.mark.parametrize("name", sorted(mk.available_optimizers()))
 def test_every_algorithm_config_composes_and_builds(name):
     cls = type(mk.get_optimizer(name))
     spec = spec_of(*algorithm_choice(name))
@@ -486,7 +495,7 @@ def test_hyperparameters_left_out_or_given_at_their_defaults_are_the_same_run(na
     for pname, default in signature_defaults(type(mk.get_optimizer(name))).items():
         one = run_spec(plain_cfg(optimizer={"_name_": name, pname: default}), check_build=False)
         assert one.run_id == bare.run_id, pname
-    # the YAML gives every hyperparameter
+    # the composed configuration gives every hyperparameter
     composed = spec_of(*algorithm_choice(name), check_build=False)
     assert composed.run_id == run_spec(plain_cfg(optimizer={"_name_": name}, budget=3000,
                                                  encoding={"kind": first_encoding(name)}),
