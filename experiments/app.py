@@ -281,7 +281,10 @@ def check_choices(args: list[str]) -> str | None:
     an optimizer (``optimizer=NAME`` or ``optimizer._name_=NAME``) is looked up in the
     optimizer registry, which names the closest. ``null`` is refused too: Hydra composes no
     job from a group set to null. A top-level setting that does not exist (``optimiser=ga``)
-    is named with the known ones. Other errors (override syntax) are left for Hydra."""
+    is named with the known ones, a setting under a config choice (``launcher.n_jobs=2``)
+    as such; so is a setting Hydra cannot read (``seed=range(0,3``, :func:`unreadable`) and
+    a problem chosen beside a suite (``problem=archimedean suite=mini``), which would give no
+    job a suite instance."""
     import difflib
 
     from hydra import initialize_config_dir
@@ -291,12 +294,21 @@ def check_choices(args: list[str]) -> str | None:
 
     with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
         loader = GlobalHydra.instance().config_loader()
-    try:
-        overrides = OverridesParser.create(config_loader=loader).parse_overrides(
-            [a for a in args if not a.startswith("-")])
-    except HydraException:
-        return None
-    roots = set(loader.list_groups("")) | CONFIG_KEYS
+    parser = OverridesParser.create(config_loader=loader)
+    overrides = []
+    for arg in (a for a in args if not a.startswith("-")):
+        try:
+            overrides += parser.parse_overrides([arg])
+        except HydraException as exc:
+            return unreadable(arg, exc)
+    groups = set(loader.list_groups(""))
+    roots = groups | CONFIG_KEYS
+    chosen = {o.key_or_group: o for o in overrides}
+    problem = chosen.get("problem")
+    if "suite" in chosen and problem is not None and problem.input_line is not None \
+            and problem.value() != "suite":
+        return (f"{problem.input_line:.80}: a suite sweeps the suite's instances "
+                "(problem=suite); leave problem= out with suite=")
     for override in overrides:
         top = override.key_or_group.partition(".")[0]
         if top not in roots and not (override.is_add() or override.is_force_add()
@@ -305,6 +317,11 @@ def check_choices(args: list[str]) -> str | None:
             hint = f"; did you mean {close[0]}?" if close else ""
             return (f"{top}: unknown setting{hint} (known: "
                     f"{', '.join(sorted(CONFIG_KEYS))})")
+        if top in groups - CONFIG_KEYS - {"hydra"} and "." in override.key_or_group \
+                and not (override.is_add() or override.is_force_add() or override.is_delete()):
+            return (f"{override.key_or_group}: unknown setting; {top} is a choice of config "
+                    f"({top}={', '.join(loader.get_group_options(top))}), not a group of "
+                    "settings")
         group = override.key_or_group.replace(".", "/")
         parent, _, name = group.rpartition("/")
         is_group = not override.is_delete() and name in loader.list_groups(parent)
@@ -338,6 +355,35 @@ def check_choices(args: list[str]) -> str | None:
                 return (f"{key}: no such {name} config; {hint}(choices: "
                         f"{', '.join(options)})")
     return None
+
+
+def unreadable(arg: str, exc: Exception) -> str:
+    """One line for a setting Hydra cannot read (``seed=range(0,3``): the setting, the
+    command-line text, and Hydra's reason without its own framing."""
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()
+             and not line.startswith(("Error parsing override", "See https://"))]
+    key = arg.partition("=")[0].lstrip("+~") if "=" in arg else arg
+    reason = lines[0] if lines else type(exc).__name__
+    return f"{key}: cannot read {arg[:80]!r}: {reason}"
+
+
+#: Sections of a run whose settings :func:`~.spec.run_spec` checks, key by key.
+RUN_SECTIONS = ("problem", "encoding", "objective", "optimizer")
+
+
+def open_run_settings(args: list[str]) -> list[str]:
+    """``args`` with every plain setting of a run section (``optimizer.population=30``) given
+    as ``++optimizer.population=30``: Hydra then adds a key the section lacks instead of
+    answering "Could not override", and :func:`~.spec.run_spec` refuses it by name, with the
+    known keys. A setting of a key the section has is the same either way."""
+    out = []
+    for arg in args:
+        key = arg.partition("=")[0]
+        if "=" in arg and not arg.startswith(("-", "+", "~")) and "@" not in key \
+                and key.partition(".")[0] in RUN_SECTIONS and "." in key:
+            arg = f"++{arg}"
+        out.append(arg)
+    return out
 
 
 def _unknown_optimizer(name: str) -> str | None:
@@ -388,7 +434,7 @@ def main(argv: list[str] | None = None) -> int:
     register_hydra_plugins()
     git_commit()  # once here; run workers inherit it through the environment
     try:
-        args = expand_preset(list(sys.argv[1:] if argv is None else argv))
+        args = open_run_settings(expand_preset(list(sys.argv[1:] if argv is None else argv)))
     except ConfigError as exc:
         print(f"metaknot run: error: {exc}", file=sys.stderr)
         return 2
@@ -409,19 +455,47 @@ def main(argv: list[str] | None = None) -> int:
         return stop.exit_code
 
 
+def _command_line_errors() -> tuple[type[Exception], ...]:
+    """Hydra's errors about a configuration (composition, override syntax, a missing choice)
+    and metaknot's (:class:`~.spec.ConfigError`): a bad command line."""
+    from hydra.errors import ConfigCompositionException, OverrideParseException
+
+    return ConfigError, ConfigCompositionException, OverrideParseException
+
+
 def launch(task_function: Any, config_name: str, args: list[str]) -> int:
     """Run ``task_function`` as a Hydra app on the configuration ``config_name`` of
-    ``experiments/conf`` with ``args`` as its command line (Hydra reads ``sys.argv``)."""
+    ``experiments/conf`` with ``args`` as its command line (Hydra reads ``sys.argv``).
+
+    A configuration that cannot work, found by Hydra or by the study sweeper before any run
+    starts, is one line on stderr naming the setting (``metaknot run: error: ...``, without
+    Hydra's hint about ``HYDRA_FULL_ERROR``) and exit status 2. Any other error propagates
+    with its traceback; with ``HYDRA_FULL_ERROR=1`` set, so do configuration errors.
+    """
     import hydra
 
     hydra_main = hydra.main(version_base="1.3", config_path=str(CONFIG_DIR),
                             config_name=config_name)(task_function)
+    command = "metaknot run" if config_name == "config" else "metaknot tune"
+    full_errors = os.environ.get("HYDRA_FULL_ERROR")
     old = sys.argv
     sys.argv = [old[0] if old else "metaknot", *args]
+    os.environ["HYDRA_FULL_ERROR"] = "1"  # Hydra raises, so the error can be told here
     try:
         hydra_main()
+    except _command_line_errors() as exc:
+        if full_errors == "1":
+            raise
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        print(f"{command}: error: {' '.join(lines[:2]) or type(exc).__name__}",
+              file=sys.stderr)
+        return 2
     finally:
         sys.argv = old
+        if full_errors is None:
+            del os.environ["HYDRA_FULL_ERROR"]
+        else:
+            os.environ["HYDRA_FULL_ERROR"] = full_errors
     return 0
 
 

@@ -81,11 +81,12 @@ def expand(parser: OverridesParser, params: Mapping[str, Any],
     lines = [f"{key}={value}" for key, value in params.items()] + list(arguments)
     choices: dict[str, list[str]] = {}
     for override in parser.parse_overrides(lines):
-        key = override.get_key_element()
+        key = override.get_key_element()  # with its prefix (``++key``), as the job gives it
         if not override.is_sweep_override():
-            choices[key] = [f"{key}={override.get_value_element_as_str()}"]
+            choices[override.key_or_group] = [f"{key}={override.get_value_element_as_str()}"]
         elif override.is_discrete_sweep():
-            choices[key] = [f"{key}={value}" for value in override.sweep_string_iterator()]
+            choices[override.key_or_group] = [f"{key}={value}"
+                                              for value in override.sweep_string_iterator()]
         else:
             raise ConfigError(f"{key}: a study sweeps lists and ranges (a=1,2,3 or "
                               f"a='range(0,10)'); got {override.input_line:.80}")
@@ -112,7 +113,8 @@ def plan(sweeper: Any, arguments: list[str]) -> tuple[Plan, Path]:
                     spec.build_problem(noise=False)
                 checked.add(key)
         except ConfigError as exc:
-            raise ConfigError(f"{exc} (in the job {' '.join(job)})") from None
+            shown = " ".join(o.removeprefix("++") for o in job)  # as the command line had it
+            raise ConfigError(f"{exc} (in the job {shown})") from None
         study_dir = spec.study_dir
         reason = spec.compatible()
         if reason is not None:
@@ -152,11 +154,12 @@ class _Composer:
 
     Composition costs tens of milliseconds; a sweep of a thousand runs mostly changes plain
     values (seed, budget). Jobs are grouped by their group overrides (and any ``+``/``~``
-    override); the group's configuration is composed once, and each job's plain ``key=value``
-    overrides are set on a copy of its settings. A configuration with interpolations outside
-    ``hydra`` is composed in full for every job, as a value could feed into them; so is a job
-    with a value holding an interpolation or a key the configuration does not have (Hydra then
-    reports it).
+    override); the group's configuration is composed once, and each job's ``key=value`` and
+    ``++key=value`` overrides are set on a copy of its settings (``++`` adds a key the
+    configuration lacks, for :func:`~.spec.run_spec` to refuse by name). A configuration with
+    interpolations outside ``hydra`` is composed in full for every job, as a value could feed
+    into them; so is a job with a value holding an interpolation or a plain ``key=value`` of a
+    key the configuration does not have (Hydra then reports it).
     """
 
     def __init__(self, sweeper: Any, parser: OverridesParser) -> None:
@@ -172,7 +175,7 @@ class _Composer:
         for override in self.parser.parse_overrides(job):
             line = override.input_line
             assert line is not None  # an override parsed from text keeps it
-            simple = not (override.is_add() or override.is_delete() or override.is_force_add()
+            simple = not (override.is_add() or override.is_delete()
                           or override.package is not None or "$" in line)
             key = override.key_or_group
             if simple and not key.startswith("hydra") and not self._is_group(key):
@@ -184,7 +187,8 @@ class _Composer:
             cfg = self._load(structural)
             self._bases[base_key] = None if _has_interpolations(cfg) else _plain_copy(cfg)
         base = self._bases[base_key]
-        if base is None or not all(_has_key(base, o.key_or_group) for o in values):
+        if base is None or not all(o.is_force_add() or _has_key(base, o.key_or_group)
+                                   for o in values):
             return self._load(job)  # Hydra composes it, and reports what is wrong with it
         plain = copy.deepcopy(base)
         for override in values:
@@ -251,6 +255,10 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
         the_plan, study_dir = plan(sweeper, arguments)
         if warming is not None:
             warming.join()
+        if not the_plan.to_run and not the_plan.stored and the_plan.incompatible:
+            reasons = "; ".join(f"{reason} ({count} job{'s' * (count > 1)})"
+                                for reason, count in sorted(the_plan.incompatible.items()))
+            raise ConfigError(f"no job of the sweep can run: {reasons}")
         print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
         if not the_plan.to_run:
             return []

@@ -829,6 +829,20 @@ def test_fast_composition_resolves_swept_interpolations():
         [f"results_dir={RESULTS}", "problem.name=plain,${problem.curve}-copy", "seed=0"])
 
 
+def test_fast_composition_sets_a_forced_setting_on_a_copy():
+    """``++optimizer.population=...`` (how metaknot run passes a run section's settings) takes
+    the fast path: set on a copy, composed once, the same runs as in full composition; and the
+    command line's ``++key`` replaces the same key of the sweep's parameters."""
+    jobs, specs, counting = compare_with_full_composition(
+        [f"results_dir={RESULTS}", "optimizer=ga", "++optimizer.population=20,30", "seed=0,1"])
+    assert counting.calls == 1
+    assert [spec.config["optimizer"]["population"] for spec in specs] == [20, 20, 30, 30]
+    sweeper = study_sweeper([f"results_dir={RESULTS}", "experiment=smoke"])
+    jobs = sweep_jobs(sweeper, ["++budget=7"])
+    assert all(job.count("++budget=7") == 1 and not any(o.startswith("budget=") for o in job)
+               for job in jobs)
+
+
 def test_fast_composition_does_not_carry_values_between_jobs():
     loader = config_loader()
     cfg = loader.load_configuration("config", overrides=[f"results_dir={RESULTS}"],

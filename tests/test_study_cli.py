@@ -103,9 +103,60 @@ def test_a_bad_value_fails_before_anything_runs(tmp_path, override, key):
 def test_a_bad_value_in_a_sweep_fails_before_any_run(tmp_path):
     done = metaknot("-m", "optimizer=ga", "optimizer.population=30,abc", "seed=0,1",
                     "budget=100", f"results_dir={tmp_path}", cwd=tmp_path)
-    assert done.returncode != 0
-    assert "optimizer.population: expected int, got 'abc'" in done.stderr
+    assert done.returncode == 2
+    (line,) = done.stderr.strip().splitlines()
+    assert line.startswith("metaknot run: error: optimizer.population: expected int, got 'abc' "
+                           "(in the job optimizer=ga optimizer.population=abc seed=0"), line
     assert not (tmp_path / "default" / "runs").exists()
+
+
+#: A bad command line, single run and sweep alike: one line naming the setting, exit status 2,
+#: no Hydra advice ("+optimizer.populaton=30", HYDRA_FULL_ERROR).
+BAD_COMMAND_LINES = [
+    (["optimizer=ga", "optimizer.populaton=30"],
+     r"optimizer\.populaton: unknown setting \(known: crossover, .*\bpopulation\b.*\)"),
+    (["-m", "optimizer=ga", "optimizer.populaton=30"],
+     r"optimizer\.populaton: unknown setting \(known: .*\bpopulation\b.*\) \(in the job "
+     r"optimizer=ga optimizer\.populaton=30 "),
+    (["-m", "optimizer=ga,nlopt", "encoding=free", "optimizer.population=30"],
+     r"optimizer\.population: unknown setting \(known: box_map, .*\) \(in the job "
+     r"optimizer=nlopt "),
+    (["objective.tolerence=0.1"], r"objective\.tolerence: unknown setting \(known: error_floor\)"),
+    (["-m", "objective=error_bounded", "objective.tolerence=0.1"],
+     r"objective\.tolerence: unknown setting \(known: .*\btolerance\b"),
+    (["launcher.n_jobs=2"], r"launcher\.n_jobs: unknown setting; launcher is a choice of "
+                            r"config \(launcher=basic, joblib, "),
+    (["-m", "seed=range(0,x)"], r"seed: cannot read 'seed=range\(0,x\)': TypeError while "
+                                r"evaluating 'range\(0,x\)'"),
+    (["-m", "seed=range(0,3"], r"seed: cannot read 'seed=range\(0,3': no viable alternative"),
+    (["seed=range(0,3"], r"seed: cannot read 'seed=range\(0,3': "),
+    (["-m", "problem=archimedean", "suite=mini"],
+     r"problem=archimedean: a suite sweeps the suite's instances \(problem=suite\)"),
+    (["-m", "budget=abc"], r"budget: expected an integer, got 'abc' \(in the job budget=abc "),
+    (["-m", "optimizer=gaa"], r"optimizer=gaa: unknown optimizer 'gaa'\. Did you mean 'ga'\?"),
+]
+
+
+@pytest.mark.parametrize(("args", "message"), BAD_COMMAND_LINES,
+                         ids=[" ".join(args) for args, _ in BAD_COMMAND_LINES])
+def test_a_bad_command_line_is_one_line_naming_the_setting_and_exit_status_2(tmp_path, args,
+                                                                              message):
+    done = metaknot(*args, f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 2, done.stderr
+    (line,) = done.stderr.strip().splitlines()
+    assert re.match(rf"metaknot run: error: {message}", line), line
+    assert "HYDRA_FULL_ERROR" not in done.stderr and "+optimizer" not in done.stderr
+    assert not (tmp_path / "default").exists()
+
+
+def test_a_sweep_whose_every_job_is_skipped_says_why_and_fails(tmp_path):
+    done = metaknot("-m", "optimizer=nlopt", "encoding=mask", "seed=0,1", "budget=50",
+                    f"results_dir={tmp_path}", cwd=tmp_path)
+    assert done.returncode == 2
+    (line,) = done.stderr.strip().splitlines()
+    assert line == ("metaknot run: error: no job of the sweep can run: optimizer 'nlopt' handles "
+                    "continuous encodings; encoding 'mask' is binary (2 jobs)")
+    assert not (tmp_path / "default").exists()
 
 
 def test_an_algorithm_that_cannot_work_on_an_encoding(tmp_path):
