@@ -32,6 +32,7 @@ from .spec import (
     ConfigError,
     RunSpec,
     not_a_setting,
+    objective_defaults,
     optimizer_defaults,
     plain_config,
     run_spec,
@@ -48,29 +49,32 @@ from .store import (
 if TYPE_CHECKING:
     from metaknot.result import RunResult
 
-__all__ = ["execute", "main", "register_hydra_plugins", "register_optimizer_configs"]
+__all__ = ["execute", "main", "register_hydra_plugins", "register_signature_configs"]
 
 CONFIG_DIR = Path(__file__).resolve().parent / "conf"
 
 
 def register_hydra_plugins() -> None:
     """Make the study sweeper known to Hydra (its plugin scan misses editable installs) and
-    register every optimizer's config (:func:`register_optimizer_configs`)."""
+    register every optimizer's config (:func:`register_signature_configs`)."""
     from hydra.core.plugins import Plugins
 
     plugins = Plugins.instance()  # the plugin scan first: it may import the sweeper module
     from hydra_plugins.metaknot_study_sweeper.study_sweeper import StudySweeper
 
     plugins.register(StudySweeper)
-    register_optimizer_configs()
+    register_signature_configs()
 
 
-def register_optimizer_configs() -> None:
-    """Give every registered optimizer, built-in or an entry-point plugin, the config
-    ``optimizer=<name>`` in Hydra's config store: its hyperparameters and their defaults, read
-    from its signature (:func:`~.spec.optimizer_defaults`). No YAML restates them."""
+def register_signature_configs() -> None:
+    """Fill the config groups ``optimizer`` and ``objective`` in Hydra's config store: every
+    registered optimizer, built-in or an entry-point plugin, is ``optimizer=<name>`` and every
+    objective ``objective=<name>``, with their settings and defaults read from their
+    signatures (:func:`~.spec.optimizer_defaults`, :func:`~.spec.objective_defaults`). No
+    YAML restates them."""
     from hydra.core.config_store import ConfigStore
 
+    from metaknot.problems import OBJECTIVES
     from metaknot.registry import available_optimizers
 
     store = ConfigStore.instance()
@@ -80,6 +84,9 @@ def register_optimizer_configs() -> None:
         except ConfigError:
             continue
         store.store(group="optimizer", name=name, node=node, provider="metaknot")
+    for name in OBJECTIVES:
+        store.store(group="objective", name=name, node=objective_defaults(name),
+                    provider="metaknot")
 
 
 def _in_multirun() -> bool:

@@ -29,8 +29,8 @@ from hydra.errors import CompactHydraException
 
 from metaknot.validate import is_integer, is_real
 
-__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "optimizer_defaults", "plain_config",
-           "run_spec"]
+__all__ = ["ENCODINGS", "ConfigError", "RunSpec", "objective_defaults", "optimizer_defaults",
+           "plain_config", "run_spec", "signature_defaults"]
 
 #: Encoding name in the configuration -> (problem's registry name, encoding kind).
 ENCODINGS = {"mask": ("mask", "binary"), "indices": ("indices", "integer"),
@@ -143,11 +143,10 @@ def _optimizer_class(name: str) -> Any:  # a registered optimizer class
         raise ConfigError(f"optimizer._name_: {exc}") from None
 
 
-def optimizer_defaults(name: str) -> dict[str, Any]:
-    """Hyperparameters of a registered optimizer with their defaults (``"???"``: required),
-    read from its ``__init__`` signature: the config node ``optimizer=<name>``."""
-    cls = _optimizer_class(name)
-    out: dict[str, Any] = {"_name_": name}
+def signature_defaults(cls: type[Any]) -> dict[str, Any]:
+    """The keyword arguments of ``cls.__init__`` with their defaults (``"???"``: required; a
+    default that is not a plain value as its ``repr``): the settings of a config node."""
+    out: dict[str, Any] = {}
     for p in inspect.signature(cls.__init__).parameters.values():
         if p.name == "self" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
             continue
@@ -159,6 +158,20 @@ def optimizer_defaults(name: str) -> dict[str, Any]:
         else:
             out[p.name] = repr(default)
     return out
+
+
+def optimizer_defaults(name: str) -> dict[str, Any]:
+    """Hyperparameters of a registered optimizer with their defaults, read from its
+    signature (:func:`signature_defaults`): the config node ``optimizer=<name>``."""
+    return {"_name_": name, **signature_defaults(_optimizer_class(name))}
+
+
+def objective_defaults(name: str) -> dict[str, Any]:
+    """Settings of an objective with their defaults, read from its signature
+    (:func:`signature_defaults`): the config node ``objective=<name>``."""
+    from metaknot.problems import OBJECTIVES
+
+    return {"name": name, **signature_defaults(OBJECTIVES[name])}
 
 
 def _allowed_types(hint: Any) -> tuple[set[type], set[Any]] | None:

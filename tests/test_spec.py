@@ -38,7 +38,7 @@ from metaknot.experiments.spec import (
 )
 from metaknot.experiments.store import Store
 from metaknot.experiments.sweep import _Composer, expand, plan
-from metaknot.problems import FreeKnots, KnotIndices, add_noise, get_curve
+from metaknot.problems import OBJECTIVES, FreeKnots, KnotIndices, add_noise, get_curve
 
 register_hydra_plugins()
 
@@ -330,15 +330,27 @@ def test_every_algorithm_config_composes_and_builds(name):
     assert type(spec.build_optimizer()) is cls
 
 
-@pytest.mark.parametrize("path", sorted((CONFIG_DIR / "objective").glob("*.yaml")),
-                         ids=lambda p: p.stem)
-def test_objective_yaml_lists_the_objective_parameters_and_defaults(path):
-    from metaknot.problems import OBJECTIVES
+@pytest.mark.parametrize("name", sorted(OBJECTIVES))
+def test_objective_choice_composes_the_signature_defaults(name):
+    """``objective=NAME`` is generated from the objective's constructor, as ``optimizer=``."""
+    assert not (CONFIG_DIR / "objective").exists()
+    node = OmegaConf.to_container(compose_cfg(f"objective={name}").objective)
+    defaults = signature_defaults(OBJECTIVES[name])
+    assert node == {"name": name, **defaults}
+    for pname, value in defaults.items():
+        assert type(node[pname]) is type(value), pname
 
-    node = yaml_of(path)
-    name = node.pop("name")
-    assert name == path.stem
-    assert node == signature_defaults(OBJECTIVES[name])
+
+def test_an_override_of_an_objective_default_changes_the_run():
+    default = spec_of("objective=error_bounded", "problem=archimedean")
+    given = spec_of("objective=error_bounded", "problem=archimedean", "objective.tolerance=0.01")
+    assert default.config["objective"]["tolerance"] is None
+    assert given.config["objective"]["tolerance"] == 0.01
+    assert given.build_problem(noise=False).objective.tolerance == 0.01
+    assert given.run_id != default.run_id
+    with pytest.raises(ConfigError, match=r"^objective\.tolerence: unknown setting \(known: "
+                                          r"metric, relative_tolerance, tolerance\)$"):
+        spec_of("objective=error_bounded", "+objective.tolerence=0.01")
 
 
 @pytest.mark.parametrize("group", ["problem", "encoding"])
