@@ -303,8 +303,8 @@ def check_choices(args: list[str]) -> str | None:
         loader = GlobalHydra.instance().config_loader()
     parser = OverridesParser.create(config_loader=loader)
     overrides = []
-    for arg in (a for a in args if not a.startswith("-")):
-        try:
+    for arg in (a for a in args if ("=" in a and not a.startswith("-")) or a.startswith("~")):
+        try:  # not Hydra's options nor their values (--cfg job)
             overrides += parser.parse_overrides([arg])
         except HydraException as exc:
             return unreadable(arg, exc)

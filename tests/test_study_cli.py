@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from metaknot.experiments.store import load_study
 
@@ -146,6 +147,16 @@ def test_a_bad_command_line_is_one_line_naming_the_setting_and_exit_status_2(tmp
     (line,) = done.stderr.strip().splitlines()
     assert re.match(rf"metaknot run: error: {message}", line), line
     assert "HYDRA_FULL_ERROR" not in done.stderr and "+optimizer" not in done.stderr
+    assert not (tmp_path / "default").exists()
+
+
+def test_hydra_options_and_their_values_are_not_settings(tmp_path):
+    done = metaknot("optimizer=ga", "optimizer.population=30", f"results_dir={tmp_path}",
+                    "--cfg", "job", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    shown = yaml.safe_load(done.stdout)
+    assert shown["optimizer"]["_name_"] == "ga" and shown["optimizer"]["population"] == 30
+    assert shown["optimizer"]["tournament_size"] == 2  # the signature's default
     assert not (tmp_path / "default").exists()
 
 
