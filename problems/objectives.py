@@ -84,13 +84,19 @@ def _metrics_kernel(sse, max_deviation, n_control_points, reason, n_points, rmse
             deviations[b] = max_deviation[b] if feasible else math.nan
 
 
-def _error(fit: BatchFit, metric: str, n_points: int) -> np.ndarray:
-    """The error ``metric`` (``max_deviation`` or ``rmse``) of every candidate of a batch (an
-    objective that needs ``max_deviation`` says so: the problem has it computed)."""
+def _max_deviation(fit: BatchFit, objective: str) -> np.ndarray:
+    """The maximum deviation of every candidate of a batch, for the objective named
+    ``objective`` (which says it needs it: a problem has it computed)."""
+    if fit.max_deviation is None:
+        raise ValueError(f"{objective} by max_deviation needs fits with max_deviation")
+    return fit.max_deviation
+
+
+def _error(fit: BatchFit, metric: str, n_points: int, objective: str) -> np.ndarray:
+    """The error ``metric`` (``max_deviation`` or ``rmse``) of every candidate of a batch."""
     if metric != "max_deviation":
         return np.sqrt(fit.sse / n_points)
-    assert fit.max_deviation is not None  # needs_max_deviation
-    return fit.max_deviation
+    return _max_deviation(fit, objective)
 
 
 class Objective(ABC):
@@ -220,11 +226,10 @@ class ErrorBounded(Objective):
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
         by_max_deviation = self.metric == "max_deviation"
-        if by_max_deviation and fit.max_deviation is None:
-            raise ValueError("error_bounded by max_deviation needs fits with max_deviation")
         values = np.empty(fit.sse.size)
         _error_bounded_kernel(
-            fit.sse, fit.max_deviation if by_max_deviation else fit.sse, fit.n_control_points,
+            fit.sse, _max_deviation(fit, self.name) if by_max_deviation else fit.sse,
+            fit.n_control_points,
             fit.reason, data.n_points, self.bound(data), by_max_deviation, values)
         return values
 
@@ -297,7 +302,7 @@ class Pareto(Objective):
         return np.column_stack((cp / data.n_points, f1))
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
-        err = _error(fit, self.metric, data.n_points)
+        err = _error(fit, self.metric, data.n_points, self.name)
         values = self.scale(fit.n_control_points, err, data)
         return np.where(fit.feasible[:, None], values, np.inf)
 

@@ -323,12 +323,11 @@ def test_random_moves_match_the_full_fit(degree, dim, n_points, density, seed, h
 
 
 def test_generated_move_loops_are_current():
-    """``_moves_rows.py`` must be what ``python -m metaknot.bspline._moves_codegen`` writes."""
-    from metaknot.bspline import _moves_codegen
+    """``_moves_rows.py`` must be what ``python -m metaknot.bspline._codegen`` writes."""
+    from metaknot.bspline import _codegen
 
-    assert _moves_codegen.TARGET.read_text() == _moves_codegen.render(), (
-        "metaknot/bspline/_moves_rows.py is stale: run "
-        "`python -m metaknot.bspline._moves_codegen`"
+    assert _codegen.MOVES_TARGET.read_text() == _codegen.render_moves(), (
+        "metaknot/bspline/_moves_rows.py is stale: run `python -m metaknot.bspline._codegen`"
     )
 
 

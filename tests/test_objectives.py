@@ -556,3 +556,19 @@ def test_problem_accepts_arrays_and_point_sets():
     np.testing.assert_array_equal(a.evaluate(masks), b.evaluate(masks))
     np.testing.assert_array_equal(a.evaluate(masks), c.evaluate(masks))
     assert a.encoding.kind == "binary" and a.encoding.n_var == 98
+
+
+@pytest.mark.parametrize("name", ["error_bounded", "pareto"])
+def test_an_objective_by_max_deviation_refuses_fits_without_it(name):
+    """Both objectives that read the maximum deviation say which objective needs it, with the
+    same error, when a batch was fitted without it."""
+    from metaknot.bspline.fit import BatchFit
+    from metaknot.problems.objectives import DataInfo, get_objective
+
+    objective = get_objective(name, metric="max_deviation")
+    fit = BatchFit(sse=np.ones(2), max_deviation=None, n_control_points=np.full(2, 5),
+                   reason=np.zeros(2, dtype=np.int8))
+    data = DataInfo(n_points=10, dim=2, scale=1.0, degree=3, extra_control_points=4)
+    with pytest.raises(ValueError, match=f"^{name} by max_deviation needs fits with "
+                                         "max_deviation$"):
+        objective(fit, data)

@@ -403,9 +403,10 @@ def basis_at(t, span, x, p, out, left, right):
 @njit(cache=True)
 def closed_workspaces(m, p, d):
     """The workspaces of :func:`solve_closed_into` for ``m`` control points: the
-    reciprocals, the factor, its wrap-around entries, a dense row and the solution."""
+    reciprocals, the factor, its wrap-around entries, a dense row, the solution and the
+    basis values of a seam row with their knot differences."""
     return (np.empty((m + p + 1) * p), np.empty(m * (1 + p + d)), np.empty((m, p)),
-            np.empty(m + d), np.empty((m, d)))
+            np.empty(m + d), np.empty((m, d)), np.empty((3, p + 1)))
 
 
 @njit(cache=True)
@@ -431,7 +432,7 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     m = t.size - 2 * p - 1
     if m > n:
         return TOO_MANY_CONTROL_POINTS, np.inf
-    iv, st, far, row, x = ws
+    iv, st, far, row, x, seam_basis = ws
     width = 1 + p + d
     shifted = t[p:]
     reciprocals_into(shifted, p, iv)
@@ -445,9 +446,7 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     sse, _ = rows(u[seam:], q[seam:], shifted, iv, p, m, st,
                   basis[seam:] if keep else basis, spans[seam:] if keep else spans)
     values = row[m : m + d]  # the row's right-hand side lives behind its entries
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
-    h = np.empty(p + 1)
+    h, left, right = seam_basis[0], seam_basis[1], seam_basis[2]
     j = 0
     for i in range(seam):
         xi = u[i]

@@ -12,7 +12,7 @@ sides and the squared residual so far. *Backward state* ``c``: the same for the 
 ``>= c``, rotated from the right end with the columns counted from the right; its active rows
 are again columns ``c - p .. c - 1``.
 
-States are kept in the flat layout of the generated row loop (:mod:`._moves_codegen`):
+States are kept in the flat layout of the generated row loop (:mod:`._codegen`):
 ``W = 1 + p + d`` entries per column (reciprocal weight, the unit triangular row's ``p``
 off-diagonal entries, the right-hand sides), ``dinv = EMPTY`` for a column no row has reached.
 The backward sweep runs the same loop on the mirrored problem (parameters and knots negated and

@@ -1,6 +1,6 @@
 """Row loops of delta evaluation, by degree and dimension. GENERATED: do not edit.
 
-Rendered by ``python -m metaknot.bspline._moves_codegen``; see that module and ``_moves``.
+Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_moves``.
 """
 
 import numpy as np
