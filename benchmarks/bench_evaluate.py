@@ -23,7 +23,7 @@ import numpy as np
 from _timing import best_time
 from scipy.interpolate import make_lsq_spline
 
-from metaknot.bspline import _periodic_kernel, clamped_knot_vector, evaluate_masks, parameterize
+from metaknot.bspline import _kernel, clamped_knot_vector, evaluate_masks, parameterize
 from metaknot.bspline.curve import make_curve
 from metaknot.problems import get_curve
 
@@ -100,7 +100,7 @@ def periodic(candidates: int, repeats: int, open_per_candidate: float) -> None:
         sse = np.empty(candidates)
         out = (sse, np.empty(0), np.empty(candidates, dtype=np.int64),
                np.empty(candidates, dtype=np.int8))
-        _periodic_kernel.evaluate_batch(u, q, 3, knots, offsets, False, *out, 1)
+        _kernel.evaluate_batch(u, q, 3, True, knots, offsets, *out, 1)
         return sse
 
     threads = numba.get_num_threads()

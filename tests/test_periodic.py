@@ -198,7 +198,7 @@ def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> Non
     """The compiled flattening of position rows (NaN dropped or out of range, knots outside
     (0, 1) fitted as 0.5 and refused, coincident knots refused, out of range first) gives the
     values of the same steps in numpy over random rows of every kind."""
-    from metaknot.bspline import _periodic_kernel
+    from metaknot.bspline import _kernel
     from metaknot.bspline.fit import _outputs
     from metaknot.bspline.periodic import evaluate_periodic
 
@@ -227,7 +227,7 @@ def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> Non
         bad_range = ~((safe > 0.0) & (safe < 1.0))
         safe[bad_range] = 0.5
         sse, max_dev, n_ctrl, reason = out = _outputs(len(rows), max_deviation)
-        _periodic_kernel.evaluate_batch(u, points, 3, safe, offsets, max_deviation, *out, 4)
+        _kernel.evaluate_batch(u, points, 3, True, safe, offsets, *out, 4)
         row_of = np.repeat(np.arange(len(rows)), counts)
         same_row = row_of[1:] == row_of[:-1]
         coincident = np.zeros(len(rows), dtype=bool)
@@ -403,7 +403,7 @@ def test_every_degree_and_dimension_fits_as_dense_least_squares() -> None:
     matrix, for every degree and dimension, on random data and breakpoints: few breakpoints
     (m = p: basis functions that wrap onto one coefficient; m = p + 1: no span without seam
     rows but one), data at a breakpoint, spans without data (singular), many points."""
-    from metaknot.bspline._periodic_kernel import evaluate_batch
+    from metaknot.bspline._kernel import evaluate_batch
 
     rng = np.random.default_rng(3)
     checked = singular = 0
@@ -419,7 +419,7 @@ def test_every_degree_and_dimension_fits_as_dense_least_squares() -> None:
                 interior = np.sort(chosen)
                 outputs = (np.empty(1), np.empty(1), np.empty(1, dtype=np.int64),
                            np.empty(1, dtype=np.int8))
-                evaluate_batch(u, q, p, interior, np.array([0, m - 1]), True, *outputs, 1)
+                evaluate_batch(u, q, p, True, interior, np.array([0, m - 1]), *outputs, 1)
                 sse, max_dev, n_ctrl, reason = (value[0] for value in outputs)
                 reference = dense_reference(u, q, interior, p)
                 assert n_ctrl == m

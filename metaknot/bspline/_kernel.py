@@ -35,6 +35,9 @@ RCOND = 1e-12
 # A least-squares system whose (infinity-norm) condition number exceeds this is reported as
 # numerically singular: its control points (and the curve between data points) would be noise.
 COND_LIMIT = 1e11
+# A closed curve's system is singular when a pivot of its factor is at most this fraction of
+# the largest one (:func:`solve_closed_into`; the closed move evaluator's certificate keeps it).
+PIVOT_RATIO = 1e-11
 
 
 @njit(cache=True)
@@ -283,21 +286,30 @@ def _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
 
 
 @njit(cache=True, parallel=True)
-def evaluate_batch(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason, n_chunks):
-    """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``.
+def evaluate_batch(u, q, p, closed, knots, offsets, sse, max_dev, n_ctrl, reason, n_chunks):
+    """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``
+    (sorted; of a closed curve, distinct and inside (0, 1)), in ``n_chunks`` parts for the
+    threads.
 
     ``max_dev`` may be empty: the maximum deviation (a second pass over the data) is then
     skipped.
     """
     n_cand = offsets.size - 1
+    want_max_dev = max_dev.size > 0
     n_max = _largest_fit(offsets, u.size, p)
     n_chunks = min(n_cand, max(n_chunks, 1))
     for c in prange(n_chunks):
         # one workspace per chunk, sized for the largest candidate
-        ws = _workspaces(u.size, q.shape[1], p, n_max, max_dev.size > 0)
-        for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
-            _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev, n_ctrl,
-                   reason)
+        if closed:
+            ws_closed = _closed_score_workspaces(u.size, q.shape[1], p, n_max, want_max_dev)
+            for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
+                _score_closed(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws_closed, sse,
+                              max_dev, n_ctrl, reason)
+        else:
+            ws = _workspaces(u.size, q.shape[1], p, n_max, want_max_dev)
+            for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
+                _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev,
+                       n_ctrl, reason)
 
 
 @njit(cache=True)
@@ -523,3 +535,124 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
         for c in range(d):
             coef[ci, c] = x[ci - p if ci >= p else m - p + ci, c]
     return FEASIBLE, sse
+
+
+@njit(cache=True)
+def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
+    """Fill ``t`` (``m + 2p + 1`` entries) with the extended knot vector of the ``m``
+    breakpoints ``breaks`` (0 first): p periodic copies on each side."""
+    m = breaks.size
+    for k in range(p):
+        t[k] = breaks[m - p + k] - 1.0
+    t[p : p + m] = breaks
+    for k in range(p + 1):
+        t[p + m + k] = (breaks[k] if k < m else breaks[k - m] + 1.0) + 1.0
+
+
+@njit(cache=True)
+def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis: np.ndarray,
+                         spans: np.ndarray) -> float:
+    """Largest distance of a data point to the periodic spline with coefficients ``coef``
+    (``m`` of them), from the basis values and spans :func:`fit_one` kept."""
+    n, d = q.shape
+    worst = 0.0
+    for i in range(n):
+        j = spans[i]
+        dist2 = 0.0
+        for c in range(d):
+            s = 0.0
+            for k in range(p + 1):
+                ci = j + k
+                if ci >= m:
+                    ci -= m
+                s += basis[i, k] * coef[ci, c]
+            dist2 += (q[i, c] - s) ** 2
+        worst = max(worst, dist2)
+    return np.sqrt(worst)
+
+
+@njit(cache=True)
+def fit_closed(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray,
+            basis: np.ndarray, spans: np.ndarray) -> tuple:
+    """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots):
+    the ``m`` coefficients into ``coef[:m]``; returns (sse, reason). Unless the workspaces
+    ``basis`` (``(N, p + 1)``) and ``spans`` (``(N,)``) are empty, keeps every row's basis
+    values and natural span there (for :func:`deviation_from_basis`). With the workspaces
+    of :func:`closed_workspaces` built per call (the closed move evaluator's full fits)."""
+    m = t.size - 2 * p - 1
+    reason, sse = solve_closed_into(u, q, t, p, coef, basis, spans,
+                                    closed_workspaces(m, p, q.shape[1]), PIVOT_RATIO)
+    return sse, reason
+
+
+@njit(cache=True)
+def rows_to_knots(pos: np.ndarray, nan_is_absent: bool) -> tuple:
+    """Rows of knot positions, each sorted (NaN last), flattened for :func:`evaluate_batch`:
+    the knots, the row offsets and each row's reason to be refused (0 for none). NaN means no
+    knot when ``nan_is_absent`` and is out of range otherwise; a knot outside (0, 1) is passed on
+    as 0.5 (its row still fits) and refuses its row as KNOT_OUT_OF_RANGE, which takes precedence
+    over COINCIDENT_KNOTS (a knot not above the one before it)."""
+    n_rows, width = pos.shape
+    offsets = np.zeros(n_rows + 1, dtype=np.int64)
+    for b in range(n_rows):
+        count = 0
+        for k in range(width):
+            if not (nan_is_absent and np.isnan(pos[b, k])):
+                count += 1
+        offsets[b + 1] = offsets[b] + count
+    knots = np.empty(offsets[n_rows])
+    refused = np.zeros(n_rows, dtype=np.int8)
+    for b in range(n_rows):
+        at = offsets[b]
+        out_of_range = coincident = False
+        previous = 0.0
+        for k in range(width):
+            x = pos[b, k]
+            if nan_is_absent and np.isnan(x):
+                continue
+            if at > offsets[b] and x - previous <= 0.0:  # False for NaN, as numpy's
+                coincident = True
+            previous = x
+            inside = 0.0 < x < 1.0
+            knots[at] = x if inside else 0.5
+            out_of_range |= not inside
+            at += 1
+        if out_of_range:
+            refused[b] = KNOT_OUT_OF_RANGE
+        elif coincident:
+            refused[b] = COINCIDENT_KNOTS
+    return knots, offsets, refused
+
+
+@njit(cache=True)
+def _closed_score_workspaces(n_points, d, p, n_max, want_max_dev):
+    """The workspaces of :func:`_score_closed` for candidates of at most ``n_max`` control
+    points."""
+    rows = n_points if want_max_dev else 0
+    return (closed_workspaces(n_max, p, d), np.empty((rows, p + 1)),
+            np.empty(rows, dtype=np.int64), np.empty(n_max), np.empty(n_max + 2 * p + 1),
+            np.empty((n_max, d)))
+
+
+@njit(cache=True)
+def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
+    """:func:`_score` of a closed curve: candidate ``b``'s breakpoints are 0 and its
+    ``interior`` knots, its ``m = interior.size + 1`` control points periodic."""
+    ws_fit, basis, spans, breaks, t_ws, coef_ws = ws
+    m = interior.size + 1
+    n_ctrl[b] = m
+    if m < p or m > u.size:  # refused before a workspace is touched
+        sse[b], reason[b] = np.inf, SINGULAR if m < p else TOO_MANY_CONTROL_POINTS
+        if max_dev.size > 0:
+            max_dev[b] = np.inf
+        return
+    breaks[0] = 0.0
+    breaks[1:m] = interior
+    t = t_ws[: m + 2 * p + 1]
+    extended_knots(breaks[:m], p, t)
+    coef = coef_ws[:m]
+    code, value = solve_closed_into(u, q, t, p, coef, basis, spans, ws_fit, PIVOT_RATIO)
+    sse[b], reason[b] = value, code
+    if max_dev.size > 0:
+        max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
+            if code == FEASIBLE else np.inf

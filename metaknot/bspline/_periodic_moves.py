@@ -2,7 +2,7 @@
 :mod:`metaknot.bspline.moves`.
 
 Notation: the incumbent is a periodic spline with ``m`` breakpoints ``b_0 = 0 < b_1 < ... <
-b_{m-1} < 1`` and the extended knot vector ``t`` of :mod:`._periodic_kernel`; data row ``r``
+b_{m-1} < 1`` and the extended knot vector ``t`` of :func:`._kernel.extended_knots`; data row ``r``
 lies in natural span ``spans[r]`` (``b_j <= u[r] < b_{j+1}``) and touches the natural columns
 ``spans[r] .. spans[r] + p`` (mod ``m``).
 
@@ -11,7 +11,7 @@ span ``k`` is the natural span ``(s + k) mod m``; the frame columns are the *wra
 (natural ``s .. s + p - 1``, touched by the first and the last spans of the frame) and the ``nb
 = m - p`` *band columns* (natural ``s + p ..`` in order, band position ``pos``). A row of frame
 span ``k`` touches the band positions ``k - p .. k`` and, near the cut, wrap columns: the
-periodic kernel's layout (band plus corner columns) is the frame ``s = 0``.
+closed fit orders its unknowns as the frame ``s = 0`` does.
 
 *Forward state* ``K`` of a frame: the rows of frame spans ``< K`` rotated into a factor (band
 rows ``band[pos, 0..p]`` for columns ``pos .. pos + p``, their wrap entries ``wrap[pos, :]``,
@@ -35,11 +35,12 @@ columns (the window rows touch no wrap column). Every incumbent carries two fram
 cut at evenly spaced breakpoints (:func:`metaknot.bspline.moves._cuts`), so every change of one
 or two neighbouring knots lies inside one of them.
 
-*Certificate.* The periodic kernel reports a system singular when a pivot of its factor is at
-most ``PIVOT_RATIO`` times the largest. Every pivot lies between ``sigma_min(B)`` and the largest
-column norm of ``B`` (at most the square root of the largest column sum: entries in [0, 1]);
-``[left final rows; right final rows; merged factor]`` is a block upper triangular square factor
-of the candidate's normal matrix, so bounding the inverse of each block bounds
+*Certificate.* The closed fit (:func:`._kernel.solve_closed_into`) reports a system singular
+when a pivot of its factor is at most ``PIVOT_RATIO`` times the largest. Every pivot lies
+between ``sigma_min(B)`` and the largest column norm of ``B`` (at most the square root of
+the largest column sum: entries in [0, 1]); ``[left final rows; right final rows; merged
+factor]`` is a block upper triangular square factor of the candidate's normal matrix, so
+bounding the inverse of each block bounds
 ``1 / sigma_min``. A candidate is reported feasible on the delta path only when that bound
 keeps every pivot above ``PIVOT_RATIO / CERTIFY`` times the largest; the full fit decides the
 rest.
@@ -56,18 +57,88 @@ from ._kernel import (
     COINCIDENT_KNOTS,
     FEASIBLE,
     KNOT_OUT_OF_RANGE,
+    PIVOT_RATIO,
     SINGULAR,
     TOO_MANY_CONTROL_POINTS,
     basis_at,
-)
-from ._moves import CERTIFY, PATH_CHECKS, PATH_DELTA, PATH_FULL, check_offsets
-from ._periodic_kernel import (
-    PIVOT_RATIO,
     deviation_from_basis,
     extended_knots,
-    fit_one,
-    rotate_row,
+    fit_closed,
 )
+from ._moves import CERTIFY, PATH_CHECKS, PATH_DELTA, PATH_FULL, check_offsets
+
+
+@njit(cache=True, inline='always')
+def givens_norm(a: float, b: float) -> float:
+    """``sqrt(a^2 + b^2)``: by the square root where the squares neither underflow nor
+    overflow, else by ``hypot`` (a tiny entry squared to zero would make a rotation singular
+    or inexact)."""
+    big = max(abs(a), abs(b))
+    if 1e-150 < big < 1e150:
+        return math.sqrt(a * a + b * b)
+    return math.hypot(a, b)
+
+
+@njit(cache=True)
+def rotate_row(band: np.ndarray, tail: np.ndarray, rhs: np.ndarray, nb: int, p: int, d: int,
+               row: np.ndarray, row_rhs: np.ndarray, first: int, row_tail: bool,
+               has_tail: np.ndarray | None) -> None:
+    """Rotate a data row into the factor by Givens rotations: ``band[nb, p + 1]``,
+    ``tail[nb + p, p]`` (the last ``p`` rows: the triangle of the wrap-around columns) and
+    ``rhs[nb + p, d]``. ``row[:nb]`` holds the row's band entries (nonzero from ``first`` for
+    at most ``p + 1`` columns: the data are sorted, so what the rotations fill in stays there),
+    ``row[nb:]`` its wrap-around entries (``row_tail``: some are nonzero), ``row_rhs`` its
+    point. Band columns first, left to right, then the wrap-around triangle. ``has_tail[r]``
+    says row r of R has a nonzero wrap-around entry (zeros rotated into zeros stay zero, and
+    are skipped; ``None``: not kept, every row rotated in full). Leaves ``row`` zero and the
+    row's residual in ``row_rhs``."""
+    for col in range(first, min(first + p + 1, nb)):
+        w = row[col]
+        if w == 0.0:
+            continue
+        r0 = band[col, 0]
+        h = givens_norm(r0, w)
+        inv = 1.0 / h
+        cs, sn = r0 * inv, w * inv
+        band[col, 0] = h
+        row[col] = 0.0
+        for k in range(1, p + 1):
+            if col + k < nb:
+                a, b = band[col, k], row[col + k]
+                band[col, k] = cs * a + sn * b
+                row[col + k] = -sn * a + cs * b
+        if has_tail is not None:  # both tails zero stay zero: skipped
+            row_tail = row_tail or has_tail[col]
+            has_tail[col] = row_tail
+        if row_tail:
+            for k in range(p):
+                a, b = tail[col, k], row[nb + k]
+                tail[col, k] = cs * a + sn * b
+                row[nb + k] = -sn * a + cs * b
+        for c in range(d):
+            a, b = rhs[col, c], row_rhs[c]
+            rhs[col, c] = cs * a + sn * b
+            row_rhs[c] = -sn * a + cs * b
+    for k in range(p if row_tail else 0):
+        w = row[nb + k]
+        if w == 0.0:
+            continue
+        r = nb + k
+        r0 = tail[r, k]
+        h = givens_norm(r0, w)
+        inv = 1.0 / h
+        cs, sn = r0 * inv, w * inv
+        tail[r, k] = h
+        row[nb + k] = 0.0
+        for kk in range(k + 1, p):
+            a, b = tail[r, kk], row[nb + kk]
+            tail[r, kk] = cs * a + sn * b
+            row[nb + kk] = -sn * a + cs * b
+        for c in range(d):
+            a, b = rhs[r, c], row_rhs[c]
+            rhs[r, c] = cs * a + sn * b
+            row_rhs[c] = -sn * a + cs * b
+
 
 # _candidate's verdict on knots given out of order (and sorted there) but feasible so far.
 UNSORTED = -1
@@ -76,7 +147,7 @@ UNSORTED = -1
 @njit(cache=True)
 def rotate_in(band, wrap, rhs, nbx, p, d, row, row_rhs, first):
     """Rotate a row into the factor (``band[nbx, p + 1]``, ``wrap[nbx + p, p]`` whose last
-    ``p`` rows are the wrap triangle, ``rhs[nbx + p, d]``) by the periodic kernel's rotations
+    ``p`` rows are the wrap triangle, ``rhs[nbx + p, d]``) by standard Givens rotations
     (``rotate_row``): ``row[:nbx]`` are its band entries (nonzero from ``first`` for at most
     ``p + 1`` columns), ``row[nbx:]`` its wrap entries. Leaves ``row`` zero; returns the squared
     residual the rotations leave of the row."""
@@ -508,7 +579,7 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
         # the full fit decides
         path_out[b] = PATH_FULL
         c2 = coef[:m2]
-        value, code = fit_one(u, q, tb, p, c2, full_basis, full_spans)
+        value, code = fit_closed(u, q, tb, p, c2, full_basis, full_spans)
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:

@@ -166,7 +166,8 @@ def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarr
     if sse.size <= SERIAL_BATCH:
         _kernel.evaluate_batch_serial(u, q, p, knots, offsets, *out)
     else:
-        _kernel.evaluate_batch(u, q, p, knots, offsets, *out, 8 * numba.get_num_threads())
+        _kernel.evaluate_batch(u, q, p, False, knots, offsets, *out,
+                               8 * numba.get_num_threads())
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 

@@ -49,7 +49,7 @@ from numpy.typing import ArrayLike
 
 from .. import audit
 from ..validate import is_integer
-from . import _kernel, _moves, _periodic_kernel, _periodic_moves
+from . import _kernel, _moves, _periodic_moves
 from . import periodic as _periodic
 from .fit import BatchFit, Infeasibility, _prepare
 from .knots import _offsets
@@ -341,14 +341,14 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         coef = np.zeros((m, q.shape[1]))
         basis = np.empty((u.size, p + 1))
         spans = np.empty(u.size, dtype=np.int64)
-        sse, code = _periodic_kernel.fit_one(u, q, t, p, coef, basis, spans)
+        sse, code = _kernel.fit_closed(u, q, t, p, coef, basis, spans)
         if code != _kernel.FEASIBLE:
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()
         self.t = t
         self.n = m
         self.sse = float(sse)
-        self._max_dev = float(_periodic_kernel.deviation_from_basis(q, p, m, coef, basis, spans))
+        self._max_dev = float(_kernel.deviation_from_basis(q, p, m, coef, basis, spans))
         self._cuts = _cuts(m, p)
         (self.spans, self.basis, self.row_start, column_sums, *self._states,
          self._inverse) = _periodic_moves.bind(u, q, t, p, self._cuts)

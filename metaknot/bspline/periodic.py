@@ -8,8 +8,8 @@ periodic layout) and its ``m + p`` coefficients repeat the first p at the end, s
 its first p - 1 derivatives are continuous across the seam.
 
 :func:`fit_periodic` fits one knot vector and :func:`evaluate_periodic` a whole batch, both in
-compiled code (Givens rotations on the band-plus-corner structure,
-:mod:`metaknot.bspline._periodic_kernel`); the tests check them against FITPACK's periodic
+compiled code (the open kernel's factorisation with wrap-around columns,
+:func:`metaknot.bspline._kernel.solve_closed_into`); the tests check them against FITPACK's periodic
 least-squares spline (its fixed-knot mode) and against dense least squares on the wrapped design
 matrix.
 """
@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
 from .. import audit
-from . import _kernel, _periodic_kernel
+from . import _kernel
 from ._codegen import MAX_DIMENSION
 from .fit import BatchFit, CurveFit, Infeasibility, _outputs, batch_errors, check_metric
 from .knots import as_positions, padded_rows, stack_rows
@@ -148,8 +148,8 @@ def fit_periodic(u: ArrayLike, points: ArrayLike, interior: ArrayLike,
     if m > len(u):
         raise ValueError(f"{m} control points for {len(u)} data points")
     coef = np.zeros((m, q.shape[1]))
-    _, code = _periodic_kernel.fit_one(u, q, t, p, coef, np.empty((0, p + 1)),
-                                       np.empty(0, dtype=np.int64))
+    _, code = _kernel.fit_closed(u, q, t, p, coef, np.empty((0, p + 1)),
+                                 np.empty(0, dtype=np.int64))
     if code != Infeasibility.FEASIBLE:
         raise ValueError("the least-squares system is singular: some knot spans have no data")
     return PeriodicFit(BSpline(t, np.vstack((coef, coef[:p])), p), u, q)
@@ -175,8 +175,7 @@ def _evaluate_periodic(p: int, u: np.ndarray, q: np.ndarray, positions: ArrayLik
     pos = as_positions(positions)
     if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
         raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
-    knots, offsets, refusal = _periodic_kernel.rows_to_knots(np.sort(pos, axis=1),
-                                                             nan_is_absent)
+    knots, offsets, refusal = _kernel.rows_to_knots(np.sort(pos, axis=1), nan_is_absent)
     sse, max_dev, n_ctrl, reason = _fit_flat(p, u, q, knots, offsets, max_deviation)
     refused = refusal != 0  # the reasons the fit does not check itself
     if refused.any():
@@ -193,8 +192,7 @@ def _fit_flat(p: int, u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: 
     (nothing is checked; a row of coincident knots fits as singular): SSE, maximum deviation,
     control points, reason."""
     out = _outputs(offsets.size - 1, max_deviation)
-    _periodic_kernel.evaluate_batch(u, q, p, knots, offsets, max_deviation, *out,
-                                    8 * numba.get_num_threads())
+    _kernel.evaluate_batch(u, q, p, True, knots, offsets, *out, 8 * numba.get_num_threads())
     return out
 
 
