@@ -3,14 +3,15 @@
 On the seed paper's epitrochoid (361 points, centripetal, cubic) at mask densities 0.5 and 0.2:
 for several random incumbents, every one-bit flip (insertions and removals of one knot) is
 scored by a :class:`~metaknot.bspline.moves.MoveEvaluator` bound to the incumbent and by the
-batched kernel (:func:`~metaknot.bspline.evaluate_knots`, the evaluator every full evaluation
-goes through), both on one thread, best of ``--repeats``. The move evaluator is timed on the
-moves themselves (``evaluate_replacements`` with :func:`~metaknot.bspline.moves.bit_flips`:
-flip bit j) and on the candidates they make (``evaluate``: whole knot vectors, compared with
-the incumbent's). Printed per density: the time per move of each, the ratios, the share of
-moves the delta path decided, the largest relative SSE difference, the time of one call with a
-single move (what a (1+1) EA pays per step), and the cost of moving the incumbent (``rebind``:
-one forward and one backward sweep) in full fits.
+batched kernel (:meth:`~metaknot.bspline.curve.Curve.evaluate_knots`, the evaluator every full
+evaluation goes through), both on one thread, best of ``--repeats``. The move evaluator is
+timed on the moves themselves (``evaluate_replacements`` with
+:func:`~metaknot.bspline.moves.bit_flips`: flip bit j) and on the candidates they make
+(``evaluate``: whole knot vectors, compared with the incumbent's). Printed per density: the
+time per move of each, the ratios, the share of moves the delta path decided, the largest
+relative SSE difference, the time of one call with a single move (what a (1+1) EA pays per
+step), and the cost of moving the incumbent (``rebind``: one forward and one backward sweep) in
+full fits.
 
 Then the (1+1) EA in the seed's setting (the three seed curves, 0/1 masks, the guarded
 ``paper`` objective) at a fixed wall-clock allowance per run (``--seconds``, seeds
@@ -38,7 +39,8 @@ import numpy as np
 from _timing import best_time
 
 import metaknot as mk
-from metaknot.bspline import evaluate_knots, parameterize
+from metaknot.bspline import parameterize
+from metaknot.bspline.curve import OpenCurve
 from metaknot.bspline.knots import stack_masks
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, PeriodicMoveEvaluator, bit_flips
 from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
@@ -136,6 +138,7 @@ def main() -> None:
     points = get_curve("epitrochoid").points
     u = parameterize(points, "centripetal")
     p = args.degree
+    full = OpenCurve(u, points, p)
     rng = np.random.default_rng(20130301)
     ratios: dict[float, float] = {}
     candidates: dict[float, float] = {}
@@ -153,7 +156,7 @@ def main() -> None:
             flipped = bit_flips(u, mask, np.arange(u.size - 2))
             fit, path = evaluator.evaluate(knots, offsets)  # compile outside the timing
             by_moves, _ = evaluator.evaluate_replacements(*flipped)
-            ref = evaluate_knots(u, points, knots, offsets, p, max_deviation=False)
+            ref = full.evaluate_knots(knots, offsets, max_deviation=False)
             if not (np.array_equal(fit.reason, ref.reason)
                     and np.array_equal(by_moves.reason, ref.reason)):
                 raise SystemExit("delta and full evaluation disagree on feasibility")
@@ -167,8 +170,8 @@ def main() -> None:
                                  args.repeats)
             t_moves += best_time(lambda e=evaluator, f=flipped: e.evaluate_replacements(*f),
                                  args.repeats)
-            t_full += best_time(lambda k=knots, o=offsets: evaluate_knots(
-                u, points, k, o, p, max_deviation=False), args.repeats)
+            t_full += best_time(lambda k=knots, o=offsets: full.evaluate_knots(
+                k, o, max_deviation=False), args.repeats)
             one = bit_flips(u, mask, [0])
             t_single += best_time(lambda e=evaluator, f=one: [
                 e.evaluate_replacements(*f) for _ in range(100)], args.repeats) / 100

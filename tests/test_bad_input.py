@@ -23,14 +23,10 @@ from metaknot.bspline import (
     averaging_knots,
     check_degree,
     clamped_knot_vector,
-    evaluate_indices,
-    evaluate_knots,
-    evaluate_masks,
-    evaluate_positions,
     fit_spline,
     parameterize,
 )
-from metaknot.bspline.curve import make_curve
+from metaknot.bspline.curve import OpenCurve, make_curve
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection
 
 N = 10
@@ -45,9 +41,12 @@ POSITIONS = np.array([[0.3, 0.6], [0.25, 0.7]])
 # one entry per public function: call(points, u, degree)
 CALLS = {
     "parameterize": lambda pts, u, deg: parameterize(pts, "centripetal", degree=deg),
-    "evaluate_masks": lambda pts, u, deg: evaluate_masks(u, pts, MASKS[:, : len(u) - 2], deg),
-    "evaluate_indices": lambda pts, u, deg: evaluate_indices(u, pts, np.zeros((2, 0), int), deg),
-    "evaluate_positions": lambda pts, u, deg: evaluate_positions(u, pts, POSITIONS, deg),
+    "evaluate_masks": lambda pts, u, deg: OpenCurve(u, pts, deg).evaluate_masks(
+        MASKS[:, : len(u) - 2]),
+    "evaluate_indices": lambda pts, u, deg: OpenCurve(u, pts, deg).evaluate_indices(
+        np.zeros((2, 0), int)),
+    "evaluate_positions": lambda pts, u, deg: OpenCurve(u, pts, deg).evaluate_positions(
+        POSITIONS),
     "fit_spline": lambda pts, u, deg: fit_spline(u, pts, [0.5], deg),
     "KnotSelection": lambda pts, u, deg: KnotSelection(points=pts, degree=deg),
 }
@@ -128,16 +127,22 @@ def test_non_numeric_points(call):
 )
 def test_masks_of_wrong_shape(masks):
     with pytest.raises(ValueError, match=rf"masks must have shape \(B, N - 2\) = \(B, {N - 2}\)"):
-        evaluate_masks(U, Q, masks, 3)
+        OpenCurve(U, Q, 3).evaluate_masks(masks)
 
 
 def test_masks_with_other_values():
+    """Masks of floats must hold 0 and 1 only; in integer masks any nonzero entry is a knot (the
+    problems' encodings have checked them)."""
+    curve = OpenCurve(U, Q, 3)
+    for bad in (np.where(MASKS, 2.0, 0.0), np.where(MASKS, 1.0, np.nan), MASKS * 0.5):
+        with pytest.raises(ValueError, match="only 0 and 1"):
+            curve.evaluate_masks(bad)
     masks = MASKS.astype(int)
-    masks[0, 0] = 2
-    with pytest.raises(ValueError, match="only 0 and 1"):
-        evaluate_masks(U, Q, masks, 3)
-    with pytest.raises(ValueError, match="only 0 and 1"):
-        evaluate_masks(U, Q, np.where(MASKS, 1.0, np.nan), 3)
+    masks[0, 3] = 2
+    np.testing.assert_array_equal(curve.evaluate_masks(masks).sse,
+                                  curve.evaluate_masks(MASKS).sse)
+    np.testing.assert_array_equal(curve.evaluate_masks(MASKS.astype(float)).sse,
+                                  curve.evaluate_masks(MASKS).sse)
 
 
 @pytest.mark.parametrize(
@@ -154,7 +159,7 @@ def test_masks_with_other_values():
 )
 def test_bad_indices(indices, message):
     with pytest.raises(ValueError, match=message):
-        evaluate_indices(U, Q, indices, 3)
+        OpenCurve(U, Q, 3).evaluate_indices(indices)
 
 
 @pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
@@ -167,7 +172,7 @@ def test_positions_of_wrong_shape(positions, closed):
         curve.evaluate_positions(positions)
     if not closed:
         with pytest.raises(ValueError, match=r"positions must have shape \(B, K\)"):
-            evaluate_positions(U, Q, positions, 3)
+            OpenCurve(U, Q, 3).evaluate_positions(positions)
 
 
 @pytest.mark.parametrize(
@@ -196,9 +201,9 @@ def test_bad_explicit_parameters(values, message):
 
 
 _EVALUATORS = {
-    "evaluate_masks": lambda u: evaluate_masks(u, Q, MASKS, 3),
-    "evaluate_indices": lambda u: evaluate_indices(u, Q, INDICES, 3),
-    "evaluate_positions": lambda u: evaluate_positions(u, Q, POSITIONS, 3),
+    "evaluate_masks": lambda u: OpenCurve(u, Q, 3).evaluate_masks(MASKS),
+    "evaluate_indices": lambda u: OpenCurve(u, Q, 3).evaluate_indices(INDICES),
+    "evaluate_positions": lambda u: OpenCurve(u, Q, 3).evaluate_positions(POSITIONS),
     "fit_spline": lambda u: fit_spline(u, Q, [0.5], 3),
 }
 
@@ -312,7 +317,7 @@ def test_knot_selection_bad_candidates(x, message):
 )
 def test_evaluate_knots_bad_offsets(knots, offsets, message):
     with pytest.raises(ValueError, match=message):
-        evaluate_knots(U, Q, knots, offsets, 3)
+        OpenCurve(U, Q, 3).evaluate_knots(knots, offsets)
 
 
 # --------------------------------------------------------------------------------------------
@@ -348,7 +353,7 @@ def test_evaluators_reject_overflowing_coordinates(scale):
     q = scale * np.column_stack(((-1.0) ** np.arange(8), np.linspace(-1.0, 1.0, 8)))
     masks = np.zeros((1, 6), dtype=bool)
     with pytest.raises(ValueError, match="magnitude above 1e\\+100"):
-        evaluate_masks(u, q, masks, 1)
+        OpenCurve(u, q, 1).evaluate_masks(masks)
 
 
 @pytest.mark.parametrize("scale", [1e-150, 1e99])
@@ -356,7 +361,7 @@ def test_evaluators_extreme_but_accepted_coordinates(scale):
     u = np.linspace(0.0, 1.0, 8)
     q = scale * np.column_stack(((-1.0) ** np.arange(8), np.linspace(-1.0, 1.0, 8)))
     masks = np.array([[0] * 6, [0, 1, 0, 0, 1, 0], [1, 0, 1, 1, 0, 1]], dtype=bool)
-    fit = evaluate_masks(u, q, masks, 1)
+    fit = OpenCurve(u, q, 1).evaluate_masks(masks)
     assert np.isfinite(fit.sse).all(), f"sse {fit.sse}"
     assert np.isfinite(fit.max_deviation).all(), f"max_deviation {fit.max_deviation}"
     # the data are not on a line: the largest deviation is not zero, and its square is at
@@ -541,7 +546,7 @@ def test_fuzz_evaluate_masks(data):
     u = data.draw(params_for(points))
     masks = data.draw(mask_batches(_n_rows(points)))
     degree = data.draw(degrees)
-    fit = _accept(lambda: evaluate_masks(u, points, masks, degree))
+    fit = _accept(lambda: OpenCurve(u, points, degree).evaluate_masks(masks))
     if fit is not None:
         _check_batch(fit, masks.shape[0])
         np.testing.assert_array_equal(fit.n_control_points,
@@ -561,7 +566,7 @@ def test_fuzz_evaluate_indices(data):
     if data.draw(st.integers(0, 5)) == 0:
         indices = indices.astype(np.float64) + data.draw(st.sampled_from([0.0, 0.5, np.nan]))
     degree = data.draw(degrees)
-    fit = _accept(lambda: evaluate_indices(u, points, indices, degree))
+    fit = _accept(lambda: OpenCurve(u, points, degree).evaluate_indices(indices))
     if fit is not None:
         _check_batch(fit, b)
         assert (fit.n_control_points == k + degree + 1).all()
@@ -578,7 +583,7 @@ def test_fuzz_evaluate_positions(data):
     elements = st.one_of(st.floats(-0.2, 1.2), floats)
     positions = data.draw(hnp.arrays(np.float64, (b, k), elements=elements))
     degree = data.draw(degrees)
-    fit = _accept(lambda: evaluate_positions(u, points, positions, degree))
+    fit = _accept(lambda: OpenCurve(u, points, degree).evaluate_positions(positions))
     if fit is not None:
         _check_batch(fit, b)
         assert (fit.n_control_points == k + degree + 1).all()
@@ -706,8 +711,9 @@ def test_complex_knot_positions_are_refused_by_name():
     positions = np.array([[0.3 + 0.2j, 0.6 + 0.0j]])
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # refused before any cast could warn
-        for call in (lambda: evaluate_positions(U, Q, positions),
-                     lambda: evaluate_positions(U, Q, np.repeat(positions, 40, axis=0)),
+        curve = OpenCurve(U, Q, 3)
+        for call in (lambda: curve.evaluate_positions(positions),
+                     lambda: curve.evaluate_positions(np.repeat(positions, 40, axis=0)),
                      lambda: stack_positions(positions),
                      lambda: evaluate_periodic(closed_parameterize(Q), Q, positions)):
             with pytest.raises(ValueError, match="knot positions must be real numbers"):

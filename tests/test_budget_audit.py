@@ -17,7 +17,8 @@ import pytest
 
 import metaknot as mk
 from metaknot import audit
-from metaknot.bspline import evaluate_masks, fit_spline, parameterize
+from metaknot.bspline import fit_spline, parameterize
+from metaknot.bspline.curve import OpenCurve
 from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
 from metaknot.bspline.periodic import (
     closed_parameterize,
@@ -46,7 +47,7 @@ def test_every_entry_point_of_the_fitting_layer_counts_its_fits():
     q = SPIRAL.points
     u = parameterize(q, "centripetal")
     masks = np.random.default_rng(0).random((7, u.size - 2)) < 0.3
-    assert tallied(lambda: evaluate_masks(u, q, masks)) == 7
+    assert tallied(lambda: OpenCurve(u, q, 3).evaluate_masks(masks)) == 7
     knots = u[[10, 20, 30, 40]]
     assert tallied(lambda: fit_spline(u, q, knots)) == 1
     moves = MoveEvaluator(u, q, knots)
@@ -76,7 +77,7 @@ def test_the_tally_is_per_thread():
 
     def elsewhere():
         seen["before"] = audit.fits()
-        evaluate_masks(u, q, np.ones((3, u.size - 2), dtype=bool))
+        OpenCurve(u, q, 3).evaluate_masks(np.ones((3, u.size - 2), dtype=bool))
         seen["after"] = audit.fits()
 
     before = audit.fits()
@@ -126,8 +127,8 @@ ROUTES = {
         lambda t, X: object.__getattribute__(t, "_problem").evaluate(X),
     "task.sample.__self__": lambda t, X: t.sample.__self__.evaluate(X),
     "gc.get_objects()": lambda t, X: find_problem(t).evaluate(X),
-    "metaknot.bspline.evaluate_masks":
-        lambda t, X: evaluate_masks(t.params, t.points, X.astype(bool), t.degree).sse
+    "OpenCurve(params, points, degree).evaluate_masks":
+        lambda t, X: OpenCurve(t.params, t.points, t.degree).evaluate_masks(X.astype(bool)).sse
         * (X.sum(axis=1) + t.degree + 1),
 }
 CLOSED = list(ROUTES)[:6]

@@ -34,7 +34,6 @@ from .fit import (
     _prepare,
     batch_errors,
     check_metric,
-    evaluate_knots,
     fit_spline,
 )
 from .knots import (
@@ -297,8 +296,8 @@ class OpenCurve(Curve):
         return self.n_points - self.degree - 1
 
     def evaluate_knots(self, knots, offsets, *, max_deviation=True):
-        return evaluate_knots(self.params, self.points, knots, offsets, self.degree,
-                              max_deviation=max_deviation)
+        return _evaluate(self._u, self._q, *check_offsets(knots, offsets), self.degree,
+                         max_deviation)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
         return _evaluate_masks(self._u, self._q, masks, self.degree, max_deviation)

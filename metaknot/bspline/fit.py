@@ -16,14 +16,7 @@ from .. import audit
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from ._kernel import masks_to_knots
-from .knots import (
-    as_positions,
-    check_mask_shape,
-    check_masks,
-    check_offsets,
-    stack_indices,
-    stack_positions,
-)
+from .knots import as_positions, check_mask_shape, check_masks, stack_positions
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
@@ -31,10 +24,6 @@ __all__ = [
     "CurveFit",
     "Infeasibility",
     "SplineFit",
-    "evaluate_indices",
-    "evaluate_knots",
-    "evaluate_masks",
-    "evaluate_positions",
     "fit_spline",
 ]
 
@@ -172,10 +161,11 @@ def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarr
 
 def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
                     max_deviation: bool) -> BatchFit:
-    """Fit a ``(B, N - 2)`` batch of masks (nonzero: a knot; values are not checked)."""
+    """Fit a ``(B, N - 2)`` batch of masks (nonzero: a knot; the values of integer masks are
+    not checked, those of others must be 0 or 1)."""
     masks = check_mask_shape(u, masks)
     if masks.dtype.kind not in "biu":
-        masks = masks.astype(bool)
+        masks = check_masks(u, masks)
     if len(masks) > SERIAL_BATCH:
         knots, offsets = masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool))
         return _evaluate(u, q, knots, offsets, p, max_deviation)
@@ -186,7 +176,8 @@ def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
 
 def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: int,
                         max_deviation: bool, nan_is_absent: bool) -> BatchFit:
-    """Fit a ``(B, K)`` batch of knot positions (see :func:`evaluate_positions`)."""
+    """Fit a ``(B, K)`` batch of knot positions (see
+    :meth:`~metaknot.bspline.curve.Curve.evaluate_positions`)."""
     positions = as_positions(positions)
     if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
         return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
@@ -194,53 +185,6 @@ def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: i
     sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
     _kernel.evaluate_positions_serial(u, q, p, positions, nan_is_absent, *out)
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
-
-
-def evaluate_knots(
-    u: ArrayLike, points: ArrayLike, knots: np.ndarray, offsets: np.ndarray, degree: int = 3,
-    *, max_deviation: bool = True,
-) -> BatchFit:
-    """Fit every candidate of a flattened batch in compiled code.
-
-    Parameters
-    ----------
-    u, points
-        Parameter values ``(N,)`` and data points ``(N, d)``.
-    knots, offsets
-        Candidate ``b`` has the (sorted) interior knots ``knots[offsets[b]:offsets[b + 1]]``.
-    degree
-        Spline degree, 1..5.
-    max_deviation
-        Also compute the largest point deviation (a second pass over the data).
-    """
-    u, q = _prepare(u, points, degree)
-    return _evaluate(u, q, *check_offsets(knots, offsets), int(degree), max_deviation)
-
-
-def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: int = 3, *,
-                   max_deviation: bool = True) -> BatchFit:
-    """Score a ``(B, N-2)`` batch of 0/1 masks over the interior data points."""
-    u, q = _prepare(u, points, degree)
-    return _evaluate_masks(u, q, check_masks(u, masks), int(degree), max_deviation)
-
-
-def evaluate_indices(u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree: int = 3, *,
-                     max_deviation: bool = True) -> BatchFit:
-    """Score a ``(B, K)`` batch of interior data indices (knots at those data parameters)."""
-    u, q = _prepare(u, points, degree)
-    return _evaluate(u, q, *stack_indices(u, indices), int(degree), max_deviation)
-
-
-def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, degree: int = 3,
-                       *, max_deviation: bool = True, nan_is_absent: bool = False) -> BatchFit:
-    """Score a ``(B, K)`` batch of continuous interior knot positions.
-
-    Positions outside the open parameter range or coincident make their candidate infeasible
-    (reported, not raised); so does NaN, unless ``nan_is_absent`` (then NaN means "no knot",
-    so rows may have different knot counts).
-    """
-    u, q = _prepare(u, points, degree)
-    return _evaluate_positions(u, q, positions, int(degree), max_deviation, nan_is_absent)
 
 
 @dataclass(frozen=True, eq=False)

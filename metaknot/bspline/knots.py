@@ -16,8 +16,6 @@ __all__ = [
     "check_masks",
     "check_offsets",
     "clamped_knot_vector",
-    "interior_from_indices",
-    "interior_from_mask",
     "n_control_points",
     "padded_rows",
     "stack_indices",
@@ -37,32 +35,6 @@ def _as_params(u: ArrayLike) -> np.ndarray:
     if u.ndim != 1 or u.size < 2:
         raise ValueError(f"parameter values must be a 1-D array of length >= 2; got {u.shape}")
     return u
-
-
-def interior_from_mask(u: ArrayLike, mask: ArrayLike) -> np.ndarray:
-    """Interior knots selected by a 0/1 mask over the interior data points ``1..N-2``.
-
-    The end points are always knots (clamped), so the mask has ``N - 2`` entries.
-    """
-    u = _as_params(u)
-    mask = np.asarray(mask)
-    if mask.shape != (u.size - 2,):
-        raise ValueError(
-            f"mask must have N - 2 = {u.size - 2} entries (one per interior data point); "
-            f"got shape {mask.shape}"
-        )
-    return u[1:-1][mask.astype(bool)]
-
-
-def interior_from_indices(u: ArrayLike, indices: ArrayLike) -> np.ndarray:
-    """Interior knots at the data points with the given indices (each in ``1..N-2``)."""
-    u = _as_params(u)
-    idx = np.asarray(indices)
-    if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
-        raise ValueError(f"indices must be a 1-D integer array; got {idx.dtype} {idx.shape}")
-    if idx.size and (idx.min() < 1 or idx.max() > u.size - 2):
-        raise ValueError(f"indices must lie in 1..{u.size - 2} (interior data points)")
-    return u[np.sort(idx)]
 
 
 def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3) -> np.ndarray:
