@@ -22,9 +22,9 @@ reached and the median objective. Last line
 The same for closed curves: the epitrochoid as a closed outline (its repeated last point
 dropped), every one-bit flip of random incumbents at density 0.5, scored by a
 :class:`~metaknot.bspline.moves.PeriodicMoveEvaluator` and by the periodic batched kernel
-(:func:`~metaknot.bspline.evaluate_periodic`), side by side on one thread; the line
-``periodic_move_speedup_vs_batched: <periodic batched time per candidate / periodic move
-time>``.
+(:meth:`~metaknot.bspline.curve.ClosedCurve.evaluate_positions`), side by side on one thread;
+the line ``periodic_move_speedup_vs_batched: <periodic batched time per candidate / periodic
+move time>``.
 
 Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5] [--seconds 5]
 [--seeds 5]`` (run it on a quiet machine: the wall-clock part is a race against the clock).
@@ -39,11 +39,10 @@ import numpy as np
 from _timing import best_time
 
 import metaknot as mk
-from metaknot.bspline import parameterize
-from metaknot.bspline.curve import OpenCurve
+from metaknot.bspline import closed_parameterize, parameterize
+from metaknot.bspline.curve import ClosedCurve, OpenCurve
 from metaknot.bspline.knots import stack_masks
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, PeriodicMoveEvaluator, bit_flips
-from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
 from metaknot.problems import KnotSelection, get_curve
 
 CURVES = ("epitrochoid", "archimedean", "vivaldi")
@@ -77,6 +76,7 @@ def periodic_moves(incumbents: int, repeats: int, degree: int, density: float = 
     evaluator and by the periodic batched kernel; returns the speedup per move."""
     points = get_curve("epitrochoid").points[:-1]  # its last point repeats the first
     u = closed_parameterize(points, "centripetal")
+    full = ClosedCurve(u, points, degree)
     n_var = u.size - 1
     rng = np.random.default_rng(20130302)
     t_moves = t_full = t_single = t_rebind = 0.0
@@ -94,7 +94,7 @@ def periodic_moves(incumbents: int, repeats: int, degree: int, density: float = 
         positions = np.where(flips, u[1:][None, :], np.nan)
         flipped = bit_flips(u, mask, np.arange(n_var), closed=True)
         by_moves, path = evaluator.evaluate_replacements(*flipped)  # compile outside the timing
-        ref = evaluate_periodic(u, points, positions, degree, max_deviation=False)
+        ref = full.evaluate_positions(positions, max_deviation=False, nan_is_absent=True)
         if not np.array_equal(by_moves.reason, ref.reason):
             raise SystemExit("periodic delta and full evaluation disagree on feasibility")
         ok = ref.feasible
@@ -103,8 +103,8 @@ def periodic_moves(incumbents: int, repeats: int, degree: int, density: float = 
         delta_share += int(np.count_nonzero(path == PATH_DELTA))
         t_moves += best_time(lambda e=evaluator, f=flipped: e.evaluate_replacements(*f),
                              repeats)
-        t_full += best_time(lambda x=positions: evaluate_periodic(
-            u, points, x, degree, max_deviation=False), repeats)
+        t_full += best_time(lambda x=positions: full.evaluate_positions(
+            x, max_deviation=False, nan_is_absent=True), repeats)
         one = bit_flips(u, mask, [0], closed=True)
         t_single += best_time(lambda e=evaluator, f=one: [
             e.evaluate_replacements(*f) for _ in range(100)], repeats) / 100

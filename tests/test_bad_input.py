@@ -26,7 +26,7 @@ from metaknot.bspline import (
     fit_spline,
     parameterize,
 )
-from metaknot.bspline.curve import OpenCurve, make_curve
+from metaknot.bspline.curve import ClosedCurve, OpenCurve, make_curve
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection
 
 N = 10
@@ -130,19 +130,22 @@ def test_masks_of_wrong_shape(masks):
         OpenCurve(U, Q, 3).evaluate_masks(masks)
 
 
-def test_masks_with_other_values():
-    """Masks of floats must hold 0 and 1 only; in integer masks any nonzero entry is a knot (the
-    problems' encodings have checked them)."""
-    curve = OpenCurve(U, Q, 3)
-    for bad in (np.where(MASKS, 2.0, 0.0), np.where(MASKS, 1.0, np.nan), MASKS * 0.5):
+@pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
+def test_masks_with_other_values(closed):
+    """Masks of floats must hold 0 and 1 only (a NaN was taken as a knot); in integer masks any
+    nonzero entry is a knot (the problems' encodings have checked them)."""
+    curve = make_curve(Q, closed=closed)
+    bits = np.zeros((2, curve.candidate_params.size), dtype=bool)
+    bits[0, [1, 3, 5]] = bits[1, [2, 4, 6]] = True
+    for bad in (np.where(bits, 2.0, 0.0), np.where(bits, 1.0, np.nan), bits * 0.5):
         with pytest.raises(ValueError, match="only 0 and 1"):
             curve.evaluate_masks(bad)
-    masks = MASKS.astype(int)
+    masks = bits.astype(int)
     masks[0, 3] = 2
-    np.testing.assert_array_equal(curve.evaluate_masks(masks).sse,
-                                  curve.evaluate_masks(MASKS).sse)
-    np.testing.assert_array_equal(curve.evaluate_masks(MASKS.astype(float)).sse,
-                                  curve.evaluate_masks(MASKS).sse)
+    expected = curve.evaluate_masks(bits).sse
+    assert np.isfinite(expected).all()
+    np.testing.assert_array_equal(curve.evaluate_masks(masks).sse, expected)
+    np.testing.assert_array_equal(curve.evaluate_masks(bits.astype(float)).sse, expected)
 
 
 @pytest.mark.parametrize(
@@ -705,17 +708,17 @@ def test_complex_candidates_from_an_optimizer_are_refused_by_name(kind):
 def test_complex_knot_positions_are_refused_by_name():
     """Complex positions lost their imaginary parts with only a numpy warning (another
     candidate, silently), on open and closed curves, one candidate or a batch."""
+    from metaknot.bspline import closed_parameterize
     from metaknot.bspline.knots import stack_positions
-    from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
 
     positions = np.array([[0.3 + 0.2j, 0.6 + 0.0j]])
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # refused before any cast could warn
-        curve = OpenCurve(U, Q, 3)
+        curve, closed = OpenCurve(U, Q, 3), ClosedCurve(closed_parameterize(Q), Q, 3)
         for call in (lambda: curve.evaluate_positions(positions),
                      lambda: curve.evaluate_positions(np.repeat(positions, 40, axis=0)),
                      lambda: stack_positions(positions),
-                     lambda: evaluate_periodic(closed_parameterize(Q), Q, positions)):
+                     lambda: closed.evaluate_positions(positions, nan_is_absent=True)):
             with pytest.raises(ValueError, match="knot positions must be real numbers"):
                 call()
 

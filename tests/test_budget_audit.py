@@ -17,15 +17,9 @@ import pytest
 
 import metaknot as mk
 from metaknot import audit
-from metaknot.bspline import fit_spline, parameterize
-from metaknot.bspline.curve import OpenCurve
+from metaknot.bspline import closed_parameterize, fit_spline, parameterize
+from metaknot.bspline.curve import ClosedCurve, OpenCurve
 from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
-from metaknot.bspline.periodic import (
-    closed_parameterize,
-    evaluate_periodic,
-    fit_periodic,
-    periodic_errors,
-)
 from metaknot.problems import FreeKnots, KnotIndices, KnotProblem, KnotSelection, get_curve
 from tests.test_all_optimizers import CASES, IDS
 
@@ -56,9 +50,10 @@ def test_every_entry_point_of_the_fitting_layer_counts_its_fits():
                                           np.array([0, 4, 7]))[0]) == 2
     w = closed_parameterize(OUTLINE.points)
     rows = np.where(np.random.default_rng(1).random((5, w.size - 1)) < 0.3, w[1:], np.nan)
-    assert tallied(lambda: evaluate_periodic(w, OUTLINE.points, rows)) == 5
-    assert tallied(lambda: fit_periodic(w, OUTLINE.points, w[[10, 30, 50, 70]])) == 1
-    assert tallied(lambda: periodic_errors(w, OUTLINE.points, [w[[10, 40]], w[[20, 60]]])) == 2
+    closed = ClosedCurve(w, OUTLINE.points, 3)
+    assert tallied(lambda: closed.evaluate_positions(rows, nan_is_absent=True)) == 5
+    assert tallied(lambda: closed.fit(w[[10, 30, 50, 70]])) == 1
+    assert tallied(lambda: closed.errors([w[[10, 40]], w[[20, 60]]], "max_deviation")) == 2
     closed_knots = w[[10, 20, 30, 40, 50, 60, 70]]
     closed_moves = PeriodicMoveEvaluator(w, OUTLINE.points, closed_knots)
     assert tallied(lambda: closed_moves.rebind(w[[10, 25, 40, 55, 70]])) == 1

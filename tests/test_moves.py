@@ -1,9 +1,9 @@
 """Delta evaluation of local knot moves against the full batched evaluator.
 
 Every candidate scored by a :class:`MoveEvaluator` must come back exactly as
-:func:`evaluate_knots` scores it: the same reason code, the same control-point count and the
-same SSE to 1e-10 relative. The tests also check that the delta path did the work (a test in
-which every move fell back to the full fit would prove nothing).
+:meth:`OpenCurve.evaluate_knots` scores it: the same reason code, the same control-point count
+and the same SSE to 1e-10 relative. The tests also check that the delta path did the work (a
+test in which every move fell back to the full fit would prove nothing).
 """
 
 from __future__ import annotations
