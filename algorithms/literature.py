@@ -5,7 +5,7 @@ Each method is a pure function, decorated by :func:`tolerance_method`::
     result = newknt(params, points, tolerance, degree=3, closed=False, metric="max_deviation")
 
 taking the data parameters ``(N,)`` (in [0, 1) for a closed outline, as
-:func:`metaknot.bspline.periodic.closed_parameterize` gives them) and points ``(N, d)``, and
+:func:`metaknot.bspline.closed_parameterize` gives them) and points ``(N, d)``, and
 returning a :class:`LiteratureKnots`: the interior knots, their fit's error (checked by the curve
 model's evaluator, the one ``metaknot fit`` uses), whether it is within the tolerance (and if not,
 why) and the fits the method made. Open curves and function data get a clamped spline, closed

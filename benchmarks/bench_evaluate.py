@@ -23,8 +23,8 @@ import numpy as np
 from _timing import best_time
 from scipy.interpolate import make_lsq_spline
 
-from metaknot.bspline import _kernel, clamped_knot_vector, evaluate_masks, parameterize
-from metaknot.bspline.curve import make_curve
+from metaknot.bspline import _kernel, clamped_knot_vector, parameterize
+from metaknot.bspline.curve import OpenCurve, make_curve
 from metaknot.problems import get_curve
 
 
@@ -52,10 +52,12 @@ def main() -> None:
     rng = np.random.default_rng(20130301)
     masks = rng.random((args.candidates, u.size - 2)) < 0.5
 
-    def batched(max_deviation: bool = False):
-        return evaluate_masks(u, points, masks, args.degree, max_deviation=max_deviation)
+    curve = OpenCurve(u, points, args.degree)
 
-    evaluate_masks(u, points, masks[:2], args.degree)  # compile outside the timing
+    def batched(max_deviation: bool = False):
+        return curve.evaluate_masks(masks, max_deviation=max_deviation)
+
+    curve.evaluate_masks(masks[:2])  # compile outside the timing
     batch = batched()
     reference = scipy_sse(u, points, masks, args.degree)
 

@@ -3,14 +3,15 @@
 On the seed paper's epitrochoid (361 points, centripetal, cubic) at mask densities 0.5 and 0.2:
 for several random incumbents, every one-bit flip (insertions and removals of one knot) is
 scored by a :class:`~metaknot.bspline.moves.MoveEvaluator` bound to the incumbent and by the
-batched kernel (:func:`~metaknot.bspline.evaluate_knots`, the evaluator every full evaluation
-goes through), both on one thread, best of ``--repeats``. The move evaluator is timed on the
-moves themselves (``evaluate_replacements`` with :func:`~metaknot.bspline.moves.bit_flips`:
-flip bit j) and on the candidates they make (``evaluate``: whole knot vectors, compared with
-the incumbent's). Printed per density: the time per move of each, the ratios, the share of
-moves the delta path decided, the largest relative SSE difference, the time of one call with a
-single move (what a (1+1) EA pays per step), and the cost of moving the incumbent (``rebind``:
-one forward and one backward sweep) in full fits.
+batched kernel (:meth:`~metaknot.bspline.curve.Curve.evaluate_knots`, the evaluator every full
+evaluation goes through), both on one thread, best of ``--repeats``. The move evaluator is
+timed on the moves themselves (``evaluate_replacements`` with
+:func:`~metaknot.bspline.moves.bit_flips`: flip bit j) and on the candidates they make
+(``evaluate``: whole knot vectors, compared with the incumbent's). Printed per density: the
+time per move of each, the ratios, the share of moves the delta path decided, the largest
+relative SSE difference, the time of one call with a single move (what a (1+1) EA pays per
+step), and the cost of moving the incumbent (``rebind``: one forward and one backward sweep) in
+full fits.
 
 Then the (1+1) EA in the seed's setting (the three seed curves, 0/1 masks, the guarded
 ``paper`` objective) at a fixed wall-clock allowance per run (``--seconds``, seeds
@@ -21,9 +22,9 @@ reached and the median objective. Last line
 The same for closed curves: the epitrochoid as a closed outline (its repeated last point
 dropped), every one-bit flip of random incumbents at density 0.5, scored by a
 :class:`~metaknot.bspline.moves.PeriodicMoveEvaluator` and by the periodic batched kernel
-(:func:`~metaknot.bspline.evaluate_periodic`), side by side on one thread; the line
-``periodic_move_speedup_vs_batched: <periodic batched time per candidate / periodic move
-time>``.
+(:meth:`~metaknot.bspline.curve.ClosedCurve.evaluate_positions`), side by side on one thread;
+the line ``periodic_move_speedup_vs_batched: <periodic batched time per candidate / periodic
+move time>``.
 
 Run: ``python benchmarks/bench_moves.py [--incumbents 5] [--repeats 5] [--seconds 5]
 [--seeds 5]`` (run it on a quiet machine: the wall-clock part is a race against the clock).
@@ -38,10 +39,10 @@ import numpy as np
 from _timing import best_time
 
 import metaknot as mk
-from metaknot.bspline import evaluate_knots, parameterize
+from metaknot.bspline import closed_parameterize, parameterize
+from metaknot.bspline.curve import ClosedCurve, OpenCurve
 from metaknot.bspline.knots import stack_masks
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, PeriodicMoveEvaluator, bit_flips
-from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
 from metaknot.problems import KnotSelection, get_curve
 
 CURVES = ("epitrochoid", "archimedean", "vivaldi")
@@ -75,6 +76,7 @@ def periodic_moves(incumbents: int, repeats: int, degree: int, density: float = 
     evaluator and by the periodic batched kernel; returns the speedup per move."""
     points = get_curve("epitrochoid").points[:-1]  # its last point repeats the first
     u = closed_parameterize(points, "centripetal")
+    full = ClosedCurve(u, points, degree)
     n_var = u.size - 1
     rng = np.random.default_rng(20130302)
     t_moves = t_full = t_single = t_rebind = 0.0
@@ -92,7 +94,7 @@ def periodic_moves(incumbents: int, repeats: int, degree: int, density: float = 
         positions = np.where(flips, u[1:][None, :], np.nan)
         flipped = bit_flips(u, mask, np.arange(n_var), closed=True)
         by_moves, path = evaluator.evaluate_replacements(*flipped)  # compile outside the timing
-        ref = evaluate_periodic(u, points, positions, degree, max_deviation=False)
+        ref = full.evaluate_positions(positions, max_deviation=False, nan_is_absent=True)
         if not np.array_equal(by_moves.reason, ref.reason):
             raise SystemExit("periodic delta and full evaluation disagree on feasibility")
         ok = ref.feasible
@@ -101,8 +103,8 @@ def periodic_moves(incumbents: int, repeats: int, degree: int, density: float = 
         delta_share += int(np.count_nonzero(path == PATH_DELTA))
         t_moves += best_time(lambda e=evaluator, f=flipped: e.evaluate_replacements(*f),
                              repeats)
-        t_full += best_time(lambda x=positions: evaluate_periodic(
-            u, points, x, degree, max_deviation=False), repeats)
+        t_full += best_time(lambda x=positions: full.evaluate_positions(
+            x, max_deviation=False, nan_is_absent=True), repeats)
         one = bit_flips(u, mask, [0], closed=True)
         t_single += best_time(lambda e=evaluator, f=one: [
             e.evaluate_replacements(*f) for _ in range(100)], repeats) / 100
@@ -136,6 +138,7 @@ def main() -> None:
     points = get_curve("epitrochoid").points
     u = parameterize(points, "centripetal")
     p = args.degree
+    full = OpenCurve(u, points, p)
     rng = np.random.default_rng(20130301)
     ratios: dict[float, float] = {}
     candidates: dict[float, float] = {}
@@ -153,7 +156,7 @@ def main() -> None:
             flipped = bit_flips(u, mask, np.arange(u.size - 2))
             fit, path = evaluator.evaluate(knots, offsets)  # compile outside the timing
             by_moves, _ = evaluator.evaluate_replacements(*flipped)
-            ref = evaluate_knots(u, points, knots, offsets, p, max_deviation=False)
+            ref = full.evaluate_knots(knots, offsets, max_deviation=False)
             if not (np.array_equal(fit.reason, ref.reason)
                     and np.array_equal(by_moves.reason, ref.reason)):
                 raise SystemExit("delta and full evaluation disagree on feasibility")
@@ -167,8 +170,8 @@ def main() -> None:
                                  args.repeats)
             t_moves += best_time(lambda e=evaluator, f=flipped: e.evaluate_replacements(*f),
                                  args.repeats)
-            t_full += best_time(lambda k=knots, o=offsets: evaluate_knots(
-                u, points, k, o, p, max_deviation=False), args.repeats)
+            t_full += best_time(lambda k=knots, o=offsets: full.evaluate_knots(
+                k, o, max_deviation=False), args.repeats)
             one = bit_flips(u, mask, [0])
             t_single += best_time(lambda e=evaluator, f=one: [
                 e.evaluate_replacements(*f) for _ in range(100)], args.repeats) / 100

@@ -64,7 +64,6 @@ import numpy as np
 from _timing import best_time, metaknot_run, timed
 
 import metaknot as mk
-from metaknot.bspline import evaluate_masks
 from metaknot.bspline.moves import MoveEvaluator, bit_flips
 from metaknot.experiments.store import Store
 from metaknot.problems import KnotSelection, get_curve
@@ -93,7 +92,7 @@ def kernel_seconds(problem: KnotSelection, batches: list[np.ndarray], repeats: i
 
     def kernel() -> None:
         for m in masks:
-            evaluate_masks(problem.params, problem.points, m, problem.degree)
+            problem.curve.evaluate_masks(m)
 
     return best_time(kernel, repeats)
 

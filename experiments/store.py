@@ -81,7 +81,7 @@ SPLINE_FIELDS = ("spline.knots", "spline.coefficients", "spline.degree", "spline
 
 def spline_fields(fit: CurveFit) -> dict[str, Any]:
     """The record fields (:data:`SPLINE_FIELDS`) of a fitted spline."""
-    from metaknot.bspline.periodic import PeriodicFit
+    from metaknot.bspline.fit import PeriodicFit
 
     return {"spline.knots": np.asarray(fit.spline.t, dtype=np.float64),
             "spline.coefficients": np.asarray(fit.spline.c, dtype=np.float64),
@@ -99,7 +99,7 @@ def stored_fit(record: Mapping[str, Any] | pd.Series, params: np.ndarray,
     from scipy.interpolate import BSpline
 
     from metaknot.bspline import SplineFit
-    from metaknot.bspline.periodic import PeriodicFit
+    from metaknot.bspline.fit import PeriodicFit
 
     spline = BSpline(np.asarray(knots, dtype=np.float64),
                      np.asarray(list(record["spline.coefficients"]), dtype=np.float64),

@@ -23,14 +23,10 @@ from metaknot.bspline import (
     averaging_knots,
     check_degree,
     clamped_knot_vector,
-    evaluate_indices,
-    evaluate_knots,
-    evaluate_masks,
-    evaluate_positions,
     fit_spline,
     parameterize,
 )
-from metaknot.bspline.curve import make_curve
+from metaknot.bspline.curve import ClosedCurve, OpenCurve, make_curve
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection
 
 N = 10
@@ -45,9 +41,12 @@ POSITIONS = np.array([[0.3, 0.6], [0.25, 0.7]])
 # one entry per public function: call(points, u, degree)
 CALLS = {
     "parameterize": lambda pts, u, deg: parameterize(pts, "centripetal", degree=deg),
-    "evaluate_masks": lambda pts, u, deg: evaluate_masks(u, pts, MASKS[:, : len(u) - 2], deg),
-    "evaluate_indices": lambda pts, u, deg: evaluate_indices(u, pts, np.zeros((2, 0), int), deg),
-    "evaluate_positions": lambda pts, u, deg: evaluate_positions(u, pts, POSITIONS, deg),
+    "evaluate_masks": lambda pts, u, deg: OpenCurve(u, pts, deg).evaluate_masks(
+        MASKS[:, : len(u) - 2]),
+    "evaluate_indices": lambda pts, u, deg: OpenCurve(u, pts, deg).evaluate_indices(
+        np.zeros((2, 0), int)),
+    "evaluate_positions": lambda pts, u, deg: OpenCurve(u, pts, deg).evaluate_positions(
+        POSITIONS),
     "fit_spline": lambda pts, u, deg: fit_spline(u, pts, [0.5], deg),
     "KnotSelection": lambda pts, u, deg: KnotSelection(points=pts, degree=deg),
 }
@@ -128,16 +127,25 @@ def test_non_numeric_points(call):
 )
 def test_masks_of_wrong_shape(masks):
     with pytest.raises(ValueError, match=rf"masks must have shape \(B, N - 2\) = \(B, {N - 2}\)"):
-        evaluate_masks(U, Q, masks, 3)
+        OpenCurve(U, Q, 3).evaluate_masks(masks)
 
 
-def test_masks_with_other_values():
-    masks = MASKS.astype(int)
-    masks[0, 0] = 2
-    with pytest.raises(ValueError, match="only 0 and 1"):
-        evaluate_masks(U, Q, masks, 3)
-    with pytest.raises(ValueError, match="only 0 and 1"):
-        evaluate_masks(U, Q, np.where(MASKS, 1.0, np.nan), 3)
+@pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
+def test_masks_with_other_values(closed):
+    """Masks of floats must hold 0 and 1 only (a NaN was taken as a knot); in integer masks any
+    nonzero entry is a knot (the problems' encodings have checked them)."""
+    curve = make_curve(Q, closed=closed)
+    bits = np.zeros((2, curve.candidate_params.size), dtype=bool)
+    bits[0, [1, 3, 5]] = bits[1, [2, 4, 6]] = True
+    for bad in (np.where(bits, 2.0, 0.0), np.where(bits, 1.0, np.nan), bits * 0.5):
+        with pytest.raises(ValueError, match="only 0 and 1"):
+            curve.evaluate_masks(bad)
+    masks = bits.astype(int)
+    masks[0, 3] = 2
+    expected = curve.evaluate_masks(bits).sse
+    assert np.isfinite(expected).all()
+    np.testing.assert_array_equal(curve.evaluate_masks(masks).sse, expected)
+    np.testing.assert_array_equal(curve.evaluate_masks(bits.astype(float)).sse, expected)
 
 
 @pytest.mark.parametrize(
@@ -154,7 +162,7 @@ def test_masks_with_other_values():
 )
 def test_bad_indices(indices, message):
     with pytest.raises(ValueError, match=message):
-        evaluate_indices(U, Q, indices, 3)
+        OpenCurve(U, Q, 3).evaluate_indices(indices)
 
 
 @pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
@@ -167,7 +175,7 @@ def test_positions_of_wrong_shape(positions, closed):
         curve.evaluate_positions(positions)
     if not closed:
         with pytest.raises(ValueError, match=r"positions must have shape \(B, K\)"):
-            evaluate_positions(U, Q, positions, 3)
+            OpenCurve(U, Q, 3).evaluate_positions(positions)
 
 
 @pytest.mark.parametrize(
@@ -196,9 +204,9 @@ def test_bad_explicit_parameters(values, message):
 
 
 _EVALUATORS = {
-    "evaluate_masks": lambda u: evaluate_masks(u, Q, MASKS, 3),
-    "evaluate_indices": lambda u: evaluate_indices(u, Q, INDICES, 3),
-    "evaluate_positions": lambda u: evaluate_positions(u, Q, POSITIONS, 3),
+    "evaluate_masks": lambda u: OpenCurve(u, Q, 3).evaluate_masks(MASKS),
+    "evaluate_indices": lambda u: OpenCurve(u, Q, 3).evaluate_indices(INDICES),
+    "evaluate_positions": lambda u: OpenCurve(u, Q, 3).evaluate_positions(POSITIONS),
     "fit_spline": lambda u: fit_spline(u, Q, [0.5], 3),
 }
 
@@ -312,7 +320,7 @@ def test_knot_selection_bad_candidates(x, message):
 )
 def test_evaluate_knots_bad_offsets(knots, offsets, message):
     with pytest.raises(ValueError, match=message):
-        evaluate_knots(U, Q, knots, offsets, 3)
+        OpenCurve(U, Q, 3).evaluate_knots(knots, offsets)
 
 
 # --------------------------------------------------------------------------------------------
@@ -348,7 +356,7 @@ def test_evaluators_reject_overflowing_coordinates(scale):
     q = scale * np.column_stack(((-1.0) ** np.arange(8), np.linspace(-1.0, 1.0, 8)))
     masks = np.zeros((1, 6), dtype=bool)
     with pytest.raises(ValueError, match="magnitude above 1e\\+100"):
-        evaluate_masks(u, q, masks, 1)
+        OpenCurve(u, q, 1).evaluate_masks(masks)
 
 
 @pytest.mark.parametrize("scale", [1e-150, 1e99])
@@ -356,7 +364,7 @@ def test_evaluators_extreme_but_accepted_coordinates(scale):
     u = np.linspace(0.0, 1.0, 8)
     q = scale * np.column_stack(((-1.0) ** np.arange(8), np.linspace(-1.0, 1.0, 8)))
     masks = np.array([[0] * 6, [0, 1, 0, 0, 1, 0], [1, 0, 1, 1, 0, 1]], dtype=bool)
-    fit = evaluate_masks(u, q, masks, 1)
+    fit = OpenCurve(u, q, 1).evaluate_masks(masks)
     assert np.isfinite(fit.sse).all(), f"sse {fit.sse}"
     assert np.isfinite(fit.max_deviation).all(), f"max_deviation {fit.max_deviation}"
     # the data are not on a line: the largest deviation is not zero, and its square is at
@@ -541,7 +549,7 @@ def test_fuzz_evaluate_masks(data):
     u = data.draw(params_for(points))
     masks = data.draw(mask_batches(_n_rows(points)))
     degree = data.draw(degrees)
-    fit = _accept(lambda: evaluate_masks(u, points, masks, degree))
+    fit = _accept(lambda: OpenCurve(u, points, degree).evaluate_masks(masks))
     if fit is not None:
         _check_batch(fit, masks.shape[0])
         np.testing.assert_array_equal(fit.n_control_points,
@@ -561,7 +569,7 @@ def test_fuzz_evaluate_indices(data):
     if data.draw(st.integers(0, 5)) == 0:
         indices = indices.astype(np.float64) + data.draw(st.sampled_from([0.0, 0.5, np.nan]))
     degree = data.draw(degrees)
-    fit = _accept(lambda: evaluate_indices(u, points, indices, degree))
+    fit = _accept(lambda: OpenCurve(u, points, degree).evaluate_indices(indices))
     if fit is not None:
         _check_batch(fit, b)
         assert (fit.n_control_points == k + degree + 1).all()
@@ -578,7 +586,7 @@ def test_fuzz_evaluate_positions(data):
     elements = st.one_of(st.floats(-0.2, 1.2), floats)
     positions = data.draw(hnp.arrays(np.float64, (b, k), elements=elements))
     degree = data.draw(degrees)
-    fit = _accept(lambda: evaluate_positions(u, points, positions, degree))
+    fit = _accept(lambda: OpenCurve(u, points, degree).evaluate_positions(positions))
     if fit is not None:
         _check_batch(fit, b)
         assert (fit.n_control_points == k + degree + 1).all()
@@ -700,16 +708,17 @@ def test_complex_candidates_from_an_optimizer_are_refused_by_name(kind):
 def test_complex_knot_positions_are_refused_by_name():
     """Complex positions lost their imaginary parts with only a numpy warning (another
     candidate, silently), on open and closed curves, one candidate or a batch."""
+    from metaknot.bspline import closed_parameterize
     from metaknot.bspline.knots import stack_positions
-    from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
 
     positions = np.array([[0.3 + 0.2j, 0.6 + 0.0j]])
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # refused before any cast could warn
-        for call in (lambda: evaluate_positions(U, Q, positions),
-                     lambda: evaluate_positions(U, Q, np.repeat(positions, 40, axis=0)),
+        curve, closed = OpenCurve(U, Q, 3), ClosedCurve(closed_parameterize(Q), Q, 3)
+        for call in (lambda: curve.evaluate_positions(positions),
+                     lambda: curve.evaluate_positions(np.repeat(positions, 40, axis=0)),
                      lambda: stack_positions(positions),
-                     lambda: evaluate_periodic(closed_parameterize(Q), Q, positions)):
+                     lambda: closed.evaluate_positions(positions, nan_is_absent=True)):
             with pytest.raises(ValueError, match="knot positions must be real numbers"):
                 call()
 

@@ -8,7 +8,7 @@ from scipy.interpolate import splev, splprep
 
 import metaknot as mk
 import metaknot.algorithms.baselines as bl
-from metaknot.bspline import evaluate_masks
+from metaknot.bspline.curve import OpenCurve
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection
 
 NAMES = ("uniform", "averaging", "fitpack")
@@ -195,7 +195,7 @@ def test_error_bounded_scan_finds_fewest_uniform_knots():
         assert np.unique(nearest).size == k  # no collisions up to the answer
         mask = np.zeros(u.size - 2, dtype=bool)
         mask[nearest - 1] = True
-        fit = evaluate_masks(u, points, mask[None, :], 3, max_deviation=True)
+        fit = OpenCurve(u, points, 3).evaluate_masks(mask[None, :], max_deviation=True)
         if fit.feasible[0] and fit.max_deviation[0] <= tol:
             reference = mask
             break

@@ -39,12 +39,10 @@ from metaknot.bspline import (
     Infeasibility,
     averaging_knots,
     clamped_knot_vector,
-    evaluate_indices,
-    evaluate_masks,
-    evaluate_positions,
     fit_spline,
     parameterize,
 )
+from metaknot.bspline.curve import OpenCurve
 from metaknot.problems import get_curve
 
 EPS = np.finfo(np.float64).eps
@@ -132,7 +130,7 @@ def test_evaluate_masks_matches_scipy(curves, name, degree):
     rng = np.random.default_rng(1000 + 10 * CURVES.index(name) + degree)
     densities = np.repeat([0.05, 0.2, 0.5, 0.8], 6)
     masks = rng.random((densities.size, u.size - 2)) < densities[:, None]
-    fit = evaluate_masks(u, q, masks, degree)
+    fit = OpenCurve(u, q, degree).evaluate_masks(masks)
     assert len(fit) == masks.shape[0]
     np.testing.assert_array_equal(fit.n_control_points, masks.sum(axis=1) + degree + 1)
     interiors = [u[1:-1][m] for m in masks]
@@ -156,7 +154,7 @@ def test_evaluate_indices_matches_scipy(curves, name, degree):
     fits = []
     for k in sorted({r.size for r in rows}):
         batch = np.array([r for r in rows if r.size == k])  # rows deliberately unsorted
-        fit = evaluate_indices(u, q, batch, degree)
+        fit = OpenCurve(u, q, degree).evaluate_indices(batch)
         np.testing.assert_array_equal(fit.n_control_points, k + degree + 1)
         interiors = [u[np.sort(r)] for r in batch]
         fits.append(assert_matches_scipy(u, q, degree, interiors, fit, f"indices K={k}"))
@@ -164,7 +162,7 @@ def test_evaluate_indices_matches_scipy(curves, name, degree):
         # the same knots as masks give the same numbers
         masks = np.zeros((batch.shape[0], n - 2), dtype=bool)
         masks[np.arange(batch.shape[0])[:, None], batch - 1] = True
-        as_masks = evaluate_masks(u, q, masks, degree)
+        as_masks = OpenCurve(u, q, degree).evaluate_masks(masks)
         np.testing.assert_array_equal(as_masks.sse, fit.sse)
         np.testing.assert_array_equal(as_masks.max_deviation, fit.max_deviation)
     assert sum(fits) >= 0.75 * len(rows)
@@ -184,7 +182,7 @@ def test_evaluate_positions_matches_scipy(curves, name, degree):
         idx = np.array([rng.choice(np.arange(1, n - 1), size=k, replace=False) for _ in range(4)])
         jitter = u[idx] + rng.uniform(-0.4, 0.4, size=idx.shape) * np.diff(u).min()
         batch = np.vstack((uniform, jitter))  # rows deliberately unsorted
-        fit = evaluate_positions(u, q, batch, degree)
+        fit = OpenCurve(u, q, degree).evaluate_positions(batch)
         np.testing.assert_array_equal(fit.n_control_points, k + degree + 1)
         compared += assert_matches_scipy(u, q, degree, list(batch), fit, f"positions K={k}")
         feasible += int(fit.feasible.sum())
@@ -210,7 +208,8 @@ def test_results_do_not_depend_on_threads(curves):
         results = []
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
-            results.append([evaluate_masks(u, q, masks, 3), evaluate_positions(u, q, pos, 4)])
+            results.append([OpenCurve(u, q, 3).evaluate_masks(masks),
+                            OpenCurve(u, q, 4).evaluate_positions(pos)])
     finally:
         numba.set_num_threads(old)
     for a, b in zip(results[0], results[-1], strict=True):
@@ -226,10 +225,11 @@ def test_max_deviation_pass_is_optional(curves):
     masks = rng.random((10, u.size - 2)) < 0.3
     idx = np.sort(rng.choice(np.arange(1, u.size - 1), size=(1, 12), replace=False), axis=1)
     pos = np.vstack((rng.uniform(0.0, 1.0, (4, 12)), [[np.nan] * 12]))
-    for evaluate, x in ((evaluate_masks, masks), (evaluate_indices, idx),
-                        (evaluate_positions, pos)):
-        full = evaluate(u, q, x, 3)
-        lean = evaluate(u, q, x, 3, max_deviation=False)
+    curve = OpenCurve(u, q, 3)
+    for evaluate, x in ((curve.evaluate_masks, masks), (curve.evaluate_indices, idx),
+                        (curve.evaluate_positions, pos)):
+        full = evaluate(x)
+        lean = evaluate(x, max_deviation=False)
         assert lean.max_deviation is None
         assert full.max_deviation is not None and full.max_deviation.shape == (x.shape[0],)
         np.testing.assert_array_equal(lean.sse, full.sse)
@@ -305,8 +305,8 @@ def test_feasible_dense_masks_obey_least_squares_bounds(name, degree):
     coarse = masks.copy()
     for b in range(masks.shape[0]):
         coarse[b, np.flatnonzero(masks[b])[1::2]] = False  # drop every second knot
-    fit = evaluate_masks(u, q, masks, degree)
-    coarse_fit = evaluate_masks(u, q, coarse, degree)
+    fit = OpenCurve(u, q, degree).evaluate_masks(masks)
+    coarse_fit = OpenCurve(u, q, degree).evaluate_masks(coarse)
     sse_const = float(np.sum((q - q.mean(axis=0)) ** 2))
     bounds = np.where(coarse_fit.feasible, np.minimum(coarse_fit.sse, sse_const), sse_const)
     interiors = [u[1:-1][m] for m in masks]
@@ -395,13 +395,13 @@ def test_feasibility_matches_collocation_rank(seed):
         b = 40
         # masks
         masks = rng.random((b, n - 2)) < rng.random((b, 1))
-        fit = evaluate_masks(u, q, masks, p)
+        fit = OpenCurve(u, q, p).evaluate_masks(masks)
         np.testing.assert_array_equal(fit.n_control_points, masks.sum(axis=1) + p + 1)
         counts = _check_feasibility(u, p, [u[1:-1][m] for m in masks], fit, "mask")
         # data indices, repetitions allowed (coincident knots)
         k = int(rng.integers(1, n - 1))
         idx = rng.integers(1, n - 1, size=(b, k))
-        fit = evaluate_indices(u, q, idx, p)
+        fit = OpenCurve(u, q, p).evaluate_indices(idx)
         c2 = _check_feasibility(u, p, list(u[idx]), fit, "indices")
         # continuous positions: random, snapped to data parameters (including the ends),
         # slightly out of range, exact duplicates and NaN
@@ -413,7 +413,7 @@ def test_feasibility_matches_collocation_rank(seed):
         if k > 1:
             pos[: b // 8, 1] = pos[: b // 8, 0]
         pos[b // 8 : b // 6, 0] = np.nan
-        fit = evaluate_positions(u, q, pos, p)
+        fit = OpenCurve(u, q, p).evaluate_positions(pos)
         c3 = _check_feasibility(u, p, list(pos), fit, "positions")
         for c in (counts, c2, c3):
             for key, v in c.items():
@@ -429,33 +429,33 @@ def test_reason_codes_for_constructed_cases():
     r = Infeasibility
 
     # too many control points: all N - 2 interior points as knots give N + p - 1 > N
-    fit = evaluate_masks(u, q, np.ones((1, n - 2), dtype=bool), p)
+    fit = OpenCurve(u, q, p).evaluate_masks(np.ones((1, n - 2), dtype=bool))
     assert fit.reason[0] == r.TOO_MANY_CONTROL_POINTS
-    fit = evaluate_indices(u, q, np.arange(1, n - p + 1)[None, :], p)  # N - p knots
+    fit = OpenCurve(u, q, p).evaluate_indices(np.arange(1, n - p + 1)[None, :])  # N - p knots
     assert fit.reason[0] == r.TOO_MANY_CONTROL_POINTS
     assert fit.n_control_points[0] == n + 1
 
     # coincident knots: a repeated index, equal positions
-    fit = evaluate_indices(u, q, [[3, 5, 3], [4, 4, 4]], p)
+    fit = OpenCurve(u, q, p).evaluate_indices([[3, 5, 3], [4, 4, 4]])
     assert list(fit.reason) == [r.COINCIDENT_KNOTS] * 2
-    fit = evaluate_positions(u, q, [[0.5, 0.5, 0.7], [0.2, 0.7, 0.2]], p)
+    fit = OpenCurve(u, q, p).evaluate_positions([[0.5, 0.5, 0.7], [0.2, 0.7, 0.2]])
     assert list(fit.reason) == [r.COINCIDENT_KNOTS] * 2
 
     # out of range: on the ends, outside, NaN, infinite
     bad = [[0.0, 0.5], [0.5, 1.0], [-0.1, 0.5], [0.5, 1.5], [np.nan, 0.5], [0.5, np.inf],
            [-np.inf, 0.5]]
-    fit = evaluate_positions(u, q, bad, p)
+    fit = OpenCurve(u, q, p).evaluate_positions(bad)
     assert list(fit.reason) == [r.KNOT_OUT_OF_RANGE] * len(bad)
 
     # Schoenberg-Whitney: five knots inside one data gap leave a basis function without data
     sw = np.array([[0.46, 0.47, 0.48, 0.49, 0.5]])
     assert np.linalg.matrix_rank(collocation(u, sw[0], p)) < sw.shape[1] + p + 1
-    fit = evaluate_positions(u, q, sw, p)
+    fit = OpenCurve(u, q, p).evaluate_positions(sw)
     assert fit.reason[0] == r.SCHOENBERG_WHITNEY
 
     # the batch as a whole: infeasible -> inf (never NaN), feasible -> finite
     good = [[0.3, 0.6, np.nan], [0.25, 0.5, 0.75]]
-    fit = evaluate_positions(u, q, good, p)
+    fit = OpenCurve(u, q, p).evaluate_positions(good)
     assert list(fit.reason) == [r.KNOT_OUT_OF_RANGE, r.FEASIBLE]
     assert fit.sse[0] == np.inf and fit.max_deviation[0] == np.inf
     assert np.isfinite(fit.sse[1]) and np.isfinite(fit.max_deviation[1])
@@ -474,7 +474,7 @@ def test_infeasible_batches_never_nan():
     for p in DEGREES:
         for k in (1, 5, n - p - 1, n, 2 * n):
             pos = rng.choice(pool, size=(64, k))
-            fit = evaluate_positions(u, q, pos, p)
+            fit = OpenCurve(u, q, p).evaluate_positions(pos)
             assert not np.isnan(fit.sse).any() and not np.isnan(fit.max_deviation).any()
             assert np.array_equal(np.isinf(fit.sse), ~fit.feasible)
             assert np.array_equal(np.isinf(fit.max_deviation), ~fit.feasible)
@@ -530,7 +530,7 @@ def test_fit_spline_matches_scipy_and_numpy(curves, name, degree):
     assert abs(fit.sse - ref_sse) <= REL * ref_sse + sse_floor(ref_sse, q)
     assert abs(fit.max_deviation - ref_dev) <= REL * ref_dev + maxdev_floor(q)
     # ...and against the batched evaluator for the same knots
-    batch = evaluate_positions(u, q, interior[None, :], degree)
+    batch = OpenCurve(u, q, degree).evaluate_positions(interior[None, :])
     assert batch.feasible[0]
     assert abs(batch.sse[0] - fit.sse) <= REL * fit.sse + sse_floor(fit.sse, q)
 
@@ -660,7 +660,7 @@ def test_averaging_knots_leave_data_in_every_span(seed):
             for lo, hi in itertools.pairwise(t):
                 inside = (u >= lo) & ((u < hi) | (hi == u[-1]))
                 assert inside.any(), (n, p, k, lo, hi)
-            fit = evaluate_positions(u, q, interior[None, :], p)
+            fit = OpenCurve(u, q, p).evaluate_positions(interior[None, :])
             assert fit.reason[0] in (Infeasibility.FEASIBLE, Infeasibility.SINGULAR)
 
 
@@ -679,8 +679,8 @@ def test_function_data_matches_scipy(degree):
     np.testing.assert_array_equal(parameterize(y[:, None], x, degree=degree), x)
 
     masks = rng.random((12, x.size - 2)) < np.repeat([0.05, 0.15, 0.3], 4)[:, None]
-    fit2d = evaluate_masks(x, y[:, None], masks, degree)
-    fit1d = evaluate_masks(x, y, masks, degree)
+    fit2d = OpenCurve(x, y[:, None], degree).evaluate_masks(masks)
+    fit1d = OpenCurve(x, y, degree).evaluate_masks(masks)
     np.testing.assert_array_equal(fit1d.sse, fit2d.sse)
     assert fit2d.feasible.all()
     q = y[:, None]
@@ -700,5 +700,5 @@ def test_function_data_matches_scipy(degree):
 
     # positions are in x units: knots outside [x0, xm] are out of range
     pos = np.array([[x[0] + 1.0, x[-1] - 1.0], [0.5, 5.0], [5.0, 13.0]])
-    fit = evaluate_positions(x, y, pos, degree)
+    fit = OpenCurve(x, y, degree).evaluate_positions(pos)
     assert list(fit.reason) == [Infeasibility.FEASIBLE] + [Infeasibility.KNOT_OUT_OF_RANGE] * 2

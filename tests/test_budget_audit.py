@@ -17,14 +17,9 @@ import pytest
 
 import metaknot as mk
 from metaknot import audit
-from metaknot.bspline import evaluate_masks, fit_spline, parameterize
+from metaknot.bspline import closed_parameterize, fit_spline, parameterize
+from metaknot.bspline.curve import ClosedCurve, OpenCurve
 from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
-from metaknot.bspline.periodic import (
-    closed_parameterize,
-    evaluate_periodic,
-    fit_periodic,
-    periodic_errors,
-)
 from metaknot.problems import FreeKnots, KnotIndices, KnotProblem, KnotSelection, get_curve
 from tests.test_all_optimizers import CASES, IDS
 
@@ -46,7 +41,7 @@ def test_every_entry_point_of_the_fitting_layer_counts_its_fits():
     q = SPIRAL.points
     u = parameterize(q, "centripetal")
     masks = np.random.default_rng(0).random((7, u.size - 2)) < 0.3
-    assert tallied(lambda: evaluate_masks(u, q, masks)) == 7
+    assert tallied(lambda: OpenCurve(u, q, 3).evaluate_masks(masks)) == 7
     knots = u[[10, 20, 30, 40]]
     assert tallied(lambda: fit_spline(u, q, knots)) == 1
     moves = MoveEvaluator(u, q, knots)
@@ -55,9 +50,10 @@ def test_every_entry_point_of_the_fitting_layer_counts_its_fits():
                                           np.array([0, 4, 7]))[0]) == 2
     w = closed_parameterize(OUTLINE.points)
     rows = np.where(np.random.default_rng(1).random((5, w.size - 1)) < 0.3, w[1:], np.nan)
-    assert tallied(lambda: evaluate_periodic(w, OUTLINE.points, rows)) == 5
-    assert tallied(lambda: fit_periodic(w, OUTLINE.points, w[[10, 30, 50, 70]])) == 1
-    assert tallied(lambda: periodic_errors(w, OUTLINE.points, [w[[10, 40]], w[[20, 60]]])) == 2
+    closed = ClosedCurve(w, OUTLINE.points, 3)
+    assert tallied(lambda: closed.evaluate_positions(rows, nan_is_absent=True)) == 5
+    assert tallied(lambda: closed.fit(w[[10, 30, 50, 70]])) == 1
+    assert tallied(lambda: closed.errors([w[[10, 40]], w[[20, 60]]], "max_deviation")) == 2
     closed_knots = w[[10, 20, 30, 40, 50, 60, 70]]
     closed_moves = PeriodicMoveEvaluator(w, OUTLINE.points, closed_knots)
     assert tallied(lambda: closed_moves.rebind(w[[10, 25, 40, 55, 70]])) == 1
@@ -76,7 +72,7 @@ def test_the_tally_is_per_thread():
 
     def elsewhere():
         seen["before"] = audit.fits()
-        evaluate_masks(u, q, np.ones((3, u.size - 2), dtype=bool))
+        OpenCurve(u, q, 3).evaluate_masks(np.ones((3, u.size - 2), dtype=bool))
         seen["after"] = audit.fits()
 
     before = audit.fits()
@@ -126,8 +122,8 @@ ROUTES = {
         lambda t, X: object.__getattribute__(t, "_problem").evaluate(X),
     "task.sample.__self__": lambda t, X: t.sample.__self__.evaluate(X),
     "gc.get_objects()": lambda t, X: find_problem(t).evaluate(X),
-    "metaknot.bspline.evaluate_masks":
-        lambda t, X: evaluate_masks(t.params, t.points, X.astype(bool), t.degree).sse
+    "OpenCurve(params, points, degree).evaluate_masks":
+        lambda t, X: OpenCurve(t.params, t.points, t.degree).evaluate_masks(X.astype(bool)).sse
         * (X.sum(axis=1) + t.degree + 1),
 }
 CLOSED = list(ROUTES)[:6]

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metaknot.bspline import evaluate_masks, fit_spline, parameterize
+from metaknot.bspline import closed_parameterize, fit_spline, parameterize
 from metaknot.bspline.curve import ClosedCurve, OpenCurve, closure, make_curve
 from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
-from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic, fit_periodic
 from metaknot.problems import get_curve
 
 
@@ -56,7 +55,7 @@ def test_open_and_closed_curves_fit_as_the_kernels_do():
     np.testing.assert_array_equal(open_curve.params, u)
     masks = np.random.default_rng(0).random((6, 78)) < 0.3
     np.testing.assert_array_equal(open_curve.evaluate_masks(masks).sse,
-                                  evaluate_masks(u, spiral, masks).sse)
+                                  OpenCurve(u, spiral, 3).evaluate_masks(masks).sse)
     knots = u[[10, 30, 50]]
     np.testing.assert_array_equal(open_curve.fit(knots).spline.c,
                                   fit_spline(u, spiral, knots).spline.c)
@@ -70,17 +69,19 @@ def test_open_and_closed_curves_fit_as_the_kernels_do():
     np.testing.assert_array_equal(closed_curve.params, w)
     masks = np.random.default_rng(1).random((6, 88)) < 0.3
     rows = np.where(masks, w[1:], np.nan)
+    reference = ClosedCurve(w, outline[:-1], 3)
     np.testing.assert_array_equal(closed_curve.evaluate_masks(masks).sse,
-                                  evaluate_periodic(w, outline[:-1], rows).sse)
+                                  reference.evaluate_positions(rows, nan_is_absent=True).sse)
     knots = w[[10, 30, 50, 70]]
     np.testing.assert_array_equal(closed_curve.fit(knots).spline.c,
-                                  fit_periodic(w, outline[:-1], knots).spline.c)
+                                  reference.fit(knots).spline.c)
     assert (closed_curve.extra_control_points, closed_curve.max_interior_knots,
             closed_curve.max_index, closed_curve.knot_bounds) == (1, 88, 88, (0.0, 1.0))
     moves = closed_curve.move_evaluator(knots)
     assert isinstance(moves, PeriodicMoveEvaluator)
-    np.testing.assert_allclose(moves.sse, evaluate_periodic(w, outline[:-1], knots[None]).sse[0],
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        moves.sse, reference.evaluate_positions(knots[None], nan_is_absent=True).sse[0],
+        rtol=1e-12)
     assert type(open_curve.move_evaluator(u[[10, 30, 50]])) is MoveEvaluator
     assert closed_curve.move_evaluator(np.array([0.5, 0.5, 0.6])) is None  # cannot be fitted
 
@@ -264,21 +265,15 @@ def test_closed_evaluate_indices_takes_whole_numbers_up_to_the_last_point():
 def test_errors_refuse_an_unknown_metric_and_knot_sets_of_two_dimensions(kind):
     """An unknown metric was read as ``rmse``; a knot set of two dimensions failed in numpy's
     concatenate (or, alone, was flattened)."""
-    from metaknot.bspline.periodic import periodic_errors
 
     curve = _both_curves()[kind]
     knots = curve.candidate_params[[5, 10, 15, 20, 25, 30]]
-    calls = [curve.errors]
-    if kind == "closed":
-        calls.append(lambda sets, metric: periodic_errors(curve.params, curve.points, sets,
-                                                          curve.degree, metric))
-    for call in calls:
-        assert np.isfinite(call([knots, knots[:3]], "rmse")).all()
-        with pytest.raises(ValueError, match="metric must be 'max_deviation' or 'rmse'; got"):
-            call([knots], "bogus")
-        for sets in ([knots[None, :]], [knots[None, :], knots[:3]], [knots, 0.5]):
-            with pytest.raises(ValueError, match=r"knot set 0|knot set 1"):
-                call(sets, "rmse")
+    assert np.isfinite(curve.errors([knots, knots[:3]], "rmse")).all()
+    with pytest.raises(ValueError, match="metric must be 'max_deviation' or 'rmse'; got"):
+        curve.errors([knots], "bogus")
+    for sets in ([knots[None, :]], [knots[None, :], knots[:3]], [knots, 0.5]):
+        with pytest.raises(ValueError, match=r"knot set 0|knot set 1"):
+            curve.errors(sets, "rmse")
 
 
 @pytest.mark.parametrize("kind", ["open", "closed"])

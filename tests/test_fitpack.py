@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import splev, splprep
 
-from metaknot.bspline import fitpack, parameterize
-from metaknot.bspline.periodic import closed_parameterize
+from metaknot.bspline import closed_parameterize, fitpack, parameterize
 from metaknot.problems import get_curve
 
 SPIRAL = get_curve("archimedean", n_points=80).points

@@ -9,8 +9,8 @@ from scipy.interpolate import BSpline
 
 import metaknot as mk
 from metaknot.algorithms.literature import METHODS, Target
-from metaknot.bspline import fit_spline, parameterize
-from metaknot.bspline.periodic import closed_parameterize, fit_periodic
+from metaknot.bspline import closed_parameterize, fit_spline, parameterize
+from metaknot.bspline.curve import ClosedCurve
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, PointSet, add_noise, get_curve
 from metaknot.suite.functions import KANG_KNOTS, kang_spline, titanium
 
@@ -64,7 +64,7 @@ def test_sparse_l1_finds_kangs_true_knots_to_the_sampling_resolution():
 
 
 def reported_error(found, u, q, closed):
-    fitted = (fit_periodic if closed else fit_spline)(u, q, found.knots, 3)
+    fitted = ClosedCurve(u, q, 3).fit(found.knots) if closed else fit_spline(u, q, found.knots, 3)
     return fitted.max_deviation if found.metric == "max_deviation" else fitted.rmse
 
 

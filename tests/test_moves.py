@@ -1,9 +1,9 @@
 """Delta evaluation of local knot moves against the full batched evaluator.
 
 Every candidate scored by a :class:`MoveEvaluator` must come back exactly as
-:func:`evaluate_knots` scores it: the same reason code, the same control-point count and the
-same SSE to 1e-10 relative. The tests also check that the delta path did the work (a test in
-which every move fell back to the full fit would prove nothing).
+:meth:`OpenCurve.evaluate_knots` scores it: the same reason code, the same control-point count
+and the same SSE to 1e-10 relative. The tests also check that the delta path did the work (a
+test in which every move fell back to the full fit would prove nothing).
 """
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from metaknot.bspline import Infeasibility, evaluate_knots, parameterize
+from metaknot.bspline import Infeasibility, parameterize
+from metaknot.bspline.curve import OpenCurve
 from metaknot.bspline.knots import stack_masks
 from metaknot.bspline.moves import PATH_CHECKS, PATH_DELTA, PATH_FULL, MoveEvaluator
 from metaknot.problems import get_curve
@@ -44,7 +45,8 @@ def assert_same(me: MoveEvaluator, knots: np.ndarray, offsets: np.ndarray,
                 max_deviation: bool = False) -> np.ndarray:
     """Scores of the move evaluator equal the full evaluator's; returns the paths."""
     fit, path = me.evaluate(knots, offsets, max_deviation=max_deviation)
-    ref = evaluate_knots(me.u, me.q, knots, offsets, me.degree, max_deviation=max_deviation)
+    ref = OpenCurve(me.u, me.q, me.degree).evaluate_knots(knots, offsets,
+                                                          max_deviation=max_deviation)
     assert_same_scores(fit, ref, me.q, max_deviation)
     if not max_deviation:
         assert fit.max_deviation is None
@@ -76,7 +78,7 @@ def feasible_mask(u, q, degree, rng, density) -> np.ndarray:
     for _ in range(200):
         mask = random_mask(rng, u.size - 2, density)
         knots, offsets = stack_masks(u, mask[None, :])
-        if evaluate_knots(u, q, knots, offsets, degree, max_deviation=False).feasible[0]:
+        if OpenCurve(u, q, degree).evaluate_knots(knots, offsets, max_deviation=False).feasible[0]:
             return mask
     raise AssertionError("no feasible mask found")
 
@@ -174,7 +176,7 @@ def test_infeasible_moves_get_the_full_kernels_reason():
         u[1:-1].copy(),  # interpolation plus: too many
     ]
     fit, path = me.evaluate(*stack(rows))
-    ref = evaluate_knots(u, q, *stack(rows), 3, max_deviation=False)
+    ref = OpenCurve(u, q, 3).evaluate_knots(*stack(rows), max_deviation=False)
     np.testing.assert_array_equal(fit.reason, ref.reason)
     expected = {Infeasibility.COINCIDENT_KNOTS, Infeasibility.KNOT_OUT_OF_RANGE,
                 Infeasibility.SCHOENBERG_WHITNEY, Infeasibility.TOO_MANY_CONTROL_POINTS}
@@ -204,7 +206,7 @@ def test_near_singular_moves_get_the_full_kernels_verdict(degree):
         twos[np.arange(n_var - 1), np.arange(1, n_var)] ^= True  # neighbouring bits
         children = np.vstack((ones, twos))
         path = assert_same(me, *stack_masks(u, children))
-        ref = evaluate_knots(u, q, *stack_masks(u, children), degree, max_deviation=False)
+        ref = OpenCurve(u, q, degree).evaluate_knots(*stack_masks(u, children), max_deviation=False)
         singular += int(np.sum(ref.reason == Infeasibility.SINGULAR))
         assert np.all(path[ref.reason == Infeasibility.SINGULAR] == PATH_FULL)
         paths.append(path)
@@ -257,7 +259,7 @@ def test_rebind_moves_the_incumbent_and_the_incumbent_scores_itself():
         mask = flips[rng.choice(ok)]
         me.rebind(u[1:-1][mask])
         fit, path = me.evaluate(*stack_masks(u, mask[None]))
-        ref = evaluate_knots(u, q, *stack_masks(u, mask[None]), 3, max_deviation=False)
+        ref = OpenCurve(u, q, 3).evaluate_knots(*stack_masks(u, mask[None]), max_deviation=False)
         assert path[0] == PATH_DELTA
         np.testing.assert_allclose(fit.sse, ref.sse, rtol=1e-10)
         np.testing.assert_allclose(me.sse, ref.sse[0], rtol=1e-10)
@@ -337,7 +339,7 @@ def test_more_than_three_coordinates_are_refused_with_a_clear_error():
     with pytest.raises(ValueError, match="1 to 3 coordinates"):
         MoveEvaluator(u, q, u[5:-5:5], 3)
     with pytest.raises(ValueError, match="1 to 3 coordinates"):
-        evaluate_knots(u, q, u[5:-5:5], np.array([0, u[5:-5:5].size]), 3)
+        OpenCurve(u, q, 3).evaluate_knots(u[5:-5:5], np.array([0, u[5:-5:5].size]))
     from metaknot.problems import KnotSelection
 
     with pytest.raises(ValueError, match="1 to 3 coordinates"):
@@ -385,7 +387,7 @@ def test_replacements_score_as_the_candidates_they_make(degree, dim):
                                          max_deviation=True)
     rows = [np.concatenate((interior[:a], new, interior[b:]))
             for a, b, new in zip(starts, stops, inserted, strict=True)]
-    ref = evaluate_knots(u, q, *stack(rows), degree, max_deviation=True)
+    ref = OpenCurve(u, q, degree).evaluate_knots(*stack(rows), max_deviation=True)
     np.testing.assert_array_equal(fit.reason, ref.reason)
     ok = ref.feasible
     np.testing.assert_allclose(fit.sse[ok], ref.sse[ok], rtol=1e-10, atol=1e-22 * np.sum(q**2))

@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline, splprep
 
-from metaknot.bspline.periodic import (
-    closed_parameterize,
-    fit_periodic,
-    periodic_errors,
-    periodic_knot_vector,
-)
+from metaknot.bspline import closed_parameterize, periodic_knot_vector
+from metaknot.bspline.curve import ClosedCurve
 
 
 def dense_reference(u: np.ndarray, points: np.ndarray, interior: np.ndarray, degree: int
@@ -51,7 +47,7 @@ def test_least_squares_matches_fitpack(degree: int, dim: int, method: str) -> No
     rng = np.random.default_rng(degree * 10 + dim)
     for count in (degree, 12, 45):
         interior = np.sort(rng.choice(u[1:], count, replace=False))
-        fitted = fit_periodic(u, points, interior, degree)
+        fitted = ClosedCurve(u, points, degree).fit(interior)
         t = periodic_knot_vector(interior, degree)
         (t_ref, c_ref, _), _ = splprep(np.vstack((points, points[:1])).T,
                                        u=np.append(u, 1.0), k=degree, task=-1, t=t, per=1,
@@ -65,7 +61,7 @@ def test_least_squares_matches_fitpack(degree: int, dim: int, method: str) -> No
 def test_the_seam_is_smooth(degree: int) -> None:
     points = outline()
     u = closed_parameterize(points)
-    fitted = fit_periodic(u, points, np.linspace(0, 1, 22)[1:-1], degree)
+    fitted = ClosedCurve(u, points, degree).fit(np.linspace(0, 1, 22)[1:-1])
     for order in range(degree):  # value and derivatives up to p - 1 agree across the seam
         derivative = fitted.spline.derivative(order) if order else fitted.spline
         np.testing.assert_allclose(derivative(0.0), derivative(1.0), atol=1e-8)
@@ -104,8 +100,9 @@ def test_impossible_knots_are_refused_or_infinite() -> None:
     # eight knots between two neighbouring data points: basis functions without data
     empty_span = np.concatenate((u[20] + (u[21] - u[20]) * np.linspace(0.1, 0.9, 8), [0.7]))
     with pytest.raises(ValueError, match="singular"):
-        fit_periodic(u, points, np.sort(empty_span), 3)
-    errors = periodic_errors(u, points, [np.linspace(0, 1, 12)[1:-1], np.sort(empty_span)])
+        ClosedCurve(u, points, 3).fit(np.sort(empty_span))
+    errors = ClosedCurve(u, points, 3).errors([np.linspace(0, 1, 12)[1:-1], np.sort(empty_span)],
+                                              "max_deviation")
     assert np.isfinite(errors[0]) and errors[1] == np.inf
 
 
@@ -113,7 +110,6 @@ def test_impossible_knots_are_refused_or_infinite() -> None:
 @pytest.mark.parametrize("dim", [1, 2, 3])
 @pytest.mark.parametrize("method", ["uniform", "chord", "centripetal"])
 def test_compiled_batch_matches_the_reference(degree: int, dim: int, method: str) -> None:
-    from metaknot.bspline.periodic import evaluate_periodic
 
     points = outline(120, dim=dim, seed=degree)
     u = closed_parameterize(points, method)
@@ -122,27 +118,26 @@ def test_compiled_batch_matches_the_reference(degree: int, dim: int, method: str
     for i in range(12):
         count = int(rng.integers(max(degree - 1, 1), 40))
         rows[i, :count] = rng.choice(u[1:], count, replace=False)
-    batch = evaluate_periodic(u, points, rows, degree)
+    batch = ClosedCurve(u, points, degree).evaluate_positions(rows, nan_is_absent=True)
     for i, row in enumerate(rows):
         interior = np.sort(row[~np.isnan(row)])
         reference = dense_reference(u, points, interior, degree)
         if reference is None:
             assert not batch.feasible[i]
             with pytest.raises(ValueError):
-                fit_periodic(u, points, interior, degree)
+                ClosedCurve(u, points, degree).fit(interior)
             continue
         assert batch.feasible[i]
         sse, max_deviation = reference
         assert batch.sse[i] == pytest.approx(sse, rel=1e-10)
         assert batch.max_deviation[i] == pytest.approx(max_deviation, rel=1e-10)
-        fitted = fit_periodic(u, points, interior, degree)
+        fitted = ClosedCurve(u, points, degree).fit(interior)
         assert fitted.sse == pytest.approx(sse, rel=1e-10)
         assert batch.n_control_points[i] == fitted.n_control_points == interior.size + 1
 
 
 def test_compiled_batch_names_what_cannot_be_fitted() -> None:
     from metaknot.bspline import Infeasibility
-    from metaknot.bspline.periodic import evaluate_periodic
 
     points = outline(40)
     u = closed_parameterize(points)
@@ -153,14 +148,14 @@ def test_compiled_batch_names_what_cannot_be_fitted() -> None:
     rows[2, :3] = [0.2, 0.5, 0.5]                   # coincident
     rows[3, :9] = np.sort(np.append(crowded, 0.7))  # spans without data
     rows[4, :1] = [0.5]                             # too few breakpoints for degree 3
-    batch = evaluate_periodic(u, points, rows, 3)
+    batch = ClosedCurve(u, points, 3).evaluate_positions(rows, nan_is_absent=True)
     assert list(batch.reason) == [Infeasibility.FEASIBLE, Infeasibility.KNOT_OUT_OF_RANGE,
                                   Infeasibility.COINCIDENT_KNOTS, Infeasibility.SINGULAR,
                                   Infeasibility.SINGULAR]
     assert np.isfinite(batch.sse[0]) and np.isinf(batch.sse[1:]).all()
     too_many = np.sort(np.concatenate((u[1:], (u[1:3] + u[2:4]) / 2)))[None, :]
-    assert evaluate_periodic(u, points, too_many, 3).reason[0] == \
-        Infeasibility.TOO_MANY_CONTROL_POINTS
+    assert ClosedCurve(u, points, 3).evaluate_positions(too_many, nan_is_absent=True).reason[0] \
+        == Infeasibility.TOO_MANY_CONTROL_POINTS
 
 
 
@@ -168,11 +163,11 @@ def test_compiled_batch_names_what_cannot_be_fitted() -> None:
 def test_compiled_batch_refuses_positions_that_are_not_rows(shape) -> None:
     """Positions of more than two dimensions are refused by name before the compiled loop
     (which trusts its offsets: a 3-D batch wrote past its outputs)."""
-    from metaknot.bspline.periodic import evaluate_periodic
 
     points = outline(40)
     with pytest.raises(ValueError, match=r"positions must have shape \(B, K\); got"):
-        evaluate_periodic(closed_parameterize(points), points, np.full(shape, 0.5), 3)
+        ClosedCurve(closed_parameterize(points), points, 3).evaluate_positions(
+            np.full(shape, 0.5), nan_is_absent=True)
 
 
 @pytest.mark.parametrize("density", [0.0, 0.03, 0.3, 0.9, 1.0])
@@ -180,15 +175,14 @@ def test_closed_masks_fit_as_their_knots_do(density) -> None:
     """A closed curve's masks go to the compiled fit as the data's own parameters (no sorting,
     no checks of range or coincidence): the same bits as the same knots as positions."""
     from metaknot.bspline.curve import make_curve
-    from metaknot.bspline.periodic import evaluate_periodic
 
     curve = make_curve(outline(80), closed=True)
     masks = (np.random.default_rng(4).random((7, 79)) < density).astype(np.int64)
     for max_deviation in (True, False):
         fast = curve.evaluate_masks(masks, max_deviation=max_deviation)
         rows = np.where(masks.astype(bool), curve.params[1:][None, :], np.nan)
-        reference = evaluate_periodic(curve.params, curve.points, rows, 3,
-                                      max_deviation=max_deviation)
+        reference = curve.evaluate_positions(rows, max_deviation=max_deviation,
+                                             nan_is_absent=True)
         for field in ("sse", "max_deviation", "n_control_points", "reason"):
             np.testing.assert_array_equal(getattr(fast, field), getattr(reference, field))
 
@@ -200,7 +194,6 @@ def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> Non
     values of the same steps in numpy over random rows of every kind."""
     from metaknot.bspline import _kernel
     from metaknot.bspline.fit import _outputs
-    from metaknot.bspline.periodic import evaluate_periodic
 
     points = outline(50)
     u = closed_parameterize(points)
@@ -215,8 +208,8 @@ def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> Non
     rows[kinds == 6, 3] = rows[kinds == 6, 4]  # coincident and out of range: out of range
     rows[kinds == 6, 0] = 1.5
     for max_deviation in (True, False):
-        batch = evaluate_periodic(u, points, rows, 3, max_deviation=max_deviation,
-                                  nan_is_absent=nan_is_absent)
+        batch = ClosedCurve(u, points, 3).evaluate_positions(rows, max_deviation=max_deviation,
+                                                             nan_is_absent=nan_is_absent)
         # numpy's steps
         pos = np.sort(rows, axis=1)
         present = ~np.isnan(pos) if nan_is_absent else np.ones(pos.shape, dtype=bool)
@@ -281,7 +274,7 @@ def test_closed_problems_score_the_periodic_fit(index: int) -> None:
     for x, value, cp in zip(X, values, metrics["n_control_points"], strict=True):
         interior = interior_of(problem, x)
         try:
-            reference = fit_periodic(problem.params, problem.points, interior, 3)
+            reference = ClosedCurve(problem.params, problem.points, 3).fit(interior)
         except ValueError:
             assert value == np.inf
             continue
@@ -291,9 +284,8 @@ def test_closed_problems_score_the_periodic_fit(index: int) -> None:
         assert cp == reference.n_control_points == len(interior) + 1
     best = X[np.argmin(values)]
     solution = problem.decode(best)
-    assert solution.metrics["max_deviation"] == pytest.approx(
-        fit_periodic(problem.params, problem.points, interior_of(problem, best),
-                     3).max_deviation, rel=1e-12)
+    reference = ClosedCurve(problem.params, problem.points, 3).fit(interior_of(problem, best))
+    assert solution.metrics["max_deviation"] == pytest.approx(reference.max_deviation, rel=1e-12)
 
 
 def test_bic_counts_a_closed_curve_s_parameters() -> None:
@@ -304,7 +296,7 @@ def test_bic_counts_a_closed_curve_s_parameters() -> None:
     mask = np.zeros(59, dtype=np.int64)
     mask[[9, 19, 29, 39, 49]] = 1
     value = problem.evaluate(mask[None, :])[0]
-    fitted = fit_periodic(problem.params, points, problem.params[1:][mask.astype(bool)], 3)
+    fitted = ClosedCurve(problem.params, points, 3).fit(problem.params[1:][mask.astype(bool)])
     n, cp = 60 * 2, 6
     k = 2 * cp + (cp - 1)  # d x control points + interior knots (cp - 1 on a closed curve)
     assert value == pytest.approx(n * np.log(fitted.sse / n) + np.log(n) * k, rel=1e-9)
@@ -370,7 +362,7 @@ def test_a_closed_index_set_may_use_the_last_point() -> None:
     problem = KnotIndices(points, n_knots=6, closed=True)
     x = np.array([8, 16, 24, 32, 40, 49])  # 49 = N - 1: next to point 0 across the seam
     solution = problem.decode(x)
-    reference = fit_periodic(problem.params, points, problem.params[x], 3)
+    reference = ClosedCurve(problem.params, points, 3).fit(problem.params[x])
     assert solution.metrics["sse"] == pytest.approx(reference.sse, rel=1e-12)
 
 
@@ -380,7 +372,7 @@ def test_a_single_fit_of_many_points_needs_no_dense_matrix() -> None:
     angle = np.linspace(0, 2 * np.pi, 200_000, endpoint=False)
     points = np.column_stack((np.cos(angle), np.sin(2 * angle)))
     u = closed_parameterize(points, "uniform")
-    fitted = fit_periodic(u, points, u[2::2], 3)
+    fitted = ClosedCurve(u, points, 3).fit(u[2::2])
     assert fitted.n_control_points == 100_000
     assert fitted.max_deviation < 1e-9
 
@@ -450,13 +442,9 @@ def _wrapped(u: np.ndarray, interior: np.ndarray, degree: int) -> np.ndarray:
 def _closed_calls():
     from metaknot.bspline.curve import ClosedCurve
     from metaknot.bspline.moves import PeriodicMoveEvaluator
-    from metaknot.bspline.periodic import evaluate_periodic
 
     knots = np.array([0.2, 0.4, 0.6, 0.8])
     return {
-        "evaluate_periodic": lambda u, q: evaluate_periodic(u, q, knots[None, :]),
-        "fit_periodic": lambda u, q: fit_periodic(u, q, knots),
-        "periodic_errors": lambda u, q: periodic_errors(u, q, [knots]),
         "PeriodicMoveEvaluator": lambda u, q: PeriodicMoveEvaluator(u, q, knots),
         "ClosedCurve": lambda u, q: ClosedCurve(u, q, 3).evaluate_positions(knots[None, :]),
     }
@@ -499,17 +487,17 @@ def test_non_finite_periodic_knots_are_refused_by_name(bad) -> None:
     with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
         periodic_knot_vector(knots)
     with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
-        fit_periodic(u, points, knots)
+        ClosedCurve(u, points, 3).fit(knots)
     with pytest.raises(ValueError, match="must be finite, distinct and lie in"):
         PeriodicMoveEvaluator(u, points, knots)
     assert make_curve(points, closed=True).move_evaluator(knots) is None
 
 
-def test_fit_periodic_refuses_interior_knots_of_two_dimensions() -> None:
+def test_closed_fit_refuses_interior_knots_of_two_dimensions() -> None:
     points = outline(40)
     u = closed_parameterize(points)
     with pytest.raises(ValueError, match="interior_knots must be 1-D"):
-        fit_periodic(u, points, np.array([[0.2, 0.4, 0.6, 0.8]]))
+        ClosedCurve(u, points, 3).fit(np.array([[0.2, 0.4, 0.6, 0.8]]))
 
 
 def test_points_of_more_than_three_coordinates_are_refused_as_on_open_curves() -> None:
@@ -521,4 +509,4 @@ def test_points_of_more_than_three_coordinates_are_refused_as_on_open_curves() -
         with pytest.raises(ValueError, match="1 to 3 coordinates"):
             make_curve(points, closed=closed)
     with pytest.raises(ValueError, match="1 to 3 coordinates"):
-        fit_periodic(closed_parameterize(points), points, [0.3, 0.6])
+        ClosedCurve(closed_parameterize(points), points, 3).fit([0.3, 0.6])

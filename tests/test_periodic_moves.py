@@ -1,11 +1,11 @@
 """Delta evaluation of knot moves on closed curves against the full periodic fit.
 
 Every candidate scored by a :class:`PeriodicMoveEvaluator` must come back as
-:func:`evaluate_periodic` (the periodic batched kernel) scores it: the same reason code, the
-same control-point count, the same SSE to 1e-10 relative and the same maximum deviation; the
-moves the delta path decided are also checked against scipy (dense least squares on the wrapped
-design matrix). The tests check that the delta path did the work, and that it refuses what
-its conditioning certificate cannot vouch for.
+:meth:`ClosedCurve.evaluate_knots` (the periodic batched kernel) scores it: the same reason
+code, the same control-point count, the same SSE to 1e-10 relative and the same maximum
+deviation; the moves the delta path decided are also checked against scipy (dense least squares
+on the wrapped design matrix). The tests check that the delta path did the work, and that it
+refuses what its conditioning certificate cannot vouch for.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import metaknot as mk
-from metaknot.bspline import Infeasibility
-from metaknot.bspline.curve import make_curve
+from metaknot.bspline import Infeasibility, closed_parameterize
+from metaknot.bspline.curve import ClosedCurve, make_curve
 from metaknot.bspline.moves import (
     PATH_CHECKS,
     PATH_DELTA,
@@ -23,7 +23,6 @@ from metaknot.bspline.moves import (
     PeriodicMoveEvaluator,
     bit_flips,
 )
-from metaknot.bspline.periodic import closed_parameterize, evaluate_periodic
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
 from tests.test_moves import assert_same_scores
 from tests.test_periodic import dense_reference, outline
@@ -54,21 +53,12 @@ def stack(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return knots.astype(np.float64), offsets
 
 
-def padded(knots: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Candidates as NaN-padded rows (the batched evaluator's input)."""
-    counts = np.diff(offsets)
-    rows = np.full((counts.size, max(int(counts.max(initial=0)), 1)), np.nan)
-    for b in range(counts.size):
-        rows[b, : counts[b]] = knots[offsets[b] : offsets[b + 1]]
-    return rows
-
-
 def assert_same(me: PeriodicMoveEvaluator, knots: np.ndarray, offsets: np.ndarray,
                 max_deviation: bool = True) -> np.ndarray:
     """Scores of the move evaluator equal the periodic batched kernel's; returns the paths."""
     fit, path = me.evaluate(knots, offsets, max_deviation=max_deviation)
-    ref = evaluate_periodic(me.u, me.q, padded(knots, offsets), me.degree,
-                            max_deviation=max_deviation)
+    ref = ClosedCurve(me.u, me.q, me.degree).evaluate_knots(knots, offsets,
+                                                            max_deviation=max_deviation)
     assert_same_scores(fit, ref, me.q, max_deviation)
     assert np.all(path[~ref.feasible] != PATH_DELTA)
     return path
@@ -184,7 +174,7 @@ def test_infeasible_moves_get_the_batch_evaluators_reason():
         np.concatenate((interior[:3], interior[4:], interior[3:4])),  # out of order
     ]
     fit, path = me.evaluate(*stack(rows))
-    ref = evaluate_periodic(u, q, padded(*stack(rows)), 3)
+    ref = ClosedCurve(u, q, 3).evaluate_knots(*stack(rows))
     np.testing.assert_array_equal(fit.reason, ref.reason)
     expected = {Infeasibility.COINCIDENT_KNOTS, Infeasibility.KNOT_OUT_OF_RANGE,
                 Infeasibility.SINGULAR, Infeasibility.TOO_MANY_CONTROL_POINTS}
@@ -216,7 +206,7 @@ def test_near_singular_moves_are_refused_by_the_certificate(degree):
                 crowd = u[i] + (u[i + 1] - u[i]) * np.arange(1, count + 1) / (count + 1)
                 rows.append(np.unique(np.concatenate((u[1:][mask], crowd))))
         path = assert_same(me, *stack(rows), max_deviation=False)
-        ref = evaluate_periodic(u, q, padded(*stack(rows)), degree, max_deviation=False)
+        ref = ClosedCurve(u, q, degree).evaluate_knots(*stack(rows), max_deviation=False)
         paths.append(path)
         reasons.append(ref.reason)
     paths, reasons = np.concatenate(paths), np.concatenate(reasons)
@@ -239,7 +229,7 @@ def test_knots_crowded_between_two_points_are_refused_on_both_sides_of_the_seam(
         crowd = u[i] + (u[i + 1] - u[i]) * np.arange(1, 7) / 7  # a function without data
         rows.append(np.unique(np.concatenate((interior, crowd))))
     fit, path = me.evaluate(*stack(rows))
-    ref = evaluate_periodic(u, q, padded(*stack(rows)), 3)
+    ref = ClosedCurve(u, q, 3).evaluate_knots(*stack(rows))
     assert (ref.reason == Infeasibility.SINGULAR).all()
     np.testing.assert_array_equal(fit.reason, ref.reason)
     assert (path == PATH_FULL).all()
@@ -255,7 +245,7 @@ def test_rebind_moves_the_incumbent_and_the_incumbent_scores_itself():
         mask = flips[rng.choice(np.flatnonzero(fit.feasible))]
         me.rebind(u[1:][mask])
         fit, path = me.evaluate(*stack(mask_rows(u, mask[None])), max_deviation=True)
-        ref = evaluate_periodic(u, q, u[1:][mask][None, :], 3)
+        ref = ClosedCurve(u, q, 3).evaluate_positions(u[1:][mask][None, :], nan_is_absent=True)
         assert path[0] == PATH_DELTA
         np.testing.assert_allclose(fit.sse, ref.sse, rtol=1e-10)
         np.testing.assert_allclose(fit.max_deviation, ref.max_deviation, rtol=1e-10)
@@ -358,8 +348,8 @@ def test_closed_runs_use_delta_evaluation_and_end_where_full_evaluation_ends(opt
 
 def test_candidates_of_more_knots_than_points_are_reported_not_written_past() -> None:
     """More knots than data points, as whole candidates or as one replacement: reported as
-    too many control points, as :func:`evaluate_periodic` reports them (the compiled loop
-    gathered them into a workspace sized for the data and wrote past it)."""
+    too many control points, as :meth:`ClosedCurve.evaluate_positions` reports them (the
+    compiled loop gathered them into a workspace sized for the data and wrote past it)."""
     params, points = seed_outline("epitrochoid", 60)
     incumbent = params[[6, 14, 22, 30, 38, 46]]
     moves = PeriodicMoveEvaluator(params, points, incumbent)
@@ -367,7 +357,8 @@ def test_candidates_of_more_knots_than_points_are_reported_not_written_past() ->
     batch, path = moves.evaluate(many, np.array([0, many.size]))
     assert batch.reason.tolist() == [Infeasibility.TOO_MANY_CONTROL_POINTS]
     assert path.tolist() == [PATH_CHECKS]
-    full = evaluate_periodic(params, points, many[None, :])
+    curve = ClosedCurve(params, points, 3)
+    full = curve.evaluate_positions(many[None, :], nan_is_absent=True)
     assert batch.reason.tolist() == full.reason.tolist()
     assert batch.n_control_points.tolist() == full.n_control_points.tolist()
     batch, _ = moves.evaluate_replacements([0], [incumbent.size], many, [0, many.size])
@@ -376,7 +367,7 @@ def test_candidates_of_more_knots_than_points_are_reported_not_written_past() ->
     bad = np.concatenate((many, [1.5]))
     batch, _ = moves.evaluate(bad, np.array([0, bad.size]))
     assert batch.reason.tolist() == [Infeasibility.KNOT_OUT_OF_RANGE]
-    assert evaluate_periodic(params, points, bad[None, :]).reason.tolist() == \
+    assert curve.evaluate_positions(bad[None, :], nan_is_absent=True).reason.tolist() == \
         [Infeasibility.KNOT_OUT_OF_RANGE]
 
 

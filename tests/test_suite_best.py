@@ -33,7 +33,7 @@ def reference_residuals(problem, knots: np.ndarray) -> np.ndarray:
     """Point distances of the least-squares spline with interior ``knots``, by scipy."""
     u, q, p = problem.params, problem.points, problem.degree
     if problem.closed:
-        from metaknot.bspline.periodic import periodic_knot_vector
+        from metaknot.bspline import periodic_knot_vector
 
         t = periodic_knot_vector(knots, p)
         tck, _ = splprep(np.vstack((q, q[:1])).T, u=np.append(u, 1.0), k=p, task=-1, t=t,

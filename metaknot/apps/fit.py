@@ -1,7 +1,8 @@
 """A user's points to a compact B-spline within a tolerance: :func:`fit` (``metaknot fit``).
 
 Open curves and function data get a clamped spline of degree p; closed outlines a periodic one
-(:mod:`metaknot.bspline.periodic`, FITPACK's periodic spline as the reference). The search:
+(:class:`metaknot.bspline.curve.ClosedCurve`, FITPACK's periodic spline as the reference). The
+search:
 
 1. **FITPACK's answer** — the reference everyone knows: FITPACK's smoothing spline
    (:mod:`metaknot.bspline.fitpack`) over a scan of its smoothing factor s, refined by bisection

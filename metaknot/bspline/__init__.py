@@ -1,7 +1,7 @@
-"""B-spline machinery: parameterization, clamped knot vectors, least-squares fits.
+"""B-spline machinery: parameterization, clamped and periodic knot vectors, least-squares fits.
 
-The batched evaluators (:func:`evaluate_masks`, :func:`evaluate_indices`,
-:func:`evaluate_positions`) fit a whole population of knot vectors in compiled code;
+A :class:`~metaknot.bspline.curve.Curve` (:func:`~metaknot.bspline.curve.make_curve`) fits
+whole populations of knot vectors in compiled code, open and closed curves alike;
 :func:`fit_spline` returns one fit as a :class:`scipy.interpolate.BSpline` with its metrics.
 """
 
@@ -9,39 +9,38 @@ from .fit import (
     BatchFit,
     CurveFit,
     Infeasibility,
+    PeriodicFit,
     SplineFit,
-    evaluate_indices,
-    evaluate_knots,
-    evaluate_masks,
-    evaluate_positions,
     fit_spline,
 )
 from .knots import (
     averaging_knots,
     clamped_knot_vector,
-    interior_from_indices,
-    interior_from_mask,
     n_control_points,
+    periodic_knot_vector,
 )
-from .parameterize import PARAMETERIZATIONS, as_points, check_degree, parameterize
+from .parameterize import (
+    PARAMETERIZATIONS,
+    as_points,
+    check_degree,
+    closed_parameterize,
+    parameterize,
+)
 
 __all__ = [
     "PARAMETERIZATIONS",
     "BatchFit",
     "CurveFit",
     "Infeasibility",
+    "PeriodicFit",
     "SplineFit",
     "as_points",
     "averaging_knots",
     "check_degree",
     "clamped_knot_vector",
-    "evaluate_indices",
-    "evaluate_knots",
-    "evaluate_masks",
-    "evaluate_positions",
+    "closed_parameterize",
     "fit_spline",
-    "interior_from_indices",
-    "interior_from_mask",
     "n_control_points",
     "parameterize",
+    "periodic_knot_vector",
 ]

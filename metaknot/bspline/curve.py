@@ -20,37 +20,45 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.interpolate import BSpline
 
+from .. import audit
 from ..validate import check_flag
+from . import _kernel
 from ._codegen import MAX_DIMENSION
 from .fit import (
     BatchFit,
     CurveFit,
+    Infeasibility,
+    PeriodicFit,
+    SplineFit,
     _evaluate,
     _evaluate_masks,
     _evaluate_positions,
+    _fit_clamped,
+    _outputs,
     _prepare,
     batch_errors,
     check_metric,
-    evaluate_knots,
-    fit_spline,
 )
 from .knots import (
+    _periodic_knots,
+    as_positions,
     averaging_knots,
     check_indices,
+    check_masks,
     check_offsets,
     clamped_knot_vector,
     padded_rows,
+    periodic_knot_vector,
     stack_indices,
     stack_rows,
 )
 from .moves import MoveEvaluator, bound_to
-from .parameterize import as_points, check_degree, parameterize
-from .periodic import _evaluate_masks as _evaluate_periodic_masks
-from .periodic import _evaluate_periodic, closed_parameterize, fit_periodic, periodic_knot_vector
-from .periodic import _prepare as _periodic_prepare
+from .parameterize import _parameters, as_points, check_degree, closed_parameterize
 
 __all__ = ["CLOSING_CHORD_SPACINGS", "REPEAT_SPACINGS", "ClosedCurve", "Closure", "Curve",
            "OpenCurve", "closure", "curve_model", "make_curve"]
@@ -116,10 +124,20 @@ def closure(points: ArrayLike) -> Closure:
 class Curve(ABC):
     """Data points with their parameters and a degree: what a knot vector is fitted to.
 
+    Built by :func:`make_curve`, which checks its input once; the constructors
+    (``OpenCurve(params, points, degree)``, ``ClosedCurve(...)``) check theirs. Every fit and
+    batch of fits goes to the compiled kernels with the data as they are.
+
     Attributes
     ----------
     params, points, degree
-        Parameter values ``(N,)``, points ``(N, d)`` and the spline degree.
+        Parameter values ``(N,)``, points ``(N, d)`` (float64, contiguous) and the spline
+        degree.
+
+    Raises
+    ------
+    ValueError
+        For bad points, parameters or degree (:func:`~metaknot.bspline.fit._prepare`).
     """
 
     closed: ClassVar[bool]
@@ -128,10 +146,16 @@ class Curve(ABC):
     #: :attr:`max_interior_knots` as a formula, for messages.
     max_interior_knots_rule: ClassVar[str]
 
-    def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
-        self.params = params
-        self.points = points
-        self.degree = degree
+    def __init__(self, params: ArrayLike, points: ArrayLike, degree: int) -> None:
+        self.params, self.points = _prepare(params, points, degree, closed=self.closed)
+        self.degree = int(degree)
+
+    @classmethod
+    def _checked(cls, params: np.ndarray, points: np.ndarray, degree: int) -> Curve:
+        """The curve of data :func:`make_curve` has checked, taken as they are."""
+        curve = cls.__new__(cls)
+        curve.params, curve.points, curve.degree = params, points, degree
+        return curve
 
     @property
     def n_points(self) -> int:
@@ -162,10 +186,15 @@ class Curve(ABC):
         """The highest data index a knot at a data point may sit at."""
         return int(self.candidate_params.size)
 
-    @abstractmethod
     def evaluate_knots(self, knots: np.ndarray, offsets: np.ndarray, *,
                        max_deviation: bool = True) -> BatchFit:
         """Fit every candidate ``knots[offsets[b]:offsets[b + 1]]`` (sorted interior knots)."""
+        return self._evaluate_flat(*check_offsets(knots, offsets), max_deviation)
+
+    @abstractmethod
+    def _evaluate_flat(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool
+                       ) -> BatchFit:
+        """:meth:`evaluate_knots` of offsets that match the knots (not checked again)."""
 
     @abstractmethod
     def evaluate_masks(self, masks: np.ndarray, *, max_deviation: bool = True) -> BatchFit:
@@ -263,8 +292,7 @@ class Curve(ABC):
         """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
         it cannot be fitted."""
         check_metric(metric)
-        batch = self.evaluate_knots(*stack_rows(knot_sets),
-                                    max_deviation=metric == "max_deviation")
+        batch = self._evaluate_flat(*stack_rows(knot_sets), metric == "max_deviation")
         return batch_errors(batch, metric, self.n_points)
 
 
@@ -274,11 +302,6 @@ class OpenCurve(Curve):
     closed = False
     kind = "open (clamped)"
     max_interior_knots_rule = "N - degree - 1"
-
-    def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
-        super().__init__(params, points, degree)
-        # the data as the kernel takes it, checked once: batches go to the kernel directly
-        self._u, self._q = _prepare(params, points, degree)
 
     @property
     def extra_control_points(self) -> int:
@@ -296,23 +319,22 @@ class OpenCurve(Curve):
     def max_interior_knots(self) -> int:
         return self.n_points - self.degree - 1
 
-    def evaluate_knots(self, knots, offsets, *, max_deviation=True):
-        return evaluate_knots(self.params, self.points, knots, offsets, self.degree,
-                              max_deviation=max_deviation)
+    def _evaluate_flat(self, knots, offsets, max_deviation):
+        return _evaluate(self.params, self.points, knots, offsets, self.degree, max_deviation)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
-        return _evaluate_masks(self._u, self._q, masks, self.degree, max_deviation)
+        return _evaluate_masks(self.params, self.points, masks, self.degree, max_deviation)
 
     def evaluate_indices(self, indices, *, max_deviation=True):
-        return _evaluate(self._u, self._q, *stack_indices(self._u, indices), self.degree,
-                         max_deviation)
+        return _evaluate(self.params, self.points, *stack_indices(self.params, indices),
+                         self.degree, max_deviation)
 
     def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
-        return _evaluate_positions(self._u, self._q, positions, self.degree, max_deviation,
-                                   nan_is_absent)
+        return _evaluate_positions(self.params, self.points, positions, self.degree,
+                                   max_deviation, nan_is_absent)
 
-    def fit(self, interior_knots):
-        return fit_spline(self.params, self.points, interior_knots, self.degree)
+    def fit(self, interior_knots) -> SplineFit:
+        return _fit_clamped(self.params, self.points, interior_knots, self.degree)
 
     def spread_knots(self, count):
         """The averaging knots (NURBS Book eqs. 9.68-9.69)."""
@@ -367,15 +389,6 @@ class ClosedCurve(Curve):
     kind = "closed (periodic)"
     max_interior_knots_rule = "N - 1, closed"
 
-    def __init__(self, params: np.ndarray, points: np.ndarray, degree: int) -> None:
-        u = np.asarray(params, dtype=np.float64)
-        if u.ndim == 1 and u.size and (u[0] != 0.0 or u[-1] >= 1.0):
-            raise ValueError("a closed outline's params must start at 0 and stay below 1 "
-                             "(metaknot.bspline.periodic.closed_parameterize)")
-        # the data as the kernel takes it, checked once: batches go to the kernel directly
-        self._p, self._u, self._q = _periodic_prepare(params, points, degree)
-        super().__init__(params, points, degree)
-
     @property
     def extra_control_points(self) -> int:
         return 1
@@ -392,29 +405,63 @@ class ClosedCurve(Curve):
     def max_interior_knots(self) -> int:
         return self.n_points - 1
 
-    def evaluate_knots(self, knots, offsets, *, max_deviation=True):
-        return self.evaluate_positions(padded_rows(*check_offsets(knots, offsets)),
-                                       max_deviation=max_deviation, nan_is_absent=True)
+    def _evaluate_flat(self, knots, offsets, max_deviation):
+        return self.evaluate_positions(padded_rows(knots, offsets), max_deviation=max_deviation,
+                                       nan_is_absent=True)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
-        masks = np.asarray(masks)
-        n_var = self._u.size - 1
-        if masks.ndim != 2 or masks.shape[1] != n_var:  # else broadcast over the knots
-            raise ValueError(f"masks must have shape (B, N - 1) = (B, {n_var}); "
-                             f"got {masks.shape}")
-        return _evaluate_periodic_masks(self._p, self._u, self._q, masks, max_deviation)
+        """Masks over the data parameters after the first: sorted, distinct and inside (0, 1),
+        they go to the compiled fit as they are."""
+        masks = np.ascontiguousarray(
+            check_masks(masks, self.n_points, closed=True, trust_integers=True), dtype=bool)
+        return self._fit_sorted(*_kernel.masks_to_knots(self.params, masks), max_deviation)
 
     def evaluate_indices(self, indices, *, max_deviation=True):
         # a repeated index gives coincident knots: reported infeasible
-        return self.evaluate_positions(self._u[check_indices(self._u, indices, closed=True)],
-                                       max_deviation=max_deviation, nan_is_absent=True)
+        rows = self.params[check_indices(self.params, indices, closed=True)]
+        return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
 
     def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
-        return _evaluate_periodic(self._p, self._u, self._q, positions, max_deviation,
-                                  nan_is_absent)
+        """Positions are sorted per row; knots outside (0, 1), coincident knots and
+        rank-deficient systems come back infeasible with their reason, never raised."""
+        pos = as_positions(positions)
+        if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
+            raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
+        knots, offsets, refusal = _kernel.rows_to_knots(np.sort(pos, axis=1), nan_is_absent)
+        batch = self._fit_sorted(knots, offsets, max_deviation)
+        refused = refusal != 0  # the reasons the fit does not check itself
+        if refused.any():
+            batch.reason[refused] = refusal[refused]
+            batch.sse[refused] = np.inf
+            if batch.max_deviation is not None:
+                batch.max_deviation[refused] = np.inf
+        return batch
 
-    def fit(self, interior_knots):
-        return fit_periodic(self.params, self.points, interior_knots, self.degree)
+    def _fit_sorted(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool
+                    ) -> BatchFit:
+        """The compiled fits of a flattened batch whose knots lie inside (0, 1), each row
+        sorted (nothing is checked; a row of coincident knots fits as singular)."""
+        sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
+        _kernel.evaluate_batch(self.params, self.points, self.degree, True, knots, offsets,
+                               *out, 8 * numba.get_num_threads())
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
+
+    def fit(self, interior_knots) -> PeriodicFit:
+        """The compiled kernel's fit: O(N p^2) time and O(m p) memory, for any number of
+        points."""
+        p, u, q = self.degree, self.params, self.points
+        t = _periodic_knots(_interior(interior_knots), p)
+        m = t.size - 2 * p - 1
+        audit.add_fits(1)
+        if m > u.size:
+            raise ValueError(f"{m} control points for {u.size} data points")
+        coef = np.zeros((m, q.shape[1]))
+        _, code = _kernel.fit_closed(u, q, t, p, coef, np.empty((0, p + 1)),
+                                     np.empty(0, dtype=np.int64))
+        if code != Infeasibility.FEASIBLE:
+            raise ValueError("the least-squares system is singular: some knot spans have no "
+                             "data")
+        return PeriodicFit(BSpline(t, np.vstack((coef, coef[:p])), p), u, q)
 
     def spread_knots(self, count):
         """Breakpoints at evenly spaced data points (0 is always one)."""
@@ -507,16 +554,16 @@ def make_curve(points: ArrayLike, *, degree: int = 3, parameterization: str = "c
     """
     p = check_degree(degree)
     closed = check_flag("closed", closed)
-    q = as_points(points, degree=p)
+    q = as_points(points, degree=p)  # the one check of the points
     if q.shape[1] > MAX_DIMENSION:
         raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
                          f"kernel's loops are generated for those); got {q.shape[1]}")
-    if not closed:
-        u = parameterize(q, params if params is not None else parameterization, degree=p)
-        return OpenCurve(u, q, p)
+    if not closed:  # explicit parameters are checked here, the computed ones are valid
+        u = _parameters(q, params if params is not None else parameterization)
+        return OpenCurve._checked(u, q, p)
     if params is not None:
         raise ValueError("a closed curve takes its own parameters (closing chord included); "
                          "explicit parameters do not apply")
     if len(q) > 3 and closure(q).repeats_first:
         q = q[:-1]
-    return ClosedCurve(closed_parameterize(q, parameterization), q, p)
+    return ClosedCurve._checked(closed_parameterize(q, parameterization), q, p)

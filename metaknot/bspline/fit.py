@@ -16,25 +16,15 @@ from .. import audit
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from ._kernel import masks_to_knots
-from .knots import (
-    as_positions,
-    check_mask_shape,
-    check_masks,
-    check_offsets,
-    stack_indices,
-    stack_positions,
-)
+from .knots import as_positions, check_masks, stack_positions
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
     "BatchFit",
     "CurveFit",
     "Infeasibility",
+    "PeriodicFit",
     "SplineFit",
-    "evaluate_indices",
-    "evaluate_knots",
-    "evaluate_masks",
-    "evaluate_positions",
     "fit_spline",
 ]
 
@@ -125,9 +115,13 @@ def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_po
     return np.where(batch.feasible, err, np.inf)
 
 
-def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, np.ndarray]:
-    p = check_degree(degree)
-    q = as_points(points, degree=p)
+def _prepare(u: ArrayLike, points: ArrayLike, degree: int, *, closed: bool = False
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters and points as the compiled kernels take them (float64, contiguous), checked:
+    the points by :func:`~metaknot.bspline.parameterize.as_points` and the kernels' dimensions,
+    the parameters finite, strictly increasing and one per point, a ``closed`` outline's from
+    0 and below 1 (the kernels trust all of it)."""
+    q = as_points(points, degree=check_degree(degree), closed=closed)
     if q.shape[1] > MAX_DIMENSION:
         raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
                          f"kernel's loops are generated for those); got {q.shape[1]}")
@@ -138,6 +132,9 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int) -> tuple[np.ndarray, 
         )
     if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
         raise ValueError("parameter values must be finite and strictly increasing")
+    if closed and (u[0] != 0.0 or u[-1] >= 1.0):
+        raise ValueError("a closed outline's params must start at 0 and stay below 1 (one "
+                         "period, [0, 1): metaknot.bspline.closed_parameterize)")
     if np.abs(u).max() > MAX_COORDINATE:
         raise ValueError(f"parameter values above {MAX_COORDINATE:g} in magnitude; rescale them")
     return u, q
@@ -173,10 +170,9 @@ def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarr
 
 def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
                     max_deviation: bool) -> BatchFit:
-    """Fit a ``(B, N - 2)`` batch of masks (nonzero: a knot; values are not checked)."""
-    masks = check_mask_shape(u, masks)
-    if masks.dtype.kind not in "biu":
-        masks = masks.astype(bool)
+    """Fit a ``(B, N - 2)`` batch of masks (nonzero: a knot; the values of integer masks are
+    not checked, those of others must be 0 or 1)."""
+    masks = check_masks(masks, u.size, trust_integers=True)
     if len(masks) > SERIAL_BATCH:
         knots, offsets = masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool))
         return _evaluate(u, q, knots, offsets, p, max_deviation)
@@ -187,7 +183,8 @@ def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
 
 def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: int,
                         max_deviation: bool, nan_is_absent: bool) -> BatchFit:
-    """Fit a ``(B, K)`` batch of knot positions (see :func:`evaluate_positions`)."""
+    """Fit a ``(B, K)`` batch of knot positions (see
+    :meth:`~metaknot.bspline.curve.Curve.evaluate_positions`)."""
     positions = as_positions(positions)
     if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
         return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
@@ -197,57 +194,10 @@ def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: i
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
-def evaluate_knots(
-    u: ArrayLike, points: ArrayLike, knots: np.ndarray, offsets: np.ndarray, degree: int = 3,
-    *, max_deviation: bool = True,
-) -> BatchFit:
-    """Fit every candidate of a flattened batch in compiled code.
-
-    Parameters
-    ----------
-    u, points
-        Parameter values ``(N,)`` and data points ``(N, d)``.
-    knots, offsets
-        Candidate ``b`` has the (sorted) interior knots ``knots[offsets[b]:offsets[b + 1]]``.
-    degree
-        Spline degree, 1..5.
-    max_deviation
-        Also compute the largest point deviation (a second pass over the data).
-    """
-    u, q = _prepare(u, points, degree)
-    return _evaluate(u, q, *check_offsets(knots, offsets), int(degree), max_deviation)
-
-
-def evaluate_masks(u: ArrayLike, points: ArrayLike, masks: ArrayLike, degree: int = 3, *,
-                   max_deviation: bool = True) -> BatchFit:
-    """Score a ``(B, N-2)`` batch of 0/1 masks over the interior data points."""
-    u, q = _prepare(u, points, degree)
-    return _evaluate_masks(u, q, check_masks(u, masks), int(degree), max_deviation)
-
-
-def evaluate_indices(u: ArrayLike, points: ArrayLike, indices: ArrayLike, degree: int = 3, *,
-                     max_deviation: bool = True) -> BatchFit:
-    """Score a ``(B, K)`` batch of interior data indices (knots at those data parameters)."""
-    u, q = _prepare(u, points, degree)
-    return _evaluate(u, q, *stack_indices(u, indices), int(degree), max_deviation)
-
-
-def evaluate_positions(u: ArrayLike, points: ArrayLike, positions: ArrayLike, degree: int = 3,
-                       *, max_deviation: bool = True, nan_is_absent: bool = False) -> BatchFit:
-    """Score a ``(B, K)`` batch of continuous interior knot positions.
-
-    Positions outside the open parameter range or coincident make their candidate infeasible
-    (reported, not raised); so does NaN, unless ``nan_is_absent`` (then NaN means "no knot",
-    so rows may have different knot counts).
-    """
-    u, q = _prepare(u, points, degree)
-    return _evaluate_positions(u, q, positions, int(degree), max_deviation, nan_is_absent)
-
-
 @dataclass(frozen=True, eq=False)
 class CurveFit:
     """A least-squares spline through data points, with its metrics: what open
-    (:class:`SplineFit`) and closed (:class:`~metaknot.bspline.periodic.PeriodicFit`) fits have
+    (:class:`SplineFit`) and closed (:class:`PeriodicFit`) fits have
     in common.
 
     ``spline`` is a :class:`scipy.interpolate.BSpline` whose coefficients have shape
@@ -339,6 +289,23 @@ class SplineFit(CurveFit):
         return self.degree + 1
 
 
+@dataclass(frozen=True, eq=False)
+class PeriodicFit(CurveFit):
+    """A least-squares periodic spline (a closed outline) with its metrics (``spline`` is a
+    scipy ``BSpline`` with the extended knots, whose last ``degree`` coefficients repeat the
+    first; evaluate it on [0, 1)). Its interior knots are the breakpoints in (0, 1); 0 is
+    always one too."""
+
+    @property
+    def n_control_points(self) -> int:
+        return int(self.spline.c.shape[0] - self.spline.k)
+
+    @property
+    def extra_control_points(self) -> int:
+        """1: a periodic spline has one control point per breakpoint, 0 included."""
+        return 1
+
+
 def fit_spline(
     u: ArrayLike, points: ArrayLike, interior_knots: ArrayLike, degree: int = 3
 ) -> SplineFit:
@@ -362,11 +329,17 @@ def fit_spline(
         Schoenberg-Whitney violation).
     """
     u, q = _prepare(u, points, degree)
+    return _fit_clamped(u, q, interior_knots, int(degree))
+
+
+def _fit_clamped(u: np.ndarray, q: np.ndarray, interior_knots: ArrayLike, p: int) -> SplineFit:
+    """:func:`fit_spline` of data already checked (``u``, ``q`` as :func:`_prepare` returns
+    them)."""
     interior = np.asarray(interior_knots, dtype=np.float64)
     if interior.ndim != 1:
         raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
     audit.add_fits(1)
-    code, t, coef = _kernel.fit_one(u, q, np.ascontiguousarray(interior), int(degree))
+    code, t, coef = _kernel.fit_one(u, q, np.ascontiguousarray(interior), p)
     if code != Infeasibility.FEASIBLE:
         raise ValueError(f"cannot fit these knots: {Infeasibility(code).message}")
-    return SplineFit(spline=BSpline(t, coef, int(degree)), params=u, points=q)
+    return SplineFit(spline=BSpline(t, coef, p), params=u, points=q)

@@ -1,4 +1,5 @@
-"""Clamped knot vectors from the three knot encodings (mask, data indices, positions)."""
+"""Knot vectors (clamped for open curves, periodic for closed ones) and the three knot
+encodings (mask, data indices, positions) as flat batches."""
 
 from __future__ import annotations
 
@@ -12,14 +13,12 @@ __all__ = [
     "as_positions",
     "averaging_knots",
     "check_indices",
-    "check_mask_shape",
     "check_masks",
     "check_offsets",
     "clamped_knot_vector",
-    "interior_from_indices",
-    "interior_from_mask",
     "n_control_points",
     "padded_rows",
+    "periodic_knot_vector",
     "stack_indices",
     "stack_masks",
     "stack_positions",
@@ -37,32 +36,6 @@ def _as_params(u: ArrayLike) -> np.ndarray:
     if u.ndim != 1 or u.size < 2:
         raise ValueError(f"parameter values must be a 1-D array of length >= 2; got {u.shape}")
     return u
-
-
-def interior_from_mask(u: ArrayLike, mask: ArrayLike) -> np.ndarray:
-    """Interior knots selected by a 0/1 mask over the interior data points ``1..N-2``.
-
-    The end points are always knots (clamped), so the mask has ``N - 2`` entries.
-    """
-    u = _as_params(u)
-    mask = np.asarray(mask)
-    if mask.shape != (u.size - 2,):
-        raise ValueError(
-            f"mask must have N - 2 = {u.size - 2} entries (one per interior data point); "
-            f"got shape {mask.shape}"
-        )
-    return u[1:-1][mask.astype(bool)]
-
-
-def interior_from_indices(u: ArrayLike, indices: ArrayLike) -> np.ndarray:
-    """Interior knots at the data points with the given indices (each in ``1..N-2``)."""
-    u = _as_params(u)
-    idx = np.asarray(indices)
-    if idx.ndim != 1 or not np.issubdtype(idx.dtype, np.integer):
-        raise ValueError(f"indices must be a 1-D integer array; got {idx.dtype} {idx.shape}")
-    if idx.size and (idx.min() < 1 or idx.max() > u.size - 2):
-        raise ValueError(f"indices must lie in 1..{u.size - 2} (interior data points)")
-    return u[np.sort(idx)]
 
 
 def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3) -> np.ndarray:
@@ -86,6 +59,37 @@ def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3) -> n
     if (np.diff(interior) <= 0).any():
         raise ValueError("interior knots must be strictly increasing (coincident knots given)")
     return np.concatenate((np.full(p + 1, u[0]), interior, np.full(p + 1, u[-1])))
+
+
+def periodic_knot_vector(interior: ArrayLike, degree: int = 3) -> np.ndarray:
+    """The extended knot vector of a periodic spline on [0, 1) whose breakpoints are 0 and
+    the sorted ``interior`` knots (all in (0, 1)): the ``m`` breakpoints and 1, with ``degree``
+    periodic copies on each side (``m + 2 degree + 1`` knots, FITPACK's periodic layout).
+
+    Raises
+    ------
+    ValueError
+        If an interior knot is not finite, lies outside (0, 1) or repeats another, or there
+        are fewer than ``degree`` breakpoints.
+    """
+    return _periodic_knots(interior, check_degree(degree))
+
+
+def _periodic_knots(interior: ArrayLike, p: int) -> np.ndarray:
+    """:func:`periodic_knot_vector` of a degree already checked (an ``int`` in 1..5)."""
+    inner = np.sort(np.asarray(interior, dtype=np.float64).ravel())
+    # NaN sorts last and fails no comparison: checked by name
+    if inner.size and (inner[0] <= 0.0 or not inner[-1] < 1.0 or (np.diff(inner) <= 0).any()):
+        raise ValueError("interior knots of a periodic spline must be finite, distinct and lie "
+                         "in (0, 1)")
+    breaks = np.concatenate(([0.0], inner))
+    m = breaks.size
+    if m < p:
+        raise ValueError(f"a periodic spline of degree {p} needs at least {p - 1} interior "
+                         f"knots; got {inner.size}")
+    before = breaks[m - p :] - 1.0
+    after = np.concatenate((breaks, [1.0]))[: p + 1] + 1.0
+    return np.concatenate((before, breaks, [1.0], after[1:]))
 
 
 def averaging_knots(u: ArrayLike, n_interior: int, degree: int = 3) -> np.ndarray:
@@ -135,21 +139,19 @@ def padded_rows(knots: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     return rows
 
 
-def check_mask_shape(u: np.ndarray, masks: ArrayLike) -> np.ndarray:
-    """``masks`` as an array, or a ``ValueError`` unless its shape is ``(B, N-2)``."""
+def check_masks(masks: ArrayLike, n_points: int, *, closed: bool = False,
+                trust_integers: bool = False) -> np.ndarray:
+    """A batch of 0/1 masks over the candidate data points, as booleans: ``(B, N-2)`` over the
+    interior ones, ``(B, N-1)`` over those after the first on a ``closed`` outline. A
+    ``ValueError`` for another shape or for values other than 0 and 1; with
+    ``trust_integers``, integer masks are returned as they are (any nonzero entry is a knot:
+    the problems' encodings have checked them)."""
     masks = np.asarray(masks)
-    if masks.ndim != 2 or masks.shape[1] != u.size - 2:
-        raise ValueError(
-            f"masks must have shape (B, N - 2) = (B, {u.size - 2}); got {masks.shape}"
-        )
-    return masks
-
-
-def check_masks(u: np.ndarray, masks: ArrayLike) -> np.ndarray:
-    """A ``(B, N-2)`` batch of 0/1 masks over the interior data points, as booleans; a
-    ``ValueError`` for another shape or other values."""
-    masks = check_mask_shape(u, masks)
-    if masks.dtype != bool:
+    n_var = n_points - (1 if closed else 2)
+    if masks.ndim != 2 or masks.shape[1] != n_var:
+        raise ValueError(f"masks must have shape (B, N - {1 if closed else 2}) = (B, {n_var}); "
+                         f"got {masks.shape}")
+    if masks.dtype != bool and not (trust_integers and masks.dtype.kind in "iu"):
         if not np.isin(masks, (0, 1)).all():
             raise ValueError("masks must contain only 0 and 1")
         masks = masks.astype(bool)
@@ -167,7 +169,7 @@ def stack_masks(u: ArrayLike, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]
         output wrongly).
     """
     u = _as_params(u)
-    return _kernel.masks_to_knots(u, np.ascontiguousarray(check_masks(u, masks)))
+    return _kernel.masks_to_knots(u, np.ascontiguousarray(check_masks(masks, u.size)))
 
 
 #: :func:`stack_masks`, by the compiled function's name (which takes no unchecked input here).

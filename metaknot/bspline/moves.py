@@ -50,9 +50,8 @@ from numpy.typing import ArrayLike
 from .. import audit
 from ..validate import is_integer
 from . import _kernel, _moves, _periodic_moves
-from . import periodic as _periodic
 from .fit import BatchFit, Infeasibility, _prepare
-from .knots import _offsets
+from .knots import _offsets, _periodic_knots
 
 __all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "PeriodicMoveEvaluator",
            "bit_flips", "bound_to"]
@@ -288,9 +287,8 @@ def _cuts(m: int, degree: int) -> np.ndarray:
 
 
 class PeriodicMoveEvaluator(MoveEvaluator):
-    """:class:`MoveEvaluator` for closed curves: candidates near one incumbent periodic spline
-    (:mod:`metaknot.bspline.periodic`), scored as :func:`~metaknot.bspline.evaluate_periodic`
-    scores them.
+    """:class:`MoveEvaluator` for closed curves: candidates near one incumbent periodic spline,
+    scored as a closed :meth:`~metaknot.bspline.curve.Curve.evaluate_knots` scores them.
 
     The circle is cut at evenly spaced breakpoints (0 and one half a period on; more when
     there are few breakpoints for the degree); for each cut, the Givens factorization of the
@@ -319,8 +317,7 @@ class PeriodicMoveEvaluator(MoveEvaluator):
 
     def _prepare(self, u: ArrayLike, points: ArrayLike, degree: int
                  ) -> tuple[np.ndarray, np.ndarray]:
-        _, u, q = _periodic._prepare(u, points, degree)
-        return u, q
+        return _prepare(u, points, degree, closed=True)
 
     def rebind(self, interior_knots: ArrayLike) -> None:
         """Move the incumbent to ``interior_knots`` (a fit, then a forward and a backward sweep
@@ -329,7 +326,7 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-        t = _periodic.periodic_knot_vector(interior, p)
+        t = _periodic_knots(interior, p)
         if (np.diff(interior) <= 0).any():  # the replacements index them as given
             raise ValueError("the incumbent cannot be fitted: "
                              f"{Infeasibility(_kernel.COINCIDENT_KNOTS).message}")

@@ -9,9 +9,12 @@ from numpy.typing import ArrayLike
 
 from ..validate import is_integer
 
-__all__ = ["PARAMETERIZATIONS", "as_points", "check_coordinates", "check_degree", "parameterize"]
+__all__ = ["PARAMETERIZATIONS", "as_points", "check_coordinates", "check_degree",
+           "closed_parameterize", "parameterize"]
 
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
+#: The step between neighbours is the chord length to this power, per parameterization.
+EXPONENTS = dict(zip(PARAMETERIZATIONS, (0.0, 1.0, 0.5), strict=True))
 MIN_DEGREE, MAX_DEGREE = 1, 5
 #: Largest coordinate magnitude accepted: squared distances summed over many points stay finite.
 MAX_COORDINATE = 1e100
@@ -55,7 +58,8 @@ def check_coordinates(values: np.ndarray, name: str = "points") -> None:
                          f"row {row}); rescale the data (squared errors would overflow)")
 
 
-def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np.ndarray:
+def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points",
+              closed: bool = False) -> np.ndarray:
     """Validate data points and return them as a float64 array of shape ``(N, d)``.
 
     A 1-D array is read as ``N`` scalar values (``d = 1``).
@@ -65,7 +69,7 @@ def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np
     ValueError
         If the array is not 1-D or 2-D, has no coordinates, holds NaN or infinite values or
         magnitudes above ``1e100``, or has fewer than ``degree + 2`` points (too few to place a
-        single interior knot).
+        single interior knot; a ``closed`` outline needs 3).
     """
     try:
         arr = np.asarray(points, dtype=np.float64)
@@ -78,7 +82,10 @@ def as_points(points: ArrayLike, *, degree: int = 3, name: str = "points") -> np
     if arr.shape[1] < 1:
         raise ValueError(f"{name} must have at least one coordinate; got shape {arr.shape}")
     check_coordinates(arr, name)
-    check_point_count(arr.shape[0], check_degree(degree), name)
+    if not closed:
+        check_point_count(arr.shape[0], check_degree(degree), name)
+    elif arr.shape[0] < 3:
+        raise ValueError(f"a closed curve needs at least 3 points; got {arr.shape[0]}")
     return np.ascontiguousarray(arr)
 
 
@@ -130,7 +137,11 @@ def parameterize(
         strictly increasing, or consecutive duplicate points under ``"chord"`` or
         ``"centripetal"`` (a zero chord length would give two points the same parameter).
     """
-    pts = as_points(points, degree=degree)
+    return _parameters(as_points(points, degree=degree), method)
+
+
+def _parameters(pts: np.ndarray, method: ParameterizationName | ArrayLike) -> np.ndarray:
+    """:func:`parameterize` of points :func:`as_points` has checked."""
     n = pts.shape[0]
     if not isinstance(method, str):
         try:
@@ -176,4 +187,36 @@ def parameterize(
             f"{method} parameterization is degenerate: some consecutive points are too close "
             "relative to the curve length to get distinct parameter values"
         )
+    return u
+
+
+def closed_parameterize(points: ArrayLike, method: str = "centripetal") -> np.ndarray:
+    """Parameter values in [0, 1) of a closed outline (the closing chord included): the step
+    from each point to the next is its chord length to the power 0 (``"uniform"``), 1
+    (``"chord"``) or 1/2 (``"centripetal"``).
+
+    Raises
+    ------
+    ValueError
+        For an unknown method, fewer than 3 points, consecutive repeated points (the closing
+        pair included) or points too close to get distinct parameters.
+    """
+    if method not in EXPONENTS:
+        raise ValueError(f"parameterization must be one of {', '.join(EXPONENTS)}; "
+                         f"got {method!r}")
+    q = np.asarray(points, dtype=np.float64)
+    q = q[:, None] if q.ndim == 1 else q
+    if q.shape[0] < 3:
+        raise ValueError(f"a closed curve needs at least 3 points; got {q.shape[0]}")
+    chords = np.linalg.norm(np.diff(np.vstack((q, q[:1])), axis=0), axis=1)
+    if (chords == 0).any():
+        i = int(np.argmax(chords == 0))
+        raise ValueError(f"point {(i + 1) % len(q)} repeats point {i}; a closed outline "
+                         "lists each point once (do not repeat the first at the end)")
+    steps = chords ** EXPONENTS[method]
+    u = np.concatenate(([0.0], np.cumsum(steps[:-1]))) / steps.sum()
+    if (np.diff(u) <= 0).any() or u[-1] >= 1.0:  # steps below rounding against the total
+        raise ValueError(f"{method} parameterization is degenerate: some consecutive points "
+                         "are too close relative to the outline's length to get distinct "
+                         "parameter values")
     return u
