@@ -553,7 +553,7 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
 def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis: np.ndarray,
                          spans: np.ndarray) -> float:
     """Largest distance of a data point to the periodic spline with coefficients ``coef``
-    (``m`` of them), from the basis values and spans :func:`fit_one` kept."""
+    (``m`` of them), from the basis values and spans :func:`fit_closed` kept."""
     n, d = q.shape
     worst = 0.0
     for i in range(n):
@@ -573,7 +573,7 @@ def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis:
 
 @njit(cache=True)
 def fit_closed(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray,
-            basis: np.ndarray, spans: np.ndarray) -> tuple:
+               basis: np.ndarray, spans: np.ndarray) -> tuple:
     """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots):
     the ``m`` coefficients into ``coef[:m]``; returns (sse, reason). Unless the workspaces
     ``basis`` (``(N, p + 1)``) and ``spans`` (``(N,)``) are empty, keeps every row's basis
