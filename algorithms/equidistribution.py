@@ -49,8 +49,18 @@ from .literature import (
     tolerance_method,
 )
 
-__all__ = ["Equidistribution", "curvature_density", "equidistribution", "smoothed_turning",
-           "turning_angles"]
+__all__ = ["FEATURES", "Equidistribution", "check_feature", "curvature_density",
+           "equidistribution", "smoothed_turning", "turning_angles"]
+
+#: the feature functions a knot density can equidistribute
+FEATURES = ("derivative", "curvature")
+
+
+def check_feature(feature: str) -> str:
+    """``feature`` if it names one of :data:`FEATURES`, else a ``ValueError`` naming them."""
+    if feature not in FEATURES:
+        raise ValueError(f"feature must be 'derivative' or 'curvature'; got {feature!r}")
+    return feature
 
 
 def turning_angles(curve: Curve) -> np.ndarray:
@@ -99,16 +109,14 @@ def equidistribution(target: Target, feature: str = "derivative",
                      smoothing: float = 2.0) -> np.ndarray:
     """Knots equidistributing a feature function, at the fewest count within the tolerance
     (see the module docstring)."""
-    if feature == "derivative":
+    if check_feature(feature) == "derivative":
         target.count(1)
         density = knot_density(target.params, target.points, target.degree,
                                1.0 / (target.degree + 1))
         if density is None:  # too few points for the pilot: arc length alone
             density = cumulative(np.ones(target.params.size), target.params)
-    elif feature == "curvature":
-        density = curvature_density(target, smoothing)
     else:
-        raise ValueError(f"feature must be 'derivative' or 'curvature'; got {feature!r}")
+        density = curvature_density(target, smoothing)
 
     def knots_at(k: int) -> np.ndarray | None:
         knots = equidistribute(density, k)
@@ -140,7 +148,5 @@ class Equidistribution(ToleranceMethod):
                  tolerance: float | None = None, metric: str = "max_deviation",
                  max_knots: int | None = None, batch_size: int = 1) -> None:
         super().__init__(tolerance, metric, max_knots, batch_size)
-        if feature not in ("derivative", "curvature"):
-            raise ValueError(f"feature must be 'derivative' or 'curvature'; got {feature!r}")
-        self.feature = feature
+        self.feature = check_feature(feature)
         self.smoothing = check_param("smoothing", smoothing, low=0)

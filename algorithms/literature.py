@@ -36,8 +36,8 @@ from metaknot.bspline import averaging_knots, check_degree
 from metaknot.bspline.curve import Curve, CurveFit, Metric, curve_model
 from metaknot.bspline.fit import check_metric
 from metaknot.bspline.parameterize import MAX_DEGREE, as_points
-from metaknot.optimizer import check_param
 from metaknot.task import ProblemView
+from metaknot.validate import check_tolerance
 
 from .baselines import _KnotCountBaseline, with_count
 
@@ -103,11 +103,8 @@ class Target:
         if not np.isfinite(u).all() or (np.diff(u) <= 0).any():
             raise ValueError("params must be finite and strictly increasing")
         check_metric(metric)
-        if isinstance(tolerance, bool) or not isinstance(tolerance, int | float | np.floating) \
-                or not np.isfinite(tolerance) or tolerance <= 0:
-            raise ValueError(f"the tolerance must be a number > 0; got {tolerance!r}")
+        self.tolerance = check_tolerance(tolerance)
         self.curve: Curve = curve_model(closed)(u, q, p)
-        self.tolerance = float(tolerance)
         self.metric: Metric = metric
         self.fits = 0
 
@@ -354,8 +351,7 @@ class ToleranceMethod(_KnotCountBaseline):
     def __init__(self, tolerance: float | None = None, metric: str = "max_deviation",
                  max_knots: int | None = None, batch_size: int = 1) -> None:
         super().__init__(max_knots, batch_size)
-        self.tolerance = None if tolerance is None else \
-            check_param("tolerance", tolerance, low=0, low_open=True)
+        self.tolerance = None if tolerance is None else check_tolerance(tolerance)
         check_metric(metric)
         self.metric = metric
 

@@ -11,7 +11,7 @@ from typing import TypeGuard
 
 import numpy as np
 
-__all__ = ["check_flag", "is_integer", "is_real"]
+__all__ = ["check_flag", "check_tolerance", "is_integer", "is_real"]
 
 
 def is_integer(value: object) -> TypeGuard[int | np.integer]:
@@ -32,3 +32,12 @@ def check_flag(name: str, value: object) -> bool:
     if not isinstance(value, bool | np.bool_):
         raise ValueError(f"{name} must be True or False; got {value!r}")
     return bool(value)
+
+
+def check_tolerance(value: object) -> float:
+    """``value`` as a float if it is a finite number > 0 (an error bound), else a
+    ``ValueError`` saying so: the one check of a tolerance, for ``metaknot fit``, the
+    literature methods and the optimizers that take one."""
+    if not (is_real(value) and np.isfinite(value) and value > 0):
+        raise ValueError(f"the tolerance must be a number > 0; got {value!r}")
+    return float(value)

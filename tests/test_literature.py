@@ -118,6 +118,13 @@ def test_bad_input_gets_a_one_line_error(change, message):
     assert "\n" not in str(error.value)
 
 
+def test_a_feature_equidistribution_does_not_know_is_refused_by_optimizer_and_method():
+    with pytest.raises(ValueError, match="feature must be 'derivative' or 'curvature'; got 'slope"):
+        mk.get_optimizer("equidistribution", feature="slope")
+    with pytest.raises(ValueError, match="feature must be 'derivative' or 'curvature'"):
+        METHODS["equidistribution"](X, TWO_PIECES, 1e-3, feature="slope")
+
+
 def test_the_optimizer_takes_the_problems_tolerance_and_declares_its_fits():
     data = get_curve("archimedean", n_points=120)
     problem = KnotSelection(data, objective="error_bounded",

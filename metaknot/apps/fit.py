@@ -40,7 +40,7 @@ from ..bspline.fit import check_metric
 from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import check_coordinates, check_point_count
-from ..validate import check_flag, is_integer, is_real
+from ..validate import check_flag, check_tolerance, is_integer
 
 __all__ = ["ToleranceFit", "fit"]
 
@@ -341,8 +341,7 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     if closed is not None:
         closed = check_flag("closed", closed)
     q, params = _check_points(points, params, p, function)
-    if not (is_real(tolerance) and np.isfinite(tolerance) and tolerance > 0):
-        raise ValueError(f"the tolerance must be a number > 0; got {tolerance!r}")
+    tolerance = check_tolerance(tolerance)
     diagonal = float(np.linalg.norm(q.max(axis=0) - q.min(axis=0)))
     if relative and diagonal == 0:
         raise ValueError("a relative tolerance needs points that are not all equal (their "
