@@ -39,7 +39,7 @@ from ..bspline.curve import Curve, Metric, batch_errors, closure, make_curve
 from ..bspline.fit import check_metric
 from ..bspline.knots import stack_rows
 from ..bspline.moves import PATH_DELTA, MoveEvaluator
-from ..bspline.parameterize import check_coordinates, check_point_count
+from ..bspline.parameterize import as_points, check_coordinates
 from ..validate import check_flag, check_tolerance, is_integer
 
 __all__ = ["ToleranceFit", "fit"]
@@ -242,17 +242,12 @@ def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol
 
 def _check_points(points: ArrayLike, params: ArrayLike | None, degree: int,
                   function: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    q = np.asarray(points, dtype=np.float64)
-    if q.ndim == 1:
-        q = q[:, None]
-    if q.ndim != 2 or q.shape[1] < 1:
-        raise ValueError(f"points must be an (N, d) array; got shape {q.shape}")
     if function:
-        if q.shape[1] < 2:
+        columns = np.asarray(points, dtype=np.float64)
+        if columns.ndim != 2 or columns.shape[1] < 2:
             raise ValueError("function data needs at least two columns: x, then f(x)")
-        params, q = q[:, 0].copy(), q[:, 1:].copy()
-    check_coordinates(q, "points")
-    check_point_count(q.shape[0], degree)
+        params, points = columns[:, 0].copy(), columns[:, 1:].copy()
+    q = as_points(points, degree=degree)
     if params is not None:
         params = np.asarray(params, dtype=np.float64)
         if params.shape != (q.shape[0],):
