@@ -6,6 +6,7 @@ name               method
 ``dolphin``        Dolphin Echolocation (Kaveh & Farhoudi 2013), masks and index sets
 ``ga``             generational genetic algorithm, masks and index sets
 ``nlopt``          nlopt free-knot optimisation (local and global algorithms)
+``varpro``         free knots by variable projection (exact Jacobian, Gauss-Newton)
 ``uniform``        equally spaced knots
 ``averaging``      averaging knots (NURBS Book eqs. 9.68-9.69)
 ``fitpack``        FITPACK's knots (:mod:`metaknot.bspline.fitpack`), smoothing factor searched
@@ -51,6 +52,7 @@ from .one_plus_one import OnePlusOneEA
 from .pymoo_adapter import PymooOptimizer
 from .random_search import RandomSearch
 from .sparse_l1 import SparseL1
+from .variable_projection import VariableProjection
 
 __all__ = [
     "AveragingKnots",
@@ -72,4 +74,5 @@ __all__ = [
     "RandomSearch",
     "SparseL1",
     "UniformKnots",
+    "VariableProjection",
 ]

@@ -1,0 +1,265 @@
+"""Free knots by variable projection: the control points by the linear least-squares solve, the
+knot positions as the nonlinear variables (Golub & Pereyra 1973), with the exact Jacobian.
+
+For interior knots ``tau`` the least-squares fit ``C(tau) = B(tau)^+ Q`` leaves the residual
+``r(tau) = Q - B(tau) C(tau) = P(tau) Q`` (``P`` the projector onto the complement of the
+basis matrix's columns). Its Jacobian with respect to knot ``tau_k`` is (Golub & Pereyra)::
+
+    dr/dtau_k = -(P D_k C + (B^+)^T D_k^T r),       D_k = dB/dtau_k.
+
+The derivative of a B-spline with respect to one of its knots has a closed form. With de
+Boor's definition ``B_i(x) = (t_{i+p+1} - t_i) [t_i, ..., t_{i+p+1}] (. - x)_+^p`` and the rule
+that the derivative of a divided difference with respect to a node repeats that node,
+``dB_i/dt_j`` for ``t_i <= t_j <= t_{i+p+1}`` is::
+
+    s_ij B_i / (t_{i+p+1} - t_i) + Bh_{i+1} / (th_{i+p+2} - th_{i+1}) - Bh_i / (th_{i+p+1} - th_i)
+
+where ``th`` is the knot vector with ``t_j`` doubled, ``Bh`` its B-splines of degree ``p``, and
+``s_ij`` is ``-1`` for ``j = i``, ``+1`` for ``j = i + p + 1``, else 0 (a term with a zero
+denominator is zero). :func:`residual_jacobian` builds both for an open curve (compiled, in
+:mod:`~metaknot.algorithms._knot_jacobian`); the tests check it against finite differences.
+
+The knots are kept ordered by searching their spacings' logarithms (Jupp 1978): ``K + 1``
+spans of the parameter range are the softmax of ``(0, z_1, ..., z_K)``, so every ``z`` gives
+ordered interior knots, and a span shrinking towards zero sends its ``z`` to minus infinity
+instead of crossing its neighbour.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from metaknot.budget import BudgetExhausted, Evaluator
+from metaknot.optimizer import Optimizer, check_param
+from metaknot.problems import FreeKnotSpace
+from metaknot.registry import register
+from metaknot.task import ProblemView
+
+from ._adapters import free_knots, refuse_variable_count
+
+__all__ = ["VariableProjection", "knots_from_log_spans", "log_spans_from_knots",
+           "residual_jacobian"]
+
+
+def _knot_vector(interior: np.ndarray, bounds: tuple[float, float], p: int, closed: bool
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The knot vector of an open curve (clamped) or a closed one (breakpoint 0, the interior
+    knots, periodic copies on each side, as the kernel extends it), with the positions in it
+    that each interior knot sets and the index of that knot."""
+    k = interior.size
+    if not closed:
+        lower, upper = bounds
+        t = np.concatenate((np.full(p + 1, lower), interior, np.full(p + 1, upper)))
+        return t, p + 1 + np.arange(k), np.arange(k)
+    m = k + 1  # breakpoints: 0 and the interior knots
+    breaks = np.concatenate(([0.0], interior))
+    after = np.arange(p + 1)  # the copies above 1 (a second period when m <= p)
+    index = np.concatenate((np.arange(m - p, m), np.arange(m), after % m))
+    shift = np.concatenate((np.full(p, -1.0), np.zeros(m), 1.0 + (after >= m)))
+    t = breaks[index] + shift
+    moving = np.flatnonzero(index > 0)
+    return t, moving, index[moving] - 1
+
+
+def residual_jacobian(u: np.ndarray, points: np.ndarray, p: int, interior: np.ndarray,
+                      bounds: tuple[float, float], *, closed: bool = False,
+                      jacobian: bool = True
+                      ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """The least-squares residual of a curve with the given interior knots, and its Jacobian
+    with respect to those knots (Golub & Pereyra's, see the module docstring).
+
+    Parameters
+    ----------
+    u
+        ``(N,)`` parameters, increasing, inside ``bounds`` (a closed outline's in ``[0, 1)``).
+    points
+        ``(N, d)`` data points.
+    p
+        Degree.
+    interior
+        ``(K,)`` interior knots, increasing, strictly inside ``bounds``.
+    bounds
+        The parameter range ``(a, b)``: an open curve's end knots, of multiplicity ``p + 1``;
+        ``(0, 1)`` for a closed outline, whose breakpoints are 0 and the interior knots.
+    closed
+        A closed outline: a periodic spline with ``K + 1`` control points (its basis is the
+        extended knot vector's, the last ``p`` B-splines folded onto the first).
+    jacobian
+        Compute the Jacobian (else ``None`` is returned in its place).
+
+    Returns
+    -------
+    residual
+        ``points - B C``, flattened point by point (length ``N d``).
+    jacobian
+        ``(N d, K)``: the derivative of ``residual`` with respect to each interior knot.
+    coefficients
+        ``C``, the control points: ``(K + p + 1, d)``, or ``(K + 1, d)`` closed.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If the basis matrix is rank deficient (a knot span without data).
+    """
+    from ._knot_jacobian import design_open, knot_derivatives
+
+    t, positions, variables = _knot_vector(interior, bounds, p, closed)
+    n, d, k = t.size - p - 1, points.shape[1], interior.size  # n: B-splines of t
+    columns = interior.size + 1 if closed else n  # control points
+    extended, spans = np.empty((u.size, n)), np.empty(u.size, dtype=np.int64)
+    design_open(u, t, p, n, extended, spans)
+    basis = extended
+    if closed:  # B-spline i + m is periodic B-spline i's part beyond the seam
+        basis = extended[:, :columns].copy()
+        basis[:, : n - columns] += extended[:, columns:]
+    q_factor, r_factor = np.linalg.qr(basis)
+    diagonal = np.abs(np.diag(r_factor))
+    if diagonal.min() <= 1e-12 * diagonal.max():
+        raise np.linalg.LinAlgError("the basis matrix is rank deficient")
+    coefficients = np.linalg.solve(r_factor, q_factor.T @ points)
+    residual = points - basis @ coefficients
+    if not jacobian:
+        return residual.ravel(), None, coefficients
+    moved, pulled = np.empty((u.size, d, k)), np.empty((n, d, k))
+    knot_derivatives(u, t, p, n, spans, extended, coefficients[np.arange(n) % columns],
+                     residual, positions, variables, moved, pulled)
+    if closed:
+        pulled[: n - columns] += pulled[columns:]
+        pulled = pulled[:columns]
+    flat = moved.reshape(u.size, d * k)
+    projected = flat - q_factor @ (q_factor.T @ flat)  # P D_k C, every k at once
+    back = q_factor @ np.linalg.solve(r_factor.T, pulled.reshape(columns, d * k))
+    derivative = -(projected + back).reshape(u.size * d, k)  # back: (B^+)^T D_k^T r
+    return residual.ravel(), derivative, coefficients
+
+
+def knots_from_log_spans(z: np.ndarray, bounds: tuple[float, float]
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Interior knots from the log spans ``z`` (Jupp's transformation, softmax form).
+
+    Returns the ``K`` knots and their Jacobian ``d knots / d z``, shape ``(K, K)``.
+    """
+    lower, upper = bounds
+    logits = np.concatenate(([0.0], z))
+    weights = np.exp(logits - logits.max())
+    weights /= weights.sum()
+    cumulative = np.cumsum(weights)[:-1]
+    knots = lower + (upper - lower) * cumulative
+    below = np.tril(np.ones((z.size, z.size + 1)))  # span l lies below knot k when l <= k
+    derivative = (upper - lower) * (below - cumulative[:, None]) * weights[None, :]
+    return knots, derivative[:, 1:]
+
+
+def log_spans_from_knots(knots: np.ndarray, bounds: tuple[float, float]) -> np.ndarray:
+    """The log spans ``z`` of ordered interior knots (inverse of :func:`knots_from_log_spans`)."""
+    spans = np.diff(np.concatenate(([bounds[0]], knots, [bounds[1]])))
+    if (spans <= 0).any():
+        raise ValueError("interior knots must be increasing and strictly inside the range")
+    logs = np.log(spans)
+    return logs[1:] - logs[0]
+
+
+@register("varpro")
+class VariableProjection(Optimizer):
+    """Free knots by variable projection: Gauss-Newton in a trust region (scipy's
+    ``least_squares``, ``trf``) on the knots' log spans, with the exact Jacobian of the
+    projected residual (module docstring), from several starts.
+
+    Every point the solver tries is evaluated through the run's evaluator (one evaluation; a
+    point whose fit the problem finds infeasible is an infinite residual, on which the solver
+    shrinks its step). The method's own fit of the same point (for the residual vector) and
+    each Jacobian are declared with ``count_fits``: one fit, and ``K + 1`` per Jacobian (one
+    refined basis per knot, and the fit).
+
+    Starts, each given an equal share of the evaluations left: the problem's averaging knots,
+    equally spaced knots, then perturbations of the best point so far (log spans plus normal
+    noise of standard deviation ``perturbation``), until the budget is spent or
+    ``restarts`` perturbed starts have run.
+
+    Parameters
+    ----------
+    restarts
+        Perturbed starts after the two deterministic ones (>= 0).
+    perturbation
+        Standard deviation of a restart's change of the log spans (> 0; 0.5 changes a span by
+        a factor of about 1.6).
+    tolerance
+        ``least_squares``' ``ftol``, ``xtol`` and ``gtol`` (> 0).
+    """
+
+    encodings = ("continuous",)
+    problem: FreeKnotSpace  # setup refuses any other
+
+    def __init__(self, restarts: int = 20, perturbation: float = 0.5,
+                 tolerance: float = 1e-10) -> None:
+        self.restarts = check_param("restarts", restarts, low=0, integer=True)
+        self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
+        self.tolerance = check_param("tolerance", tolerance, low=0, low_open=True)
+
+    def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
+        free_knots(problem, self.name)
+        refuse_variable_count(problem, self.name)
+        super().setup(problem, rng)
+
+    def _starts(self) -> list[np.ndarray]:
+        bounds = self.problem.knot_bounds
+        k = self.problem.n_knots
+        uniform = np.linspace(*bounds, k + 2)[1:-1]
+        return [log_spans_from_knots(np.sort(self.problem.start_knots(k)), bounds),
+                log_spans_from_knots(uniform, bounds)]
+
+    def run(self, evaluator: Evaluator) -> None:
+        problem = self.problem
+        bounds = problem.knot_bounds
+        u, points, degree = problem.params, problem.points, problem.degree
+        closed = bool(problem.closed)
+        best: list = [np.inf, None]
+        seen: dict[bytes, np.ndarray] = {}  # a point tried again (a start) is not re-evaluated
+
+        def residual(z: np.ndarray) -> np.ndarray:
+            key = z.tobytes()
+            if key not in seen:
+                seen.clear()
+                seen[key] = _residual(z)
+            return seen[key]
+
+        def _residual(z: np.ndarray) -> np.ndarray:
+            knots, _ = knots_from_log_spans(z, bounds)
+            value = float(evaluator(knots[None, :])[0])
+            if not np.isfinite(value):
+                return np.full(points.size, np.inf)
+            if value < best[0]:
+                best[0], best[1] = value, z.copy()
+            problem.count_fits(1)
+            try:
+                return residual_jacobian(u, points, degree, knots, bounds, closed=closed,
+                                         jacobian=False)[0]
+            except np.linalg.LinAlgError:
+                return np.full(points.size, np.inf)
+
+        def jacobian(z: np.ndarray) -> np.ndarray:
+            knots, chain = knots_from_log_spans(z, bounds)
+            problem.count_fits(knots.size + 1)
+            derivative = residual_jacobian(u, points, degree, knots, bounds, closed=closed)[1]
+            assert derivative is not None
+            return derivative @ chain
+
+        starts = self._starts()
+        try:
+            for run in range(len(starts) + self.restarts):
+                if evaluator.remaining <= 0:
+                    break
+                if run < len(starts):
+                    z0 = starts[run]
+                elif best[1] is not None:
+                    z0 = best[1] + self.rng.normal(0.0, self.perturbation, best[1].size)
+                else:
+                    z0 = self.rng.normal(0.0, self.perturbation, problem.n_knots)
+                share = max(1, evaluator.remaining // (len(starts) + self.restarts - run))
+                if not np.isfinite(residual(z0)).all():
+                    continue
+                least_squares(residual, z0, jac=jacobian, method="trf", max_nfev=share,
+                              ftol=self.tolerance, xtol=self.tolerance, gtol=self.tolerance)
+        except BudgetExhausted:
+            pass
