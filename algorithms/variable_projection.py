@@ -27,6 +27,8 @@ instead of crossing its neighbour.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 from scipy.optimize import least_squares
 
@@ -39,7 +41,14 @@ from metaknot.task import ProblemView
 from ._adapters import free_knots, refuse_variable_count
 
 __all__ = ["VariableProjection", "knots_from_log_spans", "log_spans_from_knots",
-           "residual_jacobian"]
+           "residual_jacobian", "start_evaluations"]
+
+
+def start_evaluations(n_knots: int) -> int:
+    """The most evaluations one start of :class:`VariableProjection` may take (and at most half
+    of those left): enough for Gauss-Newton to converge from a good start, few enough that a
+    start in a poor basin gives way to the next."""
+    return 200 + 20 * n_knots
 
 
 def _knot_vector(interior: np.ndarray, bounds: tuple[float, float], p: int, closed: bool
@@ -172,18 +181,20 @@ class VariableProjection(Optimizer):
     each Jacobian are declared with ``count_fits``: one fit, and ``K + 1`` per Jacobian (one
     refined basis per knot, and the fit).
 
-    Starts, each given an equal share of the evaluations left: the problem's averaging knots,
-    equally spaced knots, then perturbations of the best point so far (log spans plus normal
-    noise of standard deviation ``perturbation``), until the budget is spent or
-    ``restarts`` perturbed starts have run.
+    Starts: the problem's averaging knots, equally spaced knots, then, in turn, a perturbation
+    of the best point so far (its log spans plus normal noise, of standard deviation
+    ``perturbation`` times 1/2, 1, 2, 4 in turn) and knots drawn anywhere (spans uniform on the
+    simplex), until the budget is spent or ``restarts`` further starts have run. A start may
+    take at most :func:`start_evaluations` evaluations and half of those left; the solver's
+    scaling follows the Jacobian's columns (``x_scale="jac"``).
 
     Parameters
     ----------
     restarts
-        Perturbed starts after the two deterministic ones (>= 0).
+        Starts after the two deterministic ones (>= 0), or ``None``: until the budget is spent.
     perturbation
-        Standard deviation of a restart's change of the log spans (> 0; 0.5 changes a span by
-        a factor of about 1.6).
+        Middle standard deviation of a perturbed start's change of the log spans (> 0; 0.5
+        changes a span by a factor of about 1.6).
     tolerance
         ``least_squares``' ``ftol``, ``xtol`` and ``gtol`` (> 0).
     """
@@ -191,9 +202,10 @@ class VariableProjection(Optimizer):
     encodings = ("continuous",)
     problem: FreeKnotSpace  # setup refuses any other
 
-    def __init__(self, restarts: int = 20, perturbation: float = 0.5,
+    def __init__(self, restarts: int | None = None, perturbation: float = 0.5,
                  tolerance: float = 1e-10) -> None:
-        self.restarts = check_param("restarts", restarts, low=0, integer=True)
+        self.restarts = None if restarts is None else check_param("restarts", restarts, low=0,
+                                                                  integer=True)
         self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
         self.tolerance = check_param("tolerance", tolerance, low=0, low_open=True)
 
@@ -247,19 +259,23 @@ class VariableProjection(Optimizer):
 
         starts = self._starts()
         try:
-            for run in range(len(starts) + self.restarts):
-                if evaluator.remaining <= 0:
+            for run in itertools.count():
+                if evaluator.remaining <= 0 or (self.restarts is not None
+                                                and run >= len(starts) + self.restarts):
                     break
                 if run < len(starts):
                     z0 = starts[run]
-                elif best[1] is not None:
-                    z0 = best[1] + self.rng.normal(0.0, self.perturbation, best[1].size)
-                else:
-                    z0 = self.rng.normal(0.0, self.perturbation, problem.n_knots)
-                share = max(1, evaluator.remaining // (len(starts) + self.restarts - run))
+                elif best[1] is not None and (run - len(starts)) % 2 == 0:
+                    scale = self.perturbation * 2.0 ** ((run - len(starts)) // 2 % 4 - 1)
+                    z0 = best[1] + self.rng.normal(0.0, scale, best[1].size)
+                else:  # spans drawn uniformly (a flat Dirichlet): anywhere in the range
+                    z0 = np.log(self.rng.exponential(size=problem.n_knots + 1))
+                    z0 = z0[1:] - z0[0]
+                share = max(1, min(evaluator.remaining // 2, start_evaluations(problem.n_knots)))
                 if not np.isfinite(residual(z0)).all():
                     continue
                 least_squares(residual, z0, jac=jacobian, method="trf", max_nfev=share,
-                              ftol=self.tolerance, xtol=self.tolerance, gtol=self.tolerance)
+                              x_scale="jac", ftol=self.tolerance, xtol=self.tolerance,
+                              gtol=self.tolerance)
         except BudgetExhausted:
             pass
