@@ -106,6 +106,29 @@ def test_impossible_knots_are_refused_or_infinite() -> None:
     assert np.isfinite(errors[0]) and errors[1] == np.inf
 
 
+@pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
+def test_knots_at_the_ends_or_a_denormal_apart_are_refused_not_raised_nor_nan(closed) -> None:
+    """Rows a free-knot search reaches when spans underflow: knots at 0 and 1 (passed on as
+    0.5, so that the row holds coincident knots) and a span of 1e-320. The closed batch raised
+    ZeroDivisionError on the first and gave NaN on the second."""
+    from metaknot.bspline import Infeasibility
+    from metaknot.bspline.curve import OpenCurve
+
+    points = outline(60)
+    u = closed_parameterize(points) if closed else np.linspace(0.0, 1.0, 60)
+    rows = np.array([[0.0, 1e-320, 1.0, 1.0, 1.0, 1.0, 1.0],
+                     [0.1, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7],
+                     [1e-320, 0.1, 0.3, 0.4, 0.5, 0.6, 0.7],
+                     [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7]])
+    curve = (ClosedCurve if closed else OpenCurve)(u, points, 3)
+    batch = curve.evaluate_positions(rows)
+    assert list(batch.reason) == [Infeasibility.KNOT_OUT_OF_RANGE,
+                                  Infeasibility.COINCIDENT_KNOTS, Infeasibility.SINGULAR,
+                                  Infeasibility.FEASIBLE]
+    assert np.isinf(batch.sse[:3]).all() and np.isinf(batch.max_deviation[:3]).all()
+    assert np.isfinite(batch.sse[3])
+
+
 @pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
 @pytest.mark.parametrize("dim", [1, 2, 3])
 @pytest.mark.parametrize("method", ["uniform", "chord", "centripetal"])

@@ -648,10 +648,18 @@ def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
         return
     breaks[0] = 0.0
     breaks[1:m] = interior
+    for k in range(1, m):  # a refused row (out of range, coincident) is not fitted
+        if not breaks[k] > breaks[k - 1]:
+            sse[b], reason[b] = np.inf, COINCIDENT_KNOTS
+            if max_dev.size > 0:
+                max_dev[b] = np.inf
+            return
     t = t_ws[: m + 2 * p + 1]
     extended_knots(breaks[:m], p, t)
     coef = coef_ws[:m]
     code, value = solve_closed_into(u, q, t, p, coef, basis, spans, ws_fit, PIVOT_RATIO)
+    if code == FEASIBLE and not np.isfinite(value):  # spans too short to compute with
+        code, value = SINGULAR, np.inf
     sse[b], reason[b] = value, code
     if max_dev.size > 0:
         max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
