@@ -575,14 +575,14 @@ def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis:
 def fit_closed(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.ndarray,
                basis: np.ndarray, spans: np.ndarray) -> tuple:
     """Least-squares periodic fit on the extended knot vector ``t`` (``m + 2p + 1`` knots):
-    the ``m`` coefficients into ``coef[:m]``; returns (sse, reason). Unless the workspaces
+    the ``m`` coefficients into ``coef[:m]``; returns (reason, sse), as
+    :func:`solve_closed_into`. Unless the workspaces
     ``basis`` (``(N, p + 1)``) and ``spans`` (``(N,)``) are empty, keeps every row's basis
     values and natural span there (for :func:`deviation_from_basis`). With the workspaces
     of :func:`closed_workspaces` built per call (the closed move evaluator's full fits)."""
     m = t.size - 2 * p - 1
-    reason, sse = solve_closed_into(u, q, t, p, coef, basis, spans,
-                                    closed_workspaces(m, p, q.shape[1]), PIVOT_RATIO)
-    return sse, reason
+    return solve_closed_into(u, q, t, p, coef, basis, spans,
+                             closed_workspaces(m, p, q.shape[1]), PIVOT_RATIO)
 
 
 @njit(cache=True)

@@ -579,7 +579,7 @@ def evaluate_moves(u, q, p, interior, spans, basis, row_start, cuts, S_band,
         # the full fit decides
         path_out[b] = PATH_FULL
         c2 = coef[:m2]
-        value, code = fit_closed(u, q, tb, p, c2, full_basis, full_spans)
+        code, value = fit_closed(u, q, tb, p, c2, full_basis, full_spans)
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:

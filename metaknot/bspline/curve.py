@@ -456,7 +456,7 @@ class ClosedCurve(Curve):
         if m > u.size:
             raise ValueError(f"{m} control points for {u.size} data points")
         coef = np.zeros((m, q.shape[1]))
-        _, code = _kernel.fit_closed(u, q, t, p, coef, np.empty((0, p + 1)),
+        code, _ = _kernel.fit_closed(u, q, t, p, coef, np.empty((0, p + 1)),
                                      np.empty(0, dtype=np.int64))
         if code != Infeasibility.FEASIBLE:
             raise ValueError("the least-squares system is singular: some knot spans have no "

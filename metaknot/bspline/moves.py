@@ -338,7 +338,7 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         coef = np.zeros((m, q.shape[1]))
         basis = np.empty((u.size, p + 1))
         spans = np.empty(u.size, dtype=np.int64)
-        sse, code = _kernel.fit_closed(u, q, t, p, coef, basis, spans)
+        code, sse = _kernel.fit_closed(u, q, t, p, coef, basis, spans)
         if code != _kernel.FEASIBLE:
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()
