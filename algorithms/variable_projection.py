@@ -28,6 +28,7 @@ instead of crossing its neighbour.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -181,12 +182,12 @@ class VariableProjection(Optimizer):
     each Jacobian are declared with ``count_fits``: one fit, and ``K + 1`` per Jacobian (one
     refined basis per knot, and the fit).
 
-    Starts: the problem's averaging knots, equally spaced knots, then, in turn, a perturbation
-    of the best point so far (its log spans plus normal noise, of standard deviation
-    ``perturbation`` times 1/2, 1, 2, 4 in turn) and knots drawn anywhere (spans uniform on the
-    simplex), until the budget is spent or ``restarts`` further starts have run. A start may
-    take at most :func:`start_evaluations` evaluations and half of those left; the solver's
-    scaling follows the Jacobian's columns (``x_scale="jac"``).
+    Starts: ``initial`` if given, the problem's averaging knots, equally spaced knots, then,
+    in turn, a perturbation of the best point so far (its log spans plus normal noise, of
+    standard deviation ``perturbation`` times 1/2, 1, 2, 4 in turn) and knots drawn anywhere
+    (spans uniform on the simplex), until the budget is spent or ``restarts`` further starts
+    have run. A start may take at most :func:`start_evaluations` evaluations and half of
+    those left; the solver's scaling follows the Jacobian's columns (``x_scale="jac"``).
 
     Parameters
     ----------
@@ -197,28 +198,42 @@ class VariableProjection(Optimizer):
         changes a span by a factor of about 1.6).
     tolerance
         ``least_squares``' ``ftol``, ``xtol`` and ``gtol`` (> 0).
+    initial
+        Knots to start from first, before the averaging knots (``K`` increasing values inside
+        the range), e.g. the best index set's: a search that starts there ends no worse.
     """
 
     encodings = ("continuous",)
     problem: FreeKnotSpace  # setup refuses any other
 
     def __init__(self, restarts: int | None = None, perturbation: float = 0.5,
-                 tolerance: float = 1e-10) -> None:
+                 tolerance: float = 1e-10, initial: Sequence[float] | None = None) -> None:
         self.restarts = None if restarts is None else check_param("restarts", restarts, low=0,
                                                                   integer=True)
         self.perturbation = check_param("perturbation", perturbation, low=0, low_open=True)
         self.tolerance = check_param("tolerance", tolerance, low=0, low_open=True)
+        self.initial = None if initial is None else np.array(initial, dtype=np.float64)
 
     def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         free_knots(problem, self.name)
         refuse_variable_count(problem, self.name)
+        if self.initial is not None:
+            lower, upper = problem.knot_bounds
+            if self.initial.shape != (problem.n_knots,):
+                raise ValueError(f"initial must hold the problem's {problem.n_knots} knots; got "
+                                 f"{self.initial.size}")
+            if not (np.all(np.diff(self.initial) > 0) and self.initial[0] > lower
+                    and self.initial[-1] < upper):
+                raise ValueError(f"initial knots must be increasing and inside ({lower:g}, "
+                                 f"{upper:g})")
         super().setup(problem, rng)
 
     def _starts(self) -> list[np.ndarray]:
         bounds = self.problem.knot_bounds
         k = self.problem.n_knots
         uniform = np.linspace(*bounds, k + 2)[1:-1]
-        return [log_spans_from_knots(np.sort(self.problem.start_knots(k)), bounds),
+        given = [] if self.initial is None else [log_spans_from_knots(self.initial, bounds)]
+        return [*given, log_spans_from_knots(np.sort(self.problem.start_knots(k)), bounds),
                 log_spans_from_knots(uniform, bounds)]
 
     def run(self, evaluator: Evaluator) -> None:

@@ -54,7 +54,7 @@ KINDS_WITH_BEST = ("fixed_k", "tolerance", "seed", "front")
 PORTFOLIO: dict[str, tuple[tuple[str, dict[str, Any]], ...]] = {
     "indices": (("ga", {}), ("local_search", {}), ("one_plus_one", {})),
     "mask": (("ga", {}), ("local_search", {}), ("one_plus_one", {})),
-    "free": (("nlopt", {"restarts": 20}),),
+    "free": (("nlopt", {"restarts": 20}), ("varpro", {})),
 }
 #: Index-set tasks with at most this many candidates are searched exhaustively.
 EXHAUSTIVE_LIMIT = 300_000
@@ -242,7 +242,8 @@ def search(task: Task, *, budget: int, seeds: Sequence[int] = (0,),
 
     Index-set tasks small enough are enumerated (and proven); the others run every method of
     :data:`PORTFOLIO` for the task's encoding with each seed. A ``free`` task also tries
-    ``start`` (the best index set of the same ``K``: its knots are free positions too).
+    ``start`` (the best index set of the same ``K``: its knots are free positions too), and
+    ``varpro`` started from it.
     """
     from metaknot import minimize
 
@@ -265,6 +266,12 @@ def search(task: Task, *, budget: int, seeds: Sequence[int] = (0,),
         if np.isfinite(value) and (best is None or value < best.value):
             best = _entry(task, problem, x, value, f"{start.method} via indices", start.budget,
                           start.seed, proven=False)
+        for seed in seeds:  # variable projection from the index set: ends no worse than it
+            result = minimize(problem, "varpro", budget=budget, seed=seed,
+                              optimizer_kwargs={"initial": [float(k) for k in x]})
+            if result.best_x is not None and (best is None or result.best_f < best.value):
+                best = _entry(task, problem, result.best_x, result.best_f,
+                              "varpro from indices", budget, seed)
     return best
 
 

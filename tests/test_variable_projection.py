@@ -206,6 +206,19 @@ def test_the_perturbation_and_tolerance_change_the_search():
     assert loose.n_evaluations < tight.n_evaluations
 
 
+def test_a_start_given_is_tried_first_and_checked():
+    problem = FreeKnots(get_curve("archimedean", n_points=60), n_knots=6, objective="rmse")
+    given = np.linspace(0.05, 0.6, 6) * problem.knot_bounds[1]
+    result = mk.minimize(problem, "varpro", budget=50, seed=0,
+                         optimizer_kwargs={"initial": list(given)})
+    assert result.trace.best_f[0] == pytest.approx(problem.evaluate(given[None, :])[0], rel=1e-12)
+    for bad, message in (([0.1, 0.2], "the problem's 6 knots"),
+                         (given[::-1], "increasing and inside")):
+        with pytest.raises(ValueError, match=message):
+            mk.minimize(problem, "varpro", budget=5, seed=0,
+                        optimizer_kwargs={"initial": list(bad)})
+
+
 def test_the_methods_own_fits_are_declared(monkeypatch):
     import metaknot.algorithms.variable_projection as module
 
