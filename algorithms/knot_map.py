@@ -119,6 +119,17 @@ class KnotMap:
         spans = gap + free * share / share.sum()
         return a + np.cumsum(spans)[:-1]
 
+    def pull_back(self, y: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+        """The gradient with respect to the unit-box point ``y`` of a function of the knots
+        whose gradient with respect to the knots :meth:`knots` gives is ``gradient`` (the
+        ``"sorted"`` map: knot ``i`` moves with the ``i``-th smallest coordinate)."""
+        if self.kind != "sorted":
+            raise ValueError("gradients are pulled back through the 'sorted' map only")
+        y = np.asarray(y, dtype=np.float64)
+        out = np.empty(y.size)
+        out[np.argsort(y, kind="stable")] = self._frame(y.size)[2] * np.asarray(gradient)
+        return out
+
     def unit(self, knots: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`knots` for sorted knots (clipped to the unit box)."""
         knots = np.asarray(knots, dtype=np.float64)

@@ -38,12 +38,23 @@ from ._adapters import FinitePenalty, check_choice
 from .knot_map import KnotMap
 
 LOCAL_ALGORITHMS = ("LN_BOBYQA", "LN_SBPLX", "LN_COBYLA", "LN_NELDERMEAD")
+#: Local algorithms with gradients: they minimise the fit's sum of squared errors, with its
+#: exact gradient (:func:`~metaknot.algorithms.variable_projection.residual_jacobian`).
+GRADIENT_ALGORITHMS = ("LD_LBFGS", "LD_MMA", "LD_SLSQP", "LD_TNEWTON_PRECOND_RESTART",
+                       "LD_VAR2")
 GLOBAL_ALGORITHMS = ("GN_CRS2_LM", "GN_ISRES", "G_MLSL_LDS")
-ALGORITHMS = LOCAL_ALGORITHMS + GLOBAL_ALGORITHMS
+ALGORITHMS = LOCAL_ALGORITHMS + GRADIENT_ALGORITHMS + GLOBAL_ALGORITHMS
+#: Objectives that, at a fixed number of knots, grow with the sum of squared errors: what the
+#: gradient algorithms minimise in their place.
+SSE_MONOTONE_OBJECTIVES = ("rmse", "paper", "bic")
 #: How nlopt runs end on these problems; the run goes on with the next start. RuntimeError is
-#: nlopt's generic failure. An exception raised by the objective (the problem, the budget) is
-#: never one of these: it is caught in the objective and raised again after nlopt returns.
-NLOPT_STOPS = (nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError)
+#: nlopt's generic failure (``nlopt.runtime_error`` from nlopt 2.11 on, which the gradient
+#: algorithms raise when a line search fails). An exception raised by the objective (the
+#: problem, the budget) is never one of these: it is caught in the objective and raised again
+#: after nlopt returns.
+NLOPT_STOPS: tuple[type[BaseException], ...] = (
+    nlopt.RoundoffLimited, nlopt.ForcedStop, RuntimeError,
+    *((nlopt.runtime_error,) if hasattr(nlopt, "runtime_error") else ()))  # nlopt >= 2.11
 
 
 def check_free_knots(name: str, problem: ProblemView, min_gap: float) -> None:
@@ -64,8 +75,9 @@ class NloptObjective:
     through nlopt (GN_CRS2_LM keeps calling after an exception): an exception of ``evaluate``
     force-stops nlopt, further calls are answered at once, and :meth:`optimize` raises it."""
 
-    def __init__(self, evaluate: Callable[[np.ndarray], float], penalty: FinitePenalty) -> None:
-        self.evaluate, self.penalty = evaluate, penalty
+    def __init__(self, evaluate: Callable[[np.ndarray], float], penalty: FinitePenalty,
+                 gradient: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        self.evaluate, self.penalty, self.gradient = evaluate, penalty, gradient
         self.cache: dict[bytes, float] = {}
         self.caught: list[BaseException] = []
         self.opt: nlopt.opt | None = None  # the run to stop
@@ -74,14 +86,18 @@ class NloptObjective:
         if self.caught:
             return self.penalty.value
         key = y.tobytes()
-        if key not in self.cache:
-            try:
+        try:
+            if key not in self.cache:
                 self.cache[key] = self.evaluate(y)
-            except Exception as exc:  # handed back by optimize after nlopt returns
-                self.caught.append(exc)
-                assert self.opt is not None  # set by optimize, which nlopt calls this from
-                self.opt.force_stop()
-                return self.penalty.value
+            if grad.size:  # asked for by the gradient algorithms only
+                value = self.cache[key]
+                grad[:] = self.gradient(y) if self.gradient is not None and np.isfinite(value) \
+                    else 0.0
+        except Exception as exc:  # handed back by optimize after nlopt returns
+            self.caught.append(exc)
+            assert self.opt is not None  # set by optimize, which nlopt calls this from
+            self.opt.force_stop()
+            return self.penalty.value
         return self.penalty.one(self.cache[key])
 
     def optimize(self, opt: nlopt.opt, y0: np.ndarray, first: bool = False) -> None:
@@ -106,7 +122,10 @@ class NloptKnots(Optimizer):
     Parameters
     ----------
     variant
-        One of :data:`ALGORITHMS`.
+        One of :data:`ALGORITHMS`. The gradient algorithms (:data:`GRADIENT_ALGORITHMS`)
+        minimise the fit's sum of squared errors with its exact gradient (every point they try
+        is still evaluated, and counted, by the problem's objective, which must be one of
+        :data:`SSE_MONOTONE_OBJECTIVES`); their own fits are declared (``external_fits``).
     local_variant
         Local optimiser of ``G_MLSL_LDS`` (one of :data:`LOCAL_ALGORITHMS`).
     restarts
@@ -158,16 +177,28 @@ class NloptKnots(Optimizer):
 
     def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         check_free_knots(self.name, problem, self.min_gap)
+        objective = getattr(problem, "objective", None)
+        if self.variant in GRADIENT_ALGORITHMS and \
+                getattr(objective, "name", None) not in SSE_MONOTONE_OBJECTIVES:
+            raise ValueError(f"nlopt's {self.variant} minimises the sum of squared errors, which "
+                             f"orders candidates as the objectives "
+                             f"{', '.join(SSE_MONOTONE_OBJECTIVES)} do; got objective "
+                             f"{getattr(objective, 'name', objective)!r}")
         super().setup(problem, rng)
         self.penalty = FinitePenalty()
         self._box: KnotMap | None = None
+
+    @property
+    def local(self) -> bool:
+        """True for the local algorithms (derivative-free or with gradients)."""
+        return self.variant in LOCAL_ALGORITHMS + GRADIENT_ALGORITHMS
 
     @property
     def map(self) -> str:
         """The box map in use (``box_map``, with ``"auto"`` resolved for the algorithm)."""
         if self.box_map != "auto":
             return self.box_map
-        return "sorted" if self.variant in LOCAL_ALGORITHMS else "spans"
+        return "sorted" if self.local else "spans"
 
     @property
     def box(self) -> KnotMap:
@@ -175,7 +206,7 @@ class NloptKnots(Optimizer):
         box = getattr(self, "_box", None)
         if box is None:
             data_gap = self.data_gap if self.data_gap is not None else (
-                0.0 if self.variant in LOCAL_ALGORITHMS else 0.5)
+                0.0 if self.local else 0.5)
             box = self._box = KnotMap.of(self.problem, kind=self.map, min_gap=self.min_gap,
                                          data_gap=data_gap, span_range=self.span_range)
         return box
@@ -238,9 +269,14 @@ class NloptKnots(Optimizer):
             f = float(evaluator(pad(self.knots(y))[None, :])[0])
             if f < best[0]:
                 best[0], best[1] = f, y.copy()
+            if self.variant in GRADIENT_ALGORITHMS and np.isfinite(f):
+                return self._sse_and_gradient(y, with_gradient=False)[0]
             return f
 
-        objective = NloptObjective(evaluate, self.penalty)
+        def gradient(y: np.ndarray) -> np.ndarray:
+            return self._sse_and_gradient(y, with_gradient=True)[1]
+
+        objective = NloptObjective(evaluate, self.penalty, gradient)
         first, idle, run = evaluator.n_evaluations, 0, 0
         while idle < 3 and (left := budget - (evaluator.n_evaluations - first)) > 0:
             x0 = start if run == 0 else np.clip(
@@ -252,6 +288,26 @@ class NloptKnots(Optimizer):
             idle = idle + 1 if evaluator.n_evaluations == before else 0
             run += 1
         return best[0], best[1]
+
+    def _sse_and_gradient(self, y: np.ndarray, with_gradient: bool
+                          ) -> tuple[float, np.ndarray]:
+        """The sum of squared errors at the unit-box point ``y`` and (``with_gradient``) its
+        gradient with respect to ``y``, by the method's own fit (declared: one fit, and
+        ``K + 1`` more for the Jacobian). ``+inf`` for a fit that is rank deficient."""
+        from .variable_projection import residual_jacobian
+
+        problem = self.problem
+        knots = self.knots(y)
+        self.count_fits(1 + (knots.size + 1 if with_gradient else 0))
+        try:
+            residual, jacobian, _ = residual_jacobian(
+                problem.params, problem.points, problem.degree, knots, problem.knot_bounds,
+                closed=bool(problem.closed), jacobian=with_gradient)
+        except np.linalg.LinAlgError:
+            return np.inf, np.zeros(y.size)
+        gradient = np.zeros(y.size) if jacobian is None else \
+            self.box.pull_back(y, 2.0 * (jacobian.T @ residual))
+        return float(residual @ residual), gradient
 
     def _penalty(self) -> float:
         """Finite stand-in for +inf: worse than every finite value seen so far."""

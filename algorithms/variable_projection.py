@@ -258,7 +258,7 @@ class VariableProjection(Optimizer):
                 return np.full(points.size, np.inf)
             if value < best[0]:
                 best[0], best[1] = value, z.copy()
-            problem.count_fits(1)
+            self.count_fits(1)
             try:
                 return residual_jacobian(u, points, degree, knots, bounds, closed=closed,
                                          jacobian=False)[0]
@@ -267,7 +267,7 @@ class VariableProjection(Optimizer):
 
         def jacobian(z: np.ndarray) -> np.ndarray:
             knots, chain = knots_from_log_spans(z, bounds)
-            problem.count_fits(knots.size + 1)
+            self.count_fits(knots.size + 1)
             derivative = residual_jacobian(u, points, degree, knots, bounds, closed=closed)[1]
             assert derivative is not None
             return derivative @ chain

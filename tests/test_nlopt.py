@@ -13,6 +13,7 @@ import metaknot as mk
 from metaknot.algorithms.nlopt_knots import (
     ALGORITHMS,
     GLOBAL_ALGORITHMS,
+    GRADIENT_ALGORITHMS,
     LOCAL_ALGORITHMS,
     NloptKnots,
 )
@@ -397,3 +398,40 @@ def test_nlopt_algorithms_by_name():
     assert optimizer.variant == "LN_SBPLX" and optimizer.name == "nlopt"
     with pytest.raises(ValueError, match="LN_NOPE"):
         mk.get_optimizer("nlopt:LN_NOPE")
+
+
+def test_the_gradient_algorithms_get_the_exact_gradient_of_the_squared_error():
+    problem = FreeKnots("archimedean", n_knots=5, objective="rmse")
+    optimizer = mk.get_optimizer("nlopt:LD_LBFGS")
+    optimizer.setup(problem, np.random.default_rng(0))
+    y = np.array([0.7, 0.1, 0.45, 0.2, 0.9])  # unsorted: the map sorts it
+    sse, gradient = optimizer._sse_and_gradient(y, with_gradient=True)
+    step = 1e-7
+    for i in range(y.size):
+        e = np.eye(y.size)[i] * step
+        central = (optimizer._sse_and_gradient(y + e, False)[0]
+                   - optimizer._sse_and_gradient(y - e, False)[0]) / (2 * step)
+        assert gradient[i] == pytest.approx(central, rel=1e-5, abs=1e-9)
+    knots = optimizer.knots(y)
+    reference = make_lsq_spline(problem.params, problem.points,
+                                np.r_[[problem.params[0]] * 4, knots, [problem.params[-1]] * 4], 3)
+    assert sse == pytest.approx(float(np.sum((problem.points - reference(problem.params))**2)),
+                                rel=1e-10)
+
+
+@pytest.mark.parametrize("variant", GRADIENT_ALGORITHMS)
+def test_the_gradient_algorithms_recover_a_kink_that_bobyqa_misses(variant):
+    x = np.linspace(0.0, 1.0, 150)
+    data = PointSet(np.abs(x - KINK)[:, None] + 0.3 * x[:, None] ** 3, "kinks", params=x)
+    problem = FreeKnots(data, n_knots=4, objective="rmse")
+    result = mk.minimize(problem, f"nlopt:{variant}", budget=400, seed=0)
+    start = problem.evaluate(np.sort(problem.start_knots(4))[None, :])[0]
+    assert result.best_f < 0.5 * start
+    assert result.external_fits > result.n_evaluations  # their own fits are declared
+
+
+def test_the_gradient_algorithms_refuse_an_objective_they_do_not_minimise():
+    problem = FreeKnots("archimedean", n_knots=5, objective="error_bounded")
+    with pytest.raises(ValueError, match=r"LD_LBFGS minimises the sum of squared errors.*"
+                                         r"got objective 'error_bounded'"):
+        mk.minimize(problem, "nlopt:LD_LBFGS", budget=10, seed=0)
