@@ -215,12 +215,12 @@ class VariableProjection(Optimizer):
         self.initial = None if initial is None else np.array(initial, dtype=np.float64)
 
     def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
-        free_knots(problem, self.name)
+        space = free_knots(problem, self.name)
         refuse_variable_count(problem, self.name)
         if self.initial is not None:
-            lower, upper = problem.knot_bounds
-            if self.initial.shape != (problem.n_knots,):
-                raise ValueError(f"initial must hold the problem's {problem.n_knots} knots; got "
+            lower, upper = space.knot_bounds
+            if self.initial.shape != (space.n_knots,):
+                raise ValueError(f"initial must hold the problem's {space.n_knots} knots; got "
                                  f"{self.initial.size}")
             if not (np.all(np.diff(self.initial) > 0) and self.initial[0] > lower
                     and self.initial[-1] < upper):
