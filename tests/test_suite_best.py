@@ -244,3 +244,12 @@ def test_the_file_round_trips_and_refuses_other_formats(tmp_path) -> None:
     with pytest.raises(ValueError, match="format 99"):
         load_best_known(path)
     assert load_best_known(tmp_path / "missing.json") == {}
+
+
+def test_no_free_knot_value_is_behind_the_index_set_of_the_same_count() -> None:
+    """Every index set is a free-knot vector too: a free value above the index set's at the
+    same K would say the free-knot search is not sound."""
+    behind = [(instance, task) for (instance, task), entry in ENTRIES.items()
+              if task.endswith(".free") and (instance, task[:-5] + ".indices") in ENTRIES
+              and entry.value > ENTRIES[(instance, task[:-5] + ".indices")].value * (1 + 1e-12)]
+    assert behind == []
