@@ -220,9 +220,9 @@ def task(cfg: Any) -> dict[str, Any] | list[dict[str, Any]]:
     seeds = cfg.get("seed")
     if OmegaConf.is_list(seeds) or isinstance(seeds, list):
         plain = plain_config(cfg)
-        return [execute(run_spec({**plain, "seed": seed}), multirun=multirun)
+        return [execute(run_spec({**plain, "seed": seed}, check_build=False), multirun=multirun)
                 for seed in seeds]
-    spec = run_spec(cfg)
+    spec = run_spec(cfg, check_build=False)  # execute builds the problem and the optimizer
     try:
         outcome = execute(spec, multirun=multirun)
     except Interrupted as stop:

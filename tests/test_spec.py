@@ -916,3 +916,20 @@ def test_seed_paper_study_plans_without_errors_skips_or_duplicates(tmp_path):
     assert study_dir == tmp_path / "seed_paper"
     assert the_plan.n_jobs == len(the_plan.to_run) == 2 * 3 * 2 * 8
     assert not the_plan.incompatible and not the_plan.duplicates
+
+
+@pytest.mark.parametrize("seeds", [0, [0, 1]])
+def test_a_run_builds_its_problem_once(tmp_path, monkeypatch, seeds):
+    """The task validates without building; the run builds the problem and optimizer once."""
+    from metaknot.experiments import app, spec
+
+    built = []
+    build = spec._build_problem
+    monkeypatch.setattr(spec, "_build_problem",
+                        lambda *args: built.append(1) or build(*args))
+    cfg = OmegaConf.to_container(compose_cfg("budget=20", "problem.n_points=40",
+                                             results_dir=str(tmp_path)))
+    cfg["seed"] = seeds
+    app.task(OmegaConf.create(cfg))
+    assert len(built) == (len(seeds) if isinstance(seeds, list) else 1)
+    assert len(Store(tmp_path / cfg["study"]).completed()) == len(built)
