@@ -102,7 +102,7 @@ def periodic(candidates: int, repeats: int, open_per_candidate: float) -> None:
         sse = np.empty(candidates)
         out = (sse, np.empty(0), np.empty(candidates, dtype=np.int64),
                np.empty(candidates, dtype=np.int8))
-        _kernel.evaluate_batch(u, q, 3, True, knots, offsets, *out, 1)
+        _kernel.evaluate_batch(u, q, 3, True, 1, knots, offsets, *out, 1)
         return sse
 
     threads = numba.get_num_threads()

@@ -512,7 +512,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
                                                         encoding.get("density", 0.5),
                                                         low=0.0, high=1.0)}
     else:
-        known = {"kind", "n_knots"} | ({"variable_count"} if kind == "free" else set())
+        known = {"kind", "n_knots"} | ({"variable_count", "merge_spacing"} if kind == "free"
+                                       else set())
         _unknown("encoding", encoding, known)
         n_knots = encoding.get("n_knots", 20)
         if n_knots == "max":
@@ -533,6 +534,10 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         if kind == "free":
             encoding_out["variable_count"] = _bool("encoding.variable_count",
                                                    encoding.get("variable_count", False))
+            merge = _float("encoding.merge_spacing", encoding.get("merge_spacing"), low=0.0,
+                           optional=True)
+            if merge is not None:  # only when set, so the run ids of other runs stay
+                encoding_out["merge_spacing"] = merge
 
     objective = _section(cfg, "objective")
     from metaknot.problems import OBJECTIVES
@@ -684,7 +689,7 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
         if kind == "indices":
             return KnotIndices(data, n_knots=n_knots, **common)
         return FreeKnots(data, n_knots=n_knots, variable_count=encoding["variable_count"],
-                         **common)
+                         merge_spacing=encoding.get("merge_spacing"), **common)
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"encoding ({kind}): {exc}") from None
 

@@ -28,7 +28,7 @@ from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
 from metaknot.task import ProblemView
-from metaknot.validate import check_flag, is_integer
+from metaknot.validate import check_flag, is_integer, is_real
 
 from .curves import PointSet, get_curve
 from .objectives import DataInfo, Objective, _metrics_kernel, get_objective
@@ -90,6 +90,9 @@ class FreeKnotSpace(KnotSpace, Protocol):
 
     @property
     def variable_count(self) -> bool: ...
+
+    @property
+    def merge_spacing(self) -> float | None: ...
 
     def pad(self, positions: ArrayLike) -> np.ndarray: ...
 
@@ -158,6 +161,9 @@ class KnotProblem(Problem):
         "data", "points", "params", "degree", "closed", "parameterization", "objective",
         "info", "knot_bounds", "last_candidate_point", "start_knots"}
     metric_names = ("n_control_points", "sse", "rmse", "euclidean_distance", "max_deviation")
+    #: How often an interior knot of a candidate may repeat (1: distinct knots; a problem
+    #: that makes multiple knots sets it up to the degree).
+    max_multiplicity = 1
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *, degree: int = 3,
                  parameterization: str = "centripetal", objective: str | Objective = "paper",
@@ -233,7 +239,8 @@ class KnotProblem(Problem):
                                  f"got {near.shape}")
             near = near[0]
         moves = self._move_evaluator(near) if self.delta_evaluation \
-            and type(self).evaluate is KnotProblem.evaluate else None
+            and self.max_multiplicity == 1 and type(self).evaluate is KnotProblem.evaluate \
+            else None  # the move evaluators take distinct knots
         if moves is None:
             return (*self.evaluate_with_metrics(X), 0)
         fit, path = self._evaluate_moves(moves, X, near)  # X checked by the evaluator
@@ -293,7 +300,8 @@ class KnotProblem(Problem):
         value = self.evaluate_details(row[None, :])[0][0]
         value = float(value) if np.ndim(value) == 0 else value
         return KnotSolution(x=row, objective_value=value,
-                            fit=self.curve.fit(self._interior_knots(row)))
+                            fit=self.curve.fit(self._interior_knots(row),
+                                               max_multiplicity=self.max_multiplicity))
 
     def describe(self) -> dict[str, Any]:
         """Problem name, encoding and every setting: the data (name, fingerprint, size, noise),
@@ -413,25 +421,51 @@ class FreeKnots(KnotProblem):
     With ``variable_count=True``, ``n_knots`` is the largest number of knots and a NaN entry
     means "no knot": a search over the number of knots (as the objectives ``paper``, ``bic`` and
     ``error_bounded`` need) pads its candidates with NaN.
+
+    With ``merge_spacing`` set (a spacing >= 0 in parameter units), knots closer than that to
+    the first knot of their group are merged into one knot of higher multiplicity, at the
+    group's mean, up to the degree (a knot of multiplicity m leaves the spline C^(p - m)
+    there: a corner at m = p, a double knot of Kang et al.'s spline at m = 2); a group of more
+    than ``degree`` knots is infeasible. The candidate keeps its ``n_knots`` entries and its
+    control points count each copy. ``0`` merges only equal knots; ``None`` (default):
+    coincident knots are infeasible.
     """
 
-    public_attributes = KnotProblem.public_attributes | {"n_knots", "variable_count", "pad"}
+    public_attributes = KnotProblem.public_attributes | {"n_knots", "variable_count", "pad",
+                                                         "merge_spacing"}
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
-                 n_knots: int = 20, variable_count: bool = False, **kwargs: Any) -> None:
+                 n_knots: int = 20, variable_count: bool = False,
+                 merge_spacing: float | None = None, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
         self.n_knots = _check_n_knots(n_knots, self.curve)
         self.variable_count = check_flag("variable_count", variable_count)
+        if merge_spacing is not None and not (is_real(merge_spacing)
+                                              and 0 <= merge_spacing < np.inf):
+            raise ValueError(f"merge_spacing must be a number >= 0 or None; got "
+                             f"{merge_spacing!r}")
+        self.merge_spacing = None if merge_spacing is None else float(merge_spacing)
+        if self.merge_spacing is not None:
+            self.max_multiplicity = self.degree
         self.encoding = Encoding.continuous(self.n_knots, *self.curve.knot_bounds,
                                             distinct_sorted=True)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
         # NaN: no knot with variable_count, else out of range
-        return self.curve.evaluate_positions(X, max_deviation=self.objective.needs_max_deviation,
-                                             nan_is_absent=self.variable_count)
+        return self.curve.evaluate_positions(self._merged(X),
+                                             max_deviation=self.objective.needs_max_deviation,
+                                             nan_is_absent=self.variable_count,
+                                             max_multiplicity=self.max_multiplicity)
+
+    def _merged(self, X: np.ndarray) -> np.ndarray:
+        """Candidates as they are fitted: with ``merge_spacing``, sorted and merged."""
+        if self.merge_spacing is None:
+            return X
+        return merge_close_knots(np.sort(np.asarray(X, dtype=np.float64), axis=-1),
+                                 self.merge_spacing)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
-        x = np.sort(x)
+        x = np.sort(self._merged(x))
         return x[~np.isnan(x)] if self.variable_count else x
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -448,5 +482,29 @@ class FreeKnots(KnotProblem):
         return np.concatenate((positions, np.full(self.n_knots - positions.size, np.nan)))
 
     def describe(self) -> dict[str, Any]:
+        merge = {} if self.merge_spacing is None else {"merge_spacing": self.merge_spacing}
         return {**super().describe(), "n_knots": self.n_knots,
-                "variable_count": self.variable_count}
+                "variable_count": self.variable_count, **merge}
+
+
+def merge_close_knots(rows: np.ndarray, spacing: float) -> np.ndarray:
+    """Sorted knot rows (NaN last) with each group of knots closer than ``spacing`` to the
+    group's first knot replaced by copies of the group's mean: one knot of multiplicity the
+    group's size (:class:`FreeKnots` with ``merge_spacing``). A 1-D row gives a 1-D row."""
+    rows = np.asarray(rows, dtype=np.float64)
+    batch = np.atleast_2d(rows)
+    n_rows, width = batch.shape
+    if width == 0:
+        return rows.copy()
+    group = np.zeros((n_rows, width), dtype=np.int64)  # group number of each knot in its row
+    first = batch[:, 0].copy()  # the first knot of the current group
+    for k in range(1, width):
+        starts = ~(batch[:, k] - first < spacing)  # NaN starts a group of its own
+        first = np.where(starts, batch[:, k], first)
+        group[:, k] = group[:, k - 1] + starts
+    flat = (np.arange(n_rows)[:, None] * width + group).ravel()
+    sums = np.bincount(flat, weights=batch.ravel(), minlength=n_rows * width)
+    counts = np.bincount(flat, minlength=n_rows * width)
+    with np.errstate(invalid="ignore"):
+        merged = (sums / np.maximum(counts, 1))[flat].reshape(batch.shape)
+    return merged.reshape(rows.shape)

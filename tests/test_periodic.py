@@ -243,7 +243,7 @@ def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> Non
         bad_range = ~((safe > 0.0) & (safe < 1.0))
         safe[bad_range] = 0.5
         sse, max_dev, n_ctrl, reason = out = _outputs(len(rows), max_deviation)
-        _kernel.evaluate_batch(u, points, 3, True, safe, offsets, *out, 4)
+        _kernel.evaluate_batch(u, points, 3, True, 1, safe, offsets, *out, 4)
         row_of = np.repeat(np.arange(len(rows)), counts)
         same_row = row_of[1:] == row_of[:-1]
         coincident = np.zeros(len(rows), dtype=bool)
@@ -434,7 +434,7 @@ def test_every_degree_and_dimension_fits_as_dense_least_squares() -> None:
                 interior = np.sort(chosen)
                 outputs = (np.empty(1), np.empty(1), np.empty(1, dtype=np.int64),
                            np.empty(1, dtype=np.int8))
-                evaluate_batch(u, q, p, True, interior, np.array([0, m - 1]), *outputs, 1)
+                evaluate_batch(u, q, p, True, 1, interior, np.array([0, m - 1]), *outputs, 1)
                 sse, max_dev, n_ctrl, reason = (value[0] for value in outputs)
                 reference = dense_reference(u, q, interior, p)
                 assert n_ctrl == m

@@ -204,6 +204,9 @@ BAD_PLAIN = [  # a plain mapping of the same shape
     ({"encoding": {**INDICES, "n_knots": "fitpack:0"}}, "encoding.n_knots"),
     ({"encoding": {**INDICES, "n_knots": "fitpack:inf"}}, "encoding.n_knots"),
     ({"encoding": {"kind": "free", "variable_count": 3}}, "encoding.variable_count"),
+    ({"encoding": {"kind": "free", "merge_spacing": -1.0}}, "encoding.merge_spacing"),
+    ({"encoding": {"kind": "free", "merge_spacing": "close"}}, "encoding.merge_spacing"),
+    ({"encoding": {**INDICES, "merge_spacing": 0.1}}, "encoding.merge_spacing"),
     ({"encoding": {"kind": "free", "density": 0.3}}, "encoding.density"),
     ({"objective": DROP}, "objective"),
     ({"objective__name": "foo"}, "objective.name"),
@@ -933,3 +936,14 @@ def test_a_run_builds_its_problem_once(tmp_path, monkeypatch, seeds):
     app.task(OmegaConf.create(cfg))
     assert len(built) == (len(seeds) if isinstance(seeds, list) else 1)
     assert len(Store(tmp_path / cfg["study"]).completed()) == len(built)
+
+
+def test_free_knots_merge_close_knots_when_the_encoding_says_so():
+    plain = spec_of("encoding=free", "encoding.n_knots=11")
+    merging = spec_of("encoding=free", "encoding.n_knots=11", "encoding.merge_spacing=1e-6")
+    assert "merge_spacing" not in plain.config["encoding"]  # the run ids of other runs stay
+    assert merging.config["encoding"]["merge_spacing"] == 1e-6
+    assert merging.run_id != plain.run_id
+    problem = merging.build_problem()
+    assert problem.merge_spacing == 1e-6 and problem.max_multiplicity == 3
+    assert plain.build_problem().merge_spacing is None

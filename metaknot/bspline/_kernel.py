@@ -10,8 +10,15 @@ waking the thread pool.
 
 Reason codes (see :class:`metaknot.bspline.Infeasibility`):
 0 feasible, 1 more control points than data points, 2 knot outside the open parameter range or
-not finite, 3 coincident interior knots, 4 Schoenberg-Whitney conditions violated, 5 numerically
+not finite, 3 coincident interior knots (a knot repeated more often than the candidate's
+``max_mult`` allows, or unsorted), 4 Schoenberg-Whitney conditions violated, 5 numerically
 singular.
+
+*Multiple knots.* ``max_mult`` (1 to the degree ``p``) is the multiplicity an interior knot may
+have: 1 for the encodings whose knots are distinct, up to ``p`` where a problem allows multiple
+knots (continuity C^(p - m) at a knot of multiplicity m). The basis recurrence takes a zero-length
+span's reciprocal as 0 (de Boor's convention), the span search skips such spans, and the
+Schoenberg-Whitney matching counts the multiplicity of a knot a data point sits on.
 """
 
 from __future__ import annotations
@@ -41,11 +48,11 @@ PIVOT_RATIO = 1e-11
 
 
 @njit(cache=True)
-def _build_knots(u, interior, p, t):
+def _build_knots(u, interior, p, t, max_mult):
     """Fill the clamped knot vector ``t``; return a reason code for malformed interior knots.
 
     One pass without branches on the knots (out of range, NaN included, takes precedence over
-    unsorted or coincident).
+    unsorted or coincident); a knot may repeat up to ``max_mult`` times.
     """
     k = interior.size
     u0 = u[0]
@@ -56,11 +63,13 @@ def _build_knots(u, interior, p, t):
     outside = False
     unsorted = False
     prev = u0
+    run = 1  # copies of the knot so far
     for i in range(k):
         x = interior[i]
         t[p + 1 + i] = x
         outside |= not ((x > u0) & (x < um))  # also catches NaN
-        unsorted |= x <= prev
+        run = run + 1 if x == prev else 1
+        unsorted |= (x < prev) | (run > max_mult)
         prev = x
     if outside:
         return KNOT_OUT_OF_RANGE
@@ -212,36 +221,37 @@ def _max_deviation(q, p, coef, basis, spans):
 
 
 @njit(cache=True)
-def _fit_into(u, q, interior, p, t, coef, basis, spans):
+def _fit_into(u, q, interior, p, t, coef, basis, spans, max_mult):
     """Fit one candidate into preallocated ``t`` and ``coef``; return (reason code, SSE).
     Allocates the workspaces of :func:`_fit_ws`."""
     n = interior.size + p + 1
     iv = np.empty((n + p + 1) * p)
     st = np.empty(n * (1 + p + q.shape[1]))
-    return _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st)
+    return _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st, max_mult)
 
 
 @njit(cache=True)
-def _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st):
+def _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st, max_mult):
     """:func:`_fit_into` with the workspaces of :func:`_solve_into` given."""
     n = interior.size + p + 1
     if n > u.size:
         return TOO_MANY_CONTROL_POINTS, np.inf
-    reason = _build_knots(u, interior, p, t)
+    reason = _build_knots(u, interior, p, t, max_mult)
     if reason != FEASIBLE:
         return reason, np.inf
     return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st)
 
 
 @njit(cache=True)
-def fit_one(u, q, interior, p):
-    """Fit one candidate: return (reason, knot vector, control points)."""
+def fit_one(u, q, interior, p, max_mult):
+    """Fit one candidate (a knot repeated at most ``max_mult`` times): return (reason, knot
+    vector, control points)."""
     n = interior.size + p + 1
     t = np.empty(n + p + 1)
     coef = np.zeros((n, q.shape[1]))
     no_basis = np.empty((0, p + 1))
     no_spans = np.empty(0, dtype=np.int64)
-    reason, _ = _fit_into(u, q, interior, p, t, coef, no_basis, no_spans)
+    reason, _ = _fit_into(u, q, interior, p, t, coef, no_basis, no_spans, max_mult)
     return reason, t, coef
 
 
@@ -268,7 +278,7 @@ def _workspaces(n_points, d, p, n_max, want_max_dev):
 
 
 @njit(cache=True)
-def _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
+def _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult):
     """Fit candidate ``b`` (its sorted interior knots) with the workspaces ``ws`` of
     :func:`_workspaces`; its results go to entry ``b`` of the output arrays."""
     t_ws, coef_ws, basis, spans, iv_ws, st_ws = ws
@@ -279,17 +289,19 @@ def _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
     code = TOO_MANY_CONTROL_POINTS
     sse[b] = np.inf
     if n <= u.size:
-        code, sse[b] = _fit_ws(u, q, interior, p, t, coef, basis, spans, iv_ws, st_ws)
+        code, sse[b] = _fit_ws(u, q, interior, p, t, coef, basis, spans, iv_ws, st_ws,
+                               max_mult)
     reason[b] = code
     if max_dev.size > 0:
         max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE else np.inf
 
 
 @njit(cache=True, parallel=True)
-def evaluate_batch(u, q, p, closed, knots, offsets, sse, max_dev, n_ctrl, reason, n_chunks):
+def evaluate_batch(u, q, p, closed, max_mult, knots, offsets, sse, max_dev, n_ctrl, reason,
+                   n_chunks):
     """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``
-    (sorted; of a closed curve, distinct and inside (0, 1)), in ``n_chunks`` parts for the
-    threads.
+    (sorted; of a closed curve, inside (0, 1)), each knot repeated at most ``max_mult``
+    times, in ``n_chunks`` parts for the threads.
 
     ``max_dev`` may be empty: the maximum deviation (a second pass over the data) is then
     skipped.
@@ -304,20 +316,22 @@ def evaluate_batch(u, q, p, closed, knots, offsets, sse, max_dev, n_ctrl, reason
             ws_closed = _closed_score_workspaces(u.size, q.shape[1], p, n_max, want_max_dev)
             for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
                 _score_closed(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws_closed, sse,
-                              max_dev, n_ctrl, reason)
+                              max_dev, n_ctrl, reason, max_mult)
         else:
             ws = _workspaces(u.size, q.shape[1], p, n_max, want_max_dev)
             for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
                 _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev,
-                       n_ctrl, reason)
+                       n_ctrl, reason, max_mult)
 
 
 @njit(cache=True)
-def evaluate_batch_serial(u, q, p, knots, offsets, sse, max_dev, n_ctrl, reason):
-    """:func:`evaluate_batch` on the calling thread (small batches: no thread pool to wake)."""
+def evaluate_batch_serial(u, q, p, max_mult, knots, offsets, sse, max_dev, n_ctrl, reason):
+    """:func:`evaluate_batch` of an open curve on the calling thread (small batches: no thread
+    pool to wake)."""
     ws = _workspaces(u.size, q.shape[1], p, _largest_fit(offsets, u.size, p), max_dev.size > 0)
     for b in range(offsets.size - 1):
-        _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev, n_ctrl, reason)
+        _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev, n_ctrl, reason,
+               max_mult)
 
 
 @njit(cache=True)
@@ -341,11 +355,12 @@ def evaluate_masks_serial(u, q, p, masks, sse, max_dev, n_ctrl, reason):
         for i in range(end):
             interior[k] = u[i + 1]
             k += masks[b, i] != 0
-        _score(u, q, p, interior[:k], b, ws, sse, max_dev, n_ctrl, reason)
+        _score(u, q, p, interior[:k], b, ws, sse, max_dev, n_ctrl, reason, 1)
 
 
 @njit(cache=True)
-def evaluate_positions_serial(u, q, p, positions, nan_is_absent, sse, max_dev, n_ctrl, reason):
+def evaluate_positions_serial(u, q, p, max_mult, positions, nan_is_absent, sse, max_dev, n_ctrl,
+                              reason):
     """:func:`evaluate_batch` of a ``(B, K)`` batch of knot positions on the calling thread,
     each row sorted in one workspace (NaN last, as numpy sorts; dropped if ``nan_is_absent``,
     else reported by the knot checks)."""
@@ -359,7 +374,7 @@ def evaluate_positions_serial(u, q, p, positions, nan_is_absent, sse, max_dev, n
         if nan_is_absent:
             while count > 0 and np.isnan(interior[count - 1]):
                 count -= 1
-        _score(u, q, p, interior[:count], b, ws, sse, max_dev, n_ctrl, reason)
+        _score(u, q, p, interior[:count], b, ws, sse, max_dev, n_ctrl, reason, max_mult)
 
 
 @njit(cache=True, parallel=True)
@@ -586,12 +601,13 @@ def fit_closed(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.nda
 
 
 @njit(cache=True)
-def rows_to_knots(pos: np.ndarray, nan_is_absent: bool) -> tuple:
+def rows_to_knots(pos: np.ndarray, nan_is_absent: bool, max_mult: int) -> tuple:
     """Rows of knot positions, each sorted (NaN last), flattened for :func:`evaluate_batch`:
     the knots, the row offsets and each row's reason to be refused (0 for none). NaN means no
     knot when ``nan_is_absent`` and is out of range otherwise; a knot outside (0, 1) is passed on
     as 0.5 (its row still fits) and refuses its row as KNOT_OUT_OF_RANGE, which takes precedence
-    over COINCIDENT_KNOTS (a knot not above the one before it)."""
+    over COINCIDENT_KNOTS (a knot below the one before it, or repeated more than ``max_mult``
+    times)."""
     n_rows, width = pos.shape
     offsets = np.zeros(n_rows + 1, dtype=np.int64)
     for b in range(n_rows):
@@ -606,11 +622,13 @@ def rows_to_knots(pos: np.ndarray, nan_is_absent: bool) -> tuple:
         at = offsets[b]
         out_of_range = coincident = False
         previous = 0.0
+        run = 1  # copies of the knot so far
         for k in range(width):
             x = pos[b, k]
             if nan_is_absent and np.isnan(x):
                 continue
-            if at > offsets[b] and x - previous <= 0.0:  # False for NaN, as numpy's
+            run = run + 1 if at > offsets[b] and x == previous else 1
+            if at > offsets[b] and (x < previous or run > max_mult):  # False for NaN
                 coincident = True
             previous = x
             inside = 0.0 < x < 1.0
@@ -635,9 +653,10 @@ def _closed_score_workspaces(n_points, d, p, n_max, want_max_dev):
 
 
 @njit(cache=True)
-def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
+def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult):
     """:func:`_score` of a closed curve: candidate ``b``'s breakpoints are 0 and its
-    ``interior`` knots, its ``m = interior.size + 1`` control points periodic."""
+    ``interior`` knots (each repeated at most ``max_mult`` times), its ``m = interior.size + 1``
+    control points periodic."""
     ws_fit, basis, spans, breaks, t_ws, coef_ws = ws
     m = interior.size + 1
     n_ctrl[b] = m
@@ -648,8 +667,11 @@ def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason):
         return
     breaks[0] = 0.0
     breaks[1:m] = interior
+    run = 1  # copies of the breakpoint so far
     for k in range(1, m):  # a refused row (out of range, coincident) is not fitted
-        if not breaks[k] > breaks[k - 1]:
+        run = run + 1 if breaks[k] == breaks[k - 1] else 1
+        if not (breaks[k] > breaks[k - 1] or (breaks[k] == breaks[k - 1] and k > 1
+                                              and run <= max_mult)):
             sse[b], reason[b] = np.inf, COINCIDENT_KNOTS
             if max_dev.size > 0:
                 max_dev[b] = np.inf

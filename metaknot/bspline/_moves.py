@@ -444,7 +444,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
                 continue
         # the full fit decides
         path_out[b] = PATH_FULL
-        code, value = _fit_into(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws)
+        code, value = _fit_into(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws, 1)
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:

@@ -50,6 +50,7 @@ from .knots import (
     averaging_knots,
     check_indices,
     check_masks,
+    check_multiplicity,
     check_offsets,
     clamped_knot_vector,
     padded_rows,
@@ -205,14 +206,29 @@ class Curve(ABC):
         """Fit a ``(B, K)`` batch of data indices (1..``max_index``): knots at those
         parameters; a repeated index makes its candidate infeasible."""
 
-    @abstractmethod
     def evaluate_positions(self, positions: np.ndarray, *, max_deviation: bool = True,
-                           nan_is_absent: bool = False) -> BatchFit:
-        """Fit a ``(B, K)`` batch of knot positions (NaN: no knot, with ``nan_is_absent``)."""
+                           nan_is_absent: bool = False, max_multiplicity: int = 1) -> BatchFit:
+        """Fit a ``(B, K)`` batch of knot positions (NaN: no knot, with ``nan_is_absent``); a
+        row repeating a knot more than ``max_multiplicity`` times (1 to the degree) is
+        infeasible (:attr:`~metaknot.bspline.Infeasibility.COINCIDENT_KNOTS`)."""
+        return self._evaluate_positions(positions, max_deviation, nan_is_absent,
+                                        check_multiplicity(max_multiplicity, self.degree))
 
     @abstractmethod
-    def fit(self, interior_knots: ArrayLike) -> CurveFit:
-        """The least-squares fit with these interior knots; ``ValueError`` naming why not."""
+    def _evaluate_positions(self, positions: np.ndarray, max_deviation: bool,
+                            nan_is_absent: bool, max_multiplicity: int) -> BatchFit:
+        """:meth:`evaluate_positions` with its multiplicity checked."""
+
+    def fit(self, interior_knots: ArrayLike, *, max_multiplicity: int = 1) -> CurveFit:
+        """The least-squares fit with these interior knots, each repeated at most
+        ``max_multiplicity`` times (1 to the degree: a knot of multiplicity m leaves the
+        spline C^(degree - m) there); ``ValueError`` naming why not."""
+        return self._fit(_interior(interior_knots),
+                         check_multiplicity(max_multiplicity, self.degree))
+
+    @abstractmethod
+    def _fit(self, interior: np.ndarray, max_multiplicity: int) -> CurveFit:
+        """:meth:`fit` of 1-D interior knots and a multiplicity checked."""
 
     def move_evaluator(self, interior_knots: np.ndarray,
                        previous: MoveEvaluator | None = None) -> MoveEvaluator | None:
@@ -329,12 +345,12 @@ class OpenCurve(Curve):
         return _evaluate(self.params, self.points, *stack_indices(self.params, indices),
                          self.degree, max_deviation)
 
-    def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
+    def _evaluate_positions(self, positions, max_deviation, nan_is_absent, max_multiplicity):
         return _evaluate_positions(self.params, self.points, positions, self.degree,
-                                   max_deviation, nan_is_absent)
+                                   max_deviation, nan_is_absent, max_multiplicity)
 
-    def fit(self, interior_knots) -> SplineFit:
-        return _fit_clamped(self.params, self.points, interior_knots, self.degree)
+    def _fit(self, interior, max_multiplicity) -> SplineFit:
+        return _fit_clamped(self.params, self.points, interior, self.degree, max_multiplicity)
 
     def spread_knots(self, count):
         """The averaging knots (NURBS Book eqs. 9.68-9.69)."""
@@ -421,14 +437,15 @@ class ClosedCurve(Curve):
         rows = self.params[check_indices(self.params, indices, closed=True)]
         return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
 
-    def evaluate_positions(self, positions, *, max_deviation=True, nan_is_absent=False):
+    def _evaluate_positions(self, positions, max_deviation, nan_is_absent, max_multiplicity):
         """Positions are sorted per row; knots outside (0, 1), coincident knots and
         rank-deficient systems come back infeasible with their reason, never raised."""
         pos = as_positions(positions)
         if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
             raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
-        knots, offsets, refusal = _kernel.rows_to_knots(np.sort(pos, axis=1), nan_is_absent)
-        batch = self._fit_sorted(knots, offsets, max_deviation)
+        knots, offsets, refusal = _kernel.rows_to_knots(np.sort(pos, axis=1), nan_is_absent,
+                                                        max_multiplicity)
+        batch = self._fit_sorted(knots, offsets, max_deviation, max_multiplicity)
         refused = refusal != 0  # the reasons the fit does not check itself
         if refused.any():
             batch.reason[refused] = refusal[refused]
@@ -437,20 +454,20 @@ class ClosedCurve(Curve):
                 batch.max_deviation[refused] = np.inf
         return batch
 
-    def _fit_sorted(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool
-                    ) -> BatchFit:
+    def _fit_sorted(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool,
+                    max_multiplicity: int = 1) -> BatchFit:
         """The compiled fits of a flattened batch whose knots lie inside (0, 1), each row
-        sorted (nothing is checked; a row of coincident knots fits as singular)."""
+        sorted (a knot repeated more than ``max_multiplicity`` times is refused)."""
         sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
-        _kernel.evaluate_batch(self.params, self.points, self.degree, True, knots, offsets,
-                               *out, 8 * numba.get_num_threads())
+        _kernel.evaluate_batch(self.params, self.points, self.degree, True, max_multiplicity,
+                               knots, offsets, *out, 8 * numba.get_num_threads())
         return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
-    def fit(self, interior_knots) -> PeriodicFit:
+    def _fit(self, interior, max_multiplicity) -> PeriodicFit:
         """The compiled kernel's fit: O(N p^2) time and O(m p) memory, for any number of
         points."""
         p, u, q = self.degree, self.params, self.points
-        t = _periodic_knots(_interior(interior_knots), p)
+        t = _periodic_knots(interior, p, max_multiplicity)
         m = t.size - 2 * p - 1
         audit.add_fits(1)
         if m > u.size:

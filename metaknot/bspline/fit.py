@@ -16,7 +16,7 @@ from .. import audit
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from ._kernel import masks_to_knots
-from .knots import as_positions, check_masks, stack_positions
+from .knots import as_positions, check_masks, check_multiplicity, stack_positions
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
@@ -51,7 +51,10 @@ _MESSAGES = {
     Infeasibility.KNOT_OUT_OF_RANGE: (
         "an interior knot is not finite or lies outside the open parameter range"
     ),
-    Infeasibility.COINCIDENT_KNOTS: "coincident (or unsorted) interior knots",
+    Infeasibility.COINCIDENT_KNOTS: (
+        "coincident (or unsorted) interior knots: a knot repeated more often than its "
+        "multiplicity may be"
+    ),
     Infeasibility.SCHOENBERG_WHITNEY: (
         "Schoenberg-Whitney conditions violated: some basis functions have no data point of "
         "their own (knot spans without data)"
@@ -156,14 +159,15 @@ def _outputs(b: int, max_deviation: bool
 
 
 def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray, p: int,
-              max_deviation: bool) -> BatchFit:
-    """Fit a flattened batch (``u``, ``q`` as :func:`_prepare` returns them)."""
+              max_deviation: bool, max_multiplicity: int = 1) -> BatchFit:
+    """Fit a flattened batch (``u``, ``q`` as :func:`_prepare` returns them; a knot repeated
+    more than ``max_multiplicity`` times is infeasible)."""
     sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
     knots = np.ascontiguousarray(knots, dtype=np.float64)
     if sse.size <= SERIAL_BATCH:
-        _kernel.evaluate_batch_serial(u, q, p, knots, offsets, *out)
+        _kernel.evaluate_batch_serial(u, q, p, max_multiplicity, knots, offsets, *out)
     else:
-        _kernel.evaluate_batch(u, q, p, False, knots, offsets, *out,
+        _kernel.evaluate_batch(u, q, p, False, max_multiplicity, knots, offsets, *out,
                                8 * numba.get_num_threads())
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
@@ -182,15 +186,16 @@ def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
 
 
 def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: int,
-                        max_deviation: bool, nan_is_absent: bool) -> BatchFit:
+                        max_deviation: bool, nan_is_absent: bool,
+                        max_multiplicity: int = 1) -> BatchFit:
     """Fit a ``(B, K)`` batch of knot positions (see
     :meth:`~metaknot.bspline.curve.Curve.evaluate_positions`)."""
     positions = as_positions(positions)
     if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
         return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
-                         max_deviation)
+                         max_deviation, max_multiplicity)
     sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
-    _kernel.evaluate_positions_serial(u, q, p, positions, nan_is_absent, *out)
+    _kernel.evaluate_positions_serial(u, q, p, max_multiplicity, positions, nan_is_absent, *out)
     return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
@@ -307,7 +312,8 @@ class PeriodicFit(CurveFit):
 
 
 def fit_spline(
-    u: ArrayLike, points: ArrayLike, interior_knots: ArrayLike, degree: int = 3
+    u: ArrayLike, points: ArrayLike, interior_knots: ArrayLike, degree: int = 3, *,
+    max_multiplicity: int = 1,
 ) -> SplineFit:
     """Least-squares clamped B-spline through ``points`` with the given interior knots.
 
@@ -318,9 +324,13 @@ def fit_spline(
     points
         Data points, shape ``(N, d)``.
     interior_knots
-        Interior knots, strictly increasing, strictly inside ``(u[0], u[-1])``.
+        Interior knots, sorted, strictly inside ``(u[0], u[-1])``; each at most
+        ``max_multiplicity`` times.
     degree
         Spline degree, 1..5.
+    max_multiplicity
+        How often an interior knot may repeat: 1 (default, distinct knots) to ``degree``; a knot
+        of multiplicity m leaves the spline C^(degree - m) there (a corner at m = degree).
 
     Raises
     ------
@@ -329,17 +339,19 @@ def fit_spline(
         Schoenberg-Whitney violation).
     """
     u, q = _prepare(u, points, degree)
-    return _fit_clamped(u, q, interior_knots, int(degree))
+    p = int(degree)
+    return _fit_clamped(u, q, interior_knots, p, check_multiplicity(max_multiplicity, p))
 
 
-def _fit_clamped(u: np.ndarray, q: np.ndarray, interior_knots: ArrayLike, p: int) -> SplineFit:
+def _fit_clamped(u: np.ndarray, q: np.ndarray, interior_knots: ArrayLike, p: int,
+                 max_multiplicity: int = 1) -> SplineFit:
     """:func:`fit_spline` of data already checked (``u``, ``q`` as :func:`_prepare` returns
-    them)."""
+    them) and a multiplicity checked."""
     interior = np.asarray(interior_knots, dtype=np.float64)
     if interior.ndim != 1:
         raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
     audit.add_fits(1)
-    code, t, coef = _kernel.fit_one(u, q, np.ascontiguousarray(interior), p)
+    code, t, coef = _kernel.fit_one(u, q, np.ascontiguousarray(interior), p, max_multiplicity)
     if code != Infeasibility.FEASIBLE:
         raise ValueError(f"cannot fit these knots: {Infeasibility(code).message}")
     return SplineFit(spline=BSpline(t, coef, p), params=u, points=q)

@@ -3,9 +3,12 @@ encodings (mask, data indices, positions) as flat batches."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..validate import is_integer
 from . import _kernel
 from .parameterize import check_degree
 
@@ -14,6 +17,7 @@ __all__ = [
     "averaging_knots",
     "check_indices",
     "check_masks",
+    "check_multiplicity",
     "check_offsets",
     "clamped_knot_vector",
     "n_control_points",
@@ -38,16 +42,42 @@ def _as_params(u: ArrayLike) -> np.ndarray:
     return u
 
 
-def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3) -> np.ndarray:
+def check_multiplicity(max_multiplicity: Any, degree: int) -> int:
+    """``max_multiplicity`` checked: how often an interior knot may repeat, 1 (distinct knots)
+    to ``degree`` (a knot of multiplicity m leaves the spline C^(degree - m) there: a corner at
+    m = degree)."""
+    if not is_integer(max_multiplicity) or not 1 <= max_multiplicity <= degree:
+        raise ValueError(f"max_multiplicity must be an integer from 1 to the degree "
+                         f"({degree}); got {max_multiplicity!r}")
+    return int(max_multiplicity)
+
+
+def _repeated_beyond(inner: np.ndarray, max_multiplicity: int) -> bool:
+    """Whether the sorted knots ``inner`` hold a knot more than ``max_multiplicity`` times."""
+    if inner.size <= max_multiplicity:
+        return False
+    return bool((inner[max_multiplicity:] == inner[:-max_multiplicity]).any())
+
+
+def _multiplicity_error(max_multiplicity: int) -> str:
+    return ("interior knots must be strictly increasing (coincident knots given)"
+            if max_multiplicity == 1 else
+            f"an interior knot repeats more than max_multiplicity={max_multiplicity} times")
+
+
+def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3, *,
+                        max_multiplicity: int = 1) -> np.ndarray:
     """Full clamped knot vector ``[u0]*(p+1) + interior + [um]*(p+1)``.
 
     Raises
     ------
     ValueError
         If an interior knot is not finite, lies outside the open interval ``(u0, um)``, or the
-        interior knots are not strictly increasing (coincident knots).
+        interior knots decrease or repeat a knot more than ``max_multiplicity`` times (by
+        default they must be strictly increasing).
     """
     p = check_degree(degree)
+    max_multiplicity = check_multiplicity(max_multiplicity, p)
     u = _as_params(u)
     interior = np.asarray(interior, dtype=np.float64).ravel()
     if not np.isfinite(interior).all():
@@ -56,12 +86,13 @@ def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3) -> n
         raise ValueError(
             f"interior knots must lie strictly inside the parameter range ({u[0]}, {u[-1]})"
         )
-    if (np.diff(interior) <= 0).any():
-        raise ValueError("interior knots must be strictly increasing (coincident knots given)")
+    if (np.diff(interior) < 0).any() or _repeated_beyond(interior, max_multiplicity):
+        raise ValueError(_multiplicity_error(max_multiplicity))
     return np.concatenate((np.full(p + 1, u[0]), interior, np.full(p + 1, u[-1])))
 
 
-def periodic_knot_vector(interior: ArrayLike, degree: int = 3) -> np.ndarray:
+def periodic_knot_vector(interior: ArrayLike, degree: int = 3, *,
+                         max_multiplicity: int = 1) -> np.ndarray:
     """The extended knot vector of a periodic spline on [0, 1) whose breakpoints are 0 and
     the sorted ``interior`` knots (all in (0, 1)): the ``m`` breakpoints and 1, with ``degree``
     periodic copies on each side (``m + 2 degree + 1`` knots, FITPACK's periodic layout).
@@ -69,18 +100,23 @@ def periodic_knot_vector(interior: ArrayLike, degree: int = 3) -> np.ndarray:
     Raises
     ------
     ValueError
-        If an interior knot is not finite, lies outside (0, 1) or repeats another, or there
-        are fewer than ``degree`` breakpoints.
+        If an interior knot is not finite, lies outside (0, 1) or repeats more than
+        ``max_multiplicity`` times (by default: repeats another), or there are fewer than
+        ``degree`` breakpoints.
     """
-    return _periodic_knots(interior, check_degree(degree))
+    p = check_degree(degree)
+    return _periodic_knots(interior, p, check_multiplicity(max_multiplicity, p))
 
 
-def _periodic_knots(interior: ArrayLike, p: int) -> np.ndarray:
-    """:func:`periodic_knot_vector` of a degree already checked (an ``int`` in 1..5)."""
+def _periodic_knots(interior: ArrayLike, p: int, max_multiplicity: int = 1) -> np.ndarray:
+    """:func:`periodic_knot_vector` of a degree and a multiplicity already checked."""
     inner = np.sort(np.asarray(interior, dtype=np.float64).ravel())
     # NaN sorts last and fails no comparison: checked by name
-    if inner.size and (inner[0] <= 0.0 or not inner[-1] < 1.0 or (np.diff(inner) <= 0).any()):
-        raise ValueError("interior knots of a periodic spline must be finite, distinct and lie "
+    if inner.size and (inner[0] <= 0.0 or not inner[-1] < 1.0
+                       or _repeated_beyond(inner, max_multiplicity)):
+        repeats = "distinct" if max_multiplicity == 1 else \
+            f"each repeated at most max_multiplicity={max_multiplicity} times"
+        raise ValueError(f"interior knots of a periodic spline must be finite, {repeats} and lie "
                          "in (0, 1)")
     breaks = np.concatenate(([0.0], inner))
     m = breaks.size

@@ -164,7 +164,7 @@ class MoveEvaluator:
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
         audit.add_fits(1)
-        code, t, _ = _kernel.fit_one(u, q, interior, p)
+        code, t, _ = _kernel.fit_one(u, q, interior, p, 1)
         if code != _kernel.FEASIBLE:
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()

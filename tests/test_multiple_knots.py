@@ -1,0 +1,232 @@
+"""Interior knots of multiplicity 1 to the degree: the compiled fits of open curves against
+scipy's ``make_lsq_spline`` (which takes repeated knots), those of closed curves against the
+wrapped design matrix of scipy's B-splines, the Schoenberg-Whitney test against a maximum
+bipartite matching, and the refusals of a knot repeated more often than allowed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.interpolate import BSpline, make_lsq_spline
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import maximum_bipartite_matching
+
+from metaknot.bspline import Infeasibility, closed_parameterize
+from metaknot.bspline.curve import ClosedCurve, OpenCurve
+
+
+def wavy(n: int, dim: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Parameters with uneven spacing in [0, 1] and a noisy curve with a kink at 0.45."""
+    rng = np.random.default_rng(seed)
+    u = np.concatenate(([0.0], np.sort(rng.uniform(0.0, 1.0, n - 2)), [1.0]))
+    columns = [np.abs(u - 0.45), np.sin(5 * u), np.cos(3 * u) * u]
+    return u, np.column_stack(columns)[:, :dim] + rng.normal(0.0, 1e-3, (n, 3))[:, :dim]
+
+
+def with_multiple_knot(degree: int, multiplicity: int) -> np.ndarray:
+    """Interior knots around a knot of the given multiplicity at 0.45 (sorted)."""
+    return np.sort(np.concatenate(([0.2, 0.7, 0.85], np.full(multiplicity, 0.45))))
+
+
+CASES = [(p, m) for p in range(1, 6) for m in range(1, p + 1)]
+
+
+@pytest.mark.parametrize(("degree", "multiplicity"), CASES)
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_open_fits_with_a_multiple_knot_match_make_lsq_spline(degree, multiplicity, dim):
+    u, points = wavy(80, dim, seed=degree * 10 + multiplicity)
+    interior = with_multiple_knot(degree, multiplicity)
+    curve = OpenCurve(u, points, degree)
+    t = np.concatenate((np.zeros(degree + 1), interior, np.ones(degree + 1)))
+    reference = make_lsq_spline(u, points, t, k=degree)
+    residual = points - reference(u)
+    sse = float((residual**2).sum())
+
+    fitted = curve.fit(interior, max_multiplicity=multiplicity)
+    np.testing.assert_array_equal(fitted.spline.t, t)
+    np.testing.assert_allclose(fitted.spline.c, reference.c, rtol=0, atol=1e-9)
+    batch = curve.evaluate_positions(np.tile(interior, (20, 1)),  # the threaded batch too
+                                     max_multiplicity=multiplicity)
+    serial = curve.evaluate_positions(interior[None, :], max_multiplicity=multiplicity)
+    for fit in (batch, serial):
+        assert (fit.reason == Infeasibility.FEASIBLE).all()
+        np.testing.assert_allclose(fit.sse, sse, rtol=1e-9)
+        np.testing.assert_allclose(fit.max_deviation,
+                                   np.linalg.norm(residual, axis=1).max(), rtol=1e-8)
+    assert fit.n_control_points[0] == interior.size + degree + 1
+
+
+def test_a_corner_is_reproduced_by_a_knot_of_multiplicity_p():
+    """|u - 0.45| is a cubic spline with a triple knot at 0.45: fitted exactly, and not with
+    a double knot."""
+    u = np.linspace(0.0, 1.0, 101)
+    points = np.abs(u - 0.45)[:, None]
+    curve = OpenCurve(u, points, 3)
+    rows = np.array([[0.45, 0.45, 0.45], [0.44, 0.45, 0.45]])
+    fit = curve.evaluate_positions(rows, max_multiplicity=3)
+    assert fit.sse[0] < 1e-24 < fit.sse[1]
+
+
+def wrapped_reference(u, points, interior, degree):
+    """SSE of the periodic least-squares fit with breakpoints 0 and ``interior`` (repeats
+    allowed), from the extended knot vector written out here and scipy's design matrix with
+    the last ``degree`` columns folded onto the first."""
+    breaks = np.concatenate(([0.0], np.sort(interior)))
+    m = breaks.size
+    t = np.concatenate((breaks[m - degree:] - 1.0, breaks, [1.0],
+                        np.concatenate((breaks, [1.0]))[1: degree + 1] + 1.0))
+    full = BSpline.design_matrix(u, t, degree).toarray()
+    wrapped = full[:, :m].copy()
+    wrapped[:, :degree] += full[:, m:]
+    coef, *_ = np.linalg.lstsq(wrapped, points, rcond=None)
+    return float(((points - wrapped @ coef) ** 2).sum())
+
+
+@pytest.mark.parametrize(("degree", "multiplicity"), CASES)
+def test_closed_fits_with_a_multiple_breakpoint_match_the_wrapped_design_matrix(degree,
+                                                                               multiplicity):
+    angle = np.linspace(0.0, 2 * np.pi, 90, endpoint=False)
+    points = np.column_stack((np.cos(angle) * (1 + 0.2 * np.sign(np.sin(3 * angle))),
+                              np.sin(angle)))
+    u = closed_parameterize(points)
+    interior = np.sort(np.concatenate(([0.15, 0.3, 0.8], np.full(multiplicity, 0.55))))
+    curve = ClosedCurve(u, points, degree)
+    expected = wrapped_reference(u, points, interior, degree)
+    for rows in (interior[None, :], np.tile(interior, (20, 1))):
+        fit = curve.evaluate_positions(rows, max_multiplicity=multiplicity)
+        assert (fit.reason == Infeasibility.FEASIBLE).all()
+        np.testing.assert_allclose(fit.sse, expected, rtol=1e-9)
+    fitted = curve.fit(interior, max_multiplicity=multiplicity)
+    np.testing.assert_allclose((fitted.residuals ** 2).sum(), expected, rtol=1e-9)
+    assert fitted.n_control_points == interior.size + 1
+
+
+@pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
+def test_a_knot_repeated_more_often_than_allowed_is_infeasible(closed):
+    u, points = wavy(60, 2)
+    curve = OpenCurve(u, points, 3)
+    if closed:
+        points = points[:, :2] + np.column_stack((np.cos(6 * u), np.sin(6 * u)))
+        curve = ClosedCurve(closed_parameterize(points), points, 3)
+    double = [[0.2, 0.5, 0.5, 0.8]]
+    quadruple = [[0.2, 0.5, 0.5, 0.5, 0.5]]
+    for rows, allowed, reason in ((double, 1, Infeasibility.COINCIDENT_KNOTS),
+                                  (double, 2, Infeasibility.FEASIBLE),
+                                  (quadruple, 3, Infeasibility.COINCIDENT_KNOTS)):
+        for batch in (np.array(rows), np.repeat(rows, 20, axis=0)):
+            fit = curve.evaluate_positions(batch, max_multiplicity=allowed)
+            assert (fit.reason == reason).all(), (rows, allowed, fit.reason)
+            assert np.isfinite(fit.sse).all() == (reason == Infeasibility.FEASIBLE)
+    with pytest.raises(ValueError, match=r"coincident|distinct"):
+        curve.fit(double[0])
+    with pytest.raises(ValueError, match="repeated"):
+        curve.fit(quadruple[0], max_multiplicity=3)
+    for bad in (0, 4, 1.5, "2"):
+        with pytest.raises(ValueError, match="max_multiplicity must be an integer from 1 to "
+                                             r"the degree \(3\)"):
+            curve.evaluate_positions(np.array(double), max_multiplicity=bad)
+
+
+def matching_exists(u, t, degree):
+    """Whether every B-spline on ``t`` has a data parameter of its own at which it is
+    nonzero (a perfect matching of basis functions to data: Schoenberg-Whitney)."""
+    nonzero = csr_matrix(BSpline.design_matrix(u, t, degree).toarray().T > 1e-14)
+    matching = maximum_bipartite_matching(nonzero, perm_type="column")
+    return bool((matching >= 0).all())
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4])
+def test_schoenberg_whitney_with_multiple_knots_as_a_bipartite_matching_says(degree):
+    """Few data on a grid and knots on the grid (so data sit on multiple knots): the
+    kernel's greedy test agrees with a maximum matching on scipy's basis values, and both
+    answers occur."""
+    rng = np.random.default_rng(degree)
+    grid = np.linspace(0.0, 1.0, 13)
+    seen = set()
+    for _ in range(300):
+        u = np.sort(rng.choice(grid, rng.integers(degree + 3, 12), replace=False))
+        u[0], u[-1] = 0.0, 1.0
+        u = np.unique(u)
+        sites = rng.choice(grid[1:-1], rng.integers(1, 4), replace=False)
+        interior = np.sort(np.repeat(sites, rng.integers(1, degree + 1, sites.size)))
+        if u.size < interior.size + degree + 1:
+            continue
+        t = np.concatenate((np.zeros(degree + 1), interior, np.ones(degree + 1)))
+        points = rng.normal(size=(u.size, 2))
+        reason = OpenCurve(u, points, degree).evaluate_positions(
+            interior[None, :], max_multiplicity=degree).reason[0]
+        expected = matching_exists(u, t, degree)
+        if expected:  # feasible, unless the system is too ill-conditioned to trust
+            assert reason in (Infeasibility.FEASIBLE, Infeasibility.SINGULAR), (u, interior)
+        else:
+            assert reason == Infeasibility.SCHOENBERG_WHITNEY, (u, interior, reason)
+        seen.add((expected, reason))
+    assert {(True, Infeasibility.FEASIBLE), (False, Infeasibility.SCHOENBERG_WHITNEY)} <= seen
+
+
+def merged_by_hand(row: np.ndarray, spacing: float) -> np.ndarray:
+    """The merge of one sorted row, written as a loop over groups."""
+    out, start = [], 0
+    for k in range(1, row.size + 1):
+        if k == row.size or not row[k] - row[start] < spacing:
+            out += [row[start:k].mean()] * (k - start)
+            start = k
+    return np.array(out)
+
+
+def test_merging_close_knots_matches_a_loop_over_groups():
+    from metaknot.problems.knot_problems import merge_close_knots
+
+    rng = np.random.default_rng(4)
+    rows = np.sort(rng.choice(np.linspace(0.1, 0.9, 9), (200, 7))
+                   + rng.uniform(-1e-3, 1e-3, (200, 7)), axis=1)
+    rows[::7, -2:] = np.nan  # absent knots (variable_count) stay absent
+    for spacing in (0.0, 5e-4, 2e-3, 0.15):
+        merged = merge_close_knots(rows, spacing)
+        for row, got in zip(rows, merged, strict=True):
+            present = ~np.isnan(row)
+            np.testing.assert_array_equal(got[present], merged_by_hand(row[present], spacing))
+            assert np.isnan(got[~present]).all()
+    assert (merge_close_knots(rows, 2e-3) != rows)[~np.isnan(rows)].any()
+    np.testing.assert_array_equal(merge_close_knots(rows[0], 2e-3),
+                                  merge_close_knots(rows[:1], 2e-3)[0])
+
+
+def kang_problem(**options):
+    from metaknot.problems import FreeKnots
+    from metaknot.suite import get_instance
+
+    return FreeKnots(get_instance("kang_spline").point_set(), n_knots=11, objective="rmse",
+                     **options)
+
+
+def test_free_knots_with_merge_spacing_recover_kangs_double_knot():
+    """Kang et al.'s cubic has a double knot at 0.5408: with ``merge_spacing`` its knots (the
+    double one given twice, or as two knots 1e-9 apart) reproduce the data; without it two
+    equal knots are infeasible."""
+    from metaknot.suite.functions import KANG_KNOTS
+
+    exact = np.array(KANG_KNOTS)
+    apart = exact.copy()
+    apart[6:8] += [-5e-10, 5e-10]  # merged at their mean, 0.5408
+    merging = kang_problem(merge_spacing=1e-6)
+    values = merging.evaluate(np.array([exact, apart]))
+    assert (values < 1e-9).all()
+    plain = kang_problem()
+    assert plain.evaluate(exact[None, :])[0] == np.inf
+    solution = merging.decode(apart)
+    assert np.count_nonzero(np.isclose(solution.fit.spline.t, 0.5408, atol=1e-8)) == 2
+    assert solution.fit.n_control_points == 15
+    assert merging.describe()["merge_spacing"] == 1e-6 and "merge_spacing" not in \
+        plain.describe()
+    # local moves are fitted in full when knots may repeat: the same values as evaluate
+    moved = np.array([apart, np.where(np.arange(11) == 3, 0.3, apart)])
+    near_values, _, delta = merging.evaluate_near(moved, apart)
+    np.testing.assert_array_equal(near_values, merging.evaluate(moved))
+    assert not np.any(delta)
+
+
+@pytest.mark.parametrize("bad", [-1e-3, np.inf, np.nan, "0.1", True])
+def test_a_bad_merge_spacing_is_named(bad):
+    with pytest.raises(ValueError, match="merge_spacing must be a number >= 0 or None"):
+        kang_problem(merge_spacing=bad)
