@@ -326,6 +326,8 @@ class RunSpec:
     def compatible(self) -> str | None:
         """``None`` if the optimizer handles the encoding, else the reason it cannot."""
         kind = ENCODINGS[self.config["encoding"]["kind"]][1]
+        if self.config["encoding"].get("max_multiplicity", 1) > 1:
+            kind = "integer"  # a multiplicity per data point
         encodings = getattr(self._optimizer_class, "encodings", ())
         if kind not in encodings:
             return (f"optimizer {self.optimizer!r} handles {', '.join(encodings)} encodings; "
@@ -507,10 +509,14 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     encoding = _section(cfg, "encoding")
     kind = _choice("encoding.kind", encoding.get("kind"), tuple(ENCODINGS))
     if kind == "mask":
-        _unknown("encoding", encoding, {"kind", "density"})
+        _unknown("encoding", encoding, {"kind", "density", "max_multiplicity"})
         encoding_out = {"kind": kind, "density": _float("encoding.density",
                                                         encoding.get("density", 0.5),
                                                         low=0.0, high=1.0)}
+        multiplicity = _int("encoding.max_multiplicity", encoding.get("max_multiplicity", 1),
+                            low=1, high=degree)
+        if multiplicity > 1:  # only when set, so the run ids of other runs stay
+            encoding_out["max_multiplicity"] = multiplicity
     else:
         known = {"kind", "n_knots"} | ({"variable_count", "merge_spacing"} if kind == "free"
                                        else set())
@@ -680,7 +686,8 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
     kind = encoding["kind"]
     try:
         if kind == "mask":
-            return KnotSelection(data, density=encoding["density"], **common)
+            return KnotSelection(data, density=encoding["density"],
+                                 max_multiplicity=encoding.get("max_multiplicity", 1), **common)
         n_knots = encoding["n_knots"]
         if n_knots == "max":
             n_knots = KnotSelection(data, **common).curve.max_interior_knots

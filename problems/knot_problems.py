@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike
 from metaknot.bspline import BatchFit, CurveFit
 from metaknot.bspline._moves import mask_replacements
 from metaknot.bspline.curve import Curve, make_curve
-from metaknot.bspline.knots import stack_positions
+from metaknot.bspline.knots import check_multiplicity, stack_positions
 from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator
 from metaknot.problem import Encoding, Problem
 from metaknot.registry import register
@@ -333,26 +333,42 @@ class KnotSelection(KnotProblem):
     """The seed paper's encoding: a 0/1 mask over the interior data points (``N - 2`` bits).
 
     ``density`` is the probability that a random candidate selects a point (the seed: 0.5).
+
+    With ``max_multiplicity`` above 1 (up to the degree) a candidate gives each interior data
+    point a multiplicity, ``0..max_multiplicity`` (an integer encoding): a knot repeated that
+    many times, so that a search can place kinks and corners (a knot of multiplicity m leaves
+    the spline C^(p - m) there). A random candidate still selects each point with probability
+    ``density``, once. Local moves are then fitted in full.
     """
 
     public_attributes = KnotProblem.public_attributes | {"density"}
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
-                 density: float = 0.5, **kwargs: Any) -> None:
+                 density: float = 0.5, max_multiplicity: int = 1, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
         if not 0.0 <= density <= 1.0:
             raise ValueError(f"density must lie in [0, 1]; got {density}")
         self.density = float(density)
-        self.encoding = Encoding.binary(self.last_candidate_point)
+        self.max_multiplicity = check_multiplicity(max_multiplicity, self.degree)
+        n_var = self.last_candidate_point
+        self.encoding = Encoding.binary(n_var) if self.max_multiplicity == 1 else \
+            Encoding.integer(n_var, 0, self.max_multiplicity)
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         return (rng.random((n, self.encoding.n_var)) < self.density).astype(np.int64)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        return self.curve.evaluate_masks(X, max_deviation=self.objective.needs_max_deviation)
+        if self.max_multiplicity == 1:
+            return self.curve.evaluate_masks(X, max_deviation=self.objective.needs_max_deviation)
+        counts = np.asarray(X, dtype=np.int64)  # checked by the encoding: 0..max_multiplicity
+        knots = np.repeat(np.tile(self.curve.candidate_params, len(counts)), counts.ravel())
+        offsets = np.concatenate(([0], np.cumsum(counts.sum(axis=1))))
+        return self.curve.evaluate_knots(knots, offsets,
+                                         max_deviation=self.objective.needs_max_deviation,
+                                         max_multiplicity=self.max_multiplicity)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
-        return self.curve.candidate_params[np.asarray(x).astype(bool)]
+        return np.repeat(self.curve.candidate_params, np.asarray(x).astype(np.int64))
 
     def _evaluate_moves(self, moves: MoveEvaluator, X: np.ndarray, near: np.ndarray
                         ) -> tuple[BatchFit, np.ndarray]:
@@ -364,7 +380,9 @@ class KnotSelection(KnotProblem):
                                stops)
 
     def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "density": self.density}
+        multiple = {} if self.max_multiplicity == 1 else \
+            {"max_multiplicity": self.max_multiplicity}
+        return {**super().describe(), "density": self.density, **multiple}
 
 
 def _check_n_knots(n_knots: int, curve: Curve) -> int:

@@ -230,3 +230,57 @@ def test_free_knots_with_merge_spacing_recover_kangs_double_knot():
 def test_a_bad_merge_spacing_is_named(bad):
     with pytest.raises(ValueError, match="merge_spacing must be a number >= 0 or None"):
         kang_problem(merge_spacing=bad)
+
+
+def test_a_mask_of_multiplicities_places_a_corner():
+    """KnotSelection with max_multiplicity: each interior point's value is the multiplicity
+    of a knot there; the values are those of the knots repeated, fitted as free knots are,
+    and a triple knot at the corner of |x - 0.45| reproduces it."""
+    from metaknot.problems import FreeKnots, KnotSelection, PointSet
+
+    x = np.linspace(0.0, 1.0, 41)
+    data = PointSet(np.column_stack((x, np.abs(x - 0.45))), "corner", params=x)
+    masks = KnotSelection(data, max_multiplicity=3, objective="rmse")
+    assert masks.encoding.kind == "integer" and masks.encoding.upper.max() == 3
+    rng = np.random.default_rng(0)
+    X = rng.integers(0, 4, (40, masks.encoding.n_var)) * (rng.random((40, 39)) < 0.15)
+    X[0] = 0
+    X[0, 17] = 3  # x[18] = 0.45
+    values = masks.evaluate(X)
+    assert values[0] < 1e-12
+    for row, value in zip(X, values, strict=True):
+        knots = np.repeat(x[1:-1], row)
+        free = FreeKnots(data, n_knots=max(knots.size, 1), objective="rmse", merge_spacing=0.0)
+        expected = free.evaluate(knots[None, :])[0] if knots.size else \
+            KnotSelection(data, objective="rmse").evaluate(np.zeros((1, 39)))[0]
+        assert value == pytest.approx(expected, rel=1e-12, abs=1e-15)
+    assert np.isfinite(values).sum() > 20
+    assert masks.decode(X[0]).fit.n_control_points == 3 + 4
+    binary = KnotSelection(data, objective="rmse")
+    assert binary.encoding.kind == "binary" and "max_multiplicity" not in binary.describe()
+    with pytest.raises(ValueError, match="must lie in"):
+        binary.evaluate(X[:1])
+    with pytest.raises(ValueError, match="max_multiplicity must be an integer from 1"):
+        KnotSelection(data, max_multiplicity=4)
+
+
+def test_a_search_over_multiplicities_places_knots_at_the_corners():
+    """(1+1) on a curve with corners at 0.45 and 0.8 (201 points, noise 1e-4, BIC): with
+    multiplicities it ends with a multiple knot at a corner and a better BIC than on 0/1
+    masks, the same seed and budget."""
+    import metaknot as mk
+    from metaknot.problems import PointSet
+
+    x = np.linspace(0.0, 1.0, 201)
+    y = np.abs(x - 0.45) + 0.3 * np.abs(x - 0.8) \
+        + np.random.default_rng(0).normal(0.0, 1e-4, x.size)
+    data = PointSet(np.column_stack((x, y)), "corners", params=x)
+    from metaknot.problems import KnotSelection
+
+    found = {}
+    for multiplicity in (1, 3):
+        problem = KnotSelection(data, max_multiplicity=multiplicity, objective="bic")
+        found[multiplicity] = mk.minimize(problem, "one_plus_one", budget=3000, seed=0)
+    assert found[3].best_f < found[1].best_f - 20
+    counts = np.asarray(found[3].best_x)
+    assert counts.max() >= 2 and set(x[1:-1][counts >= 2]) & {x[90], x[160]}

@@ -205,6 +205,9 @@ BAD_PLAIN = [  # a plain mapping of the same shape
     ({"encoding": {**INDICES, "n_knots": "fitpack:inf"}}, "encoding.n_knots"),
     ({"encoding": {"kind": "free", "variable_count": 3}}, "encoding.variable_count"),
     ({"encoding": {"kind": "free", "merge_spacing": -1.0}}, "encoding.merge_spacing"),
+    ({"encoding__max_multiplicity": 4}, "encoding.max_multiplicity"),  # degree 3
+    ({"encoding__max_multiplicity": 0}, "encoding.max_multiplicity"),
+    ({"encoding": {"kind": "free", "max_multiplicity": 2}}, "encoding.max_multiplicity"),
     ({"encoding": {"kind": "free", "merge_spacing": "close"}}, "encoding.merge_spacing"),
     ({"encoding": {**INDICES, "merge_spacing": 0.1}}, "encoding.merge_spacing"),
     ({"encoding": {"kind": "free", "density": 0.3}}, "encoding.density"),
@@ -947,3 +950,15 @@ def test_free_knots_merge_close_knots_when_the_encoding_says_so():
     problem = merging.build_problem()
     assert problem.merge_spacing == 1e-6 and problem.max_multiplicity == 3
     assert plain.build_problem().merge_spacing is None
+
+
+def test_a_mask_of_multiplicities_is_an_integer_encoding_for_the_optimizers():
+    plain = spec_of("problem.n_points=40")
+    multiple = spec_of("problem.n_points=40", "encoding.max_multiplicity=3")
+    assert "max_multiplicity" not in plain.config["encoding"]  # the run ids of other runs stay
+    assert multiple.config["encoding"]["max_multiplicity"] == 3
+    assert multiple.run_id != plain.run_id
+    problem = multiple.build_problem()
+    assert problem.max_multiplicity == 3 and problem.encoding.kind == "integer"
+    assert spec_of("problem.n_points=40", "encoding.max_multiplicity=3",
+                   "optimizer=ga").compatible() is None

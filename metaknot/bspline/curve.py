@@ -188,13 +188,15 @@ class Curve(ABC):
         return int(self.candidate_params.size)
 
     def evaluate_knots(self, knots: np.ndarray, offsets: np.ndarray, *,
-                       max_deviation: bool = True) -> BatchFit:
-        """Fit every candidate ``knots[offsets[b]:offsets[b + 1]]`` (sorted interior knots)."""
-        return self._evaluate_flat(*check_offsets(knots, offsets), max_deviation)
+                       max_deviation: bool = True, max_multiplicity: int = 1) -> BatchFit:
+        """Fit every candidate ``knots[offsets[b]:offsets[b + 1]]`` (sorted interior knots,
+        each repeated at most ``max_multiplicity`` times)."""
+        return self._evaluate_flat(*check_offsets(knots, offsets), max_deviation,
+                                   check_multiplicity(max_multiplicity, self.degree))
 
     @abstractmethod
-    def _evaluate_flat(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool
-                       ) -> BatchFit:
+    def _evaluate_flat(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool,
+                       max_multiplicity: int = 1) -> BatchFit:
         """:meth:`evaluate_knots` of offsets that match the knots (not checked again)."""
 
     @abstractmethod
@@ -335,8 +337,9 @@ class OpenCurve(Curve):
     def max_interior_knots(self) -> int:
         return self.n_points - self.degree - 1
 
-    def _evaluate_flat(self, knots, offsets, max_deviation):
-        return _evaluate(self.params, self.points, knots, offsets, self.degree, max_deviation)
+    def _evaluate_flat(self, knots, offsets, max_deviation, max_multiplicity=1):
+        return _evaluate(self.params, self.points, knots, offsets, self.degree, max_deviation,
+                         max_multiplicity)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
         return _evaluate_masks(self.params, self.points, masks, self.degree, max_deviation)
@@ -421,9 +424,9 @@ class ClosedCurve(Curve):
     def max_interior_knots(self) -> int:
         return self.n_points - 1
 
-    def _evaluate_flat(self, knots, offsets, max_deviation):
-        return self.evaluate_positions(padded_rows(knots, offsets), max_deviation=max_deviation,
-                                       nan_is_absent=True)
+    def _evaluate_flat(self, knots, offsets, max_deviation, max_multiplicity=1):
+        return self._evaluate_positions(padded_rows(knots, offsets), max_deviation, True,
+                                        max_multiplicity)
 
     def evaluate_masks(self, masks, *, max_deviation=True):
         """Masks over the data parameters after the first: sorted, distinct and inside (0, 1),
