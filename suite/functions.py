@@ -134,7 +134,7 @@ def dj_doppler() -> tuple[np.ndarray, np.ndarray]:
     return t, np.sqrt(t * (1.0 - t)) * np.sin(2.0 * np.pi * 1.05 / (t + 0.05))
 
 
-#: Kang, Chen, Chen & Huang 2015 (CAD 58): the cubic B-spline sampled, with its true knots.
+#: Kang, Chen, Li, Deng & Yang 2015 (CAD 58): the cubic B-spline sampled, with its true knots.
 KANG_KNOTS = (0.0439, 0.0653, 0.2293, 0.2367, 0.4821, 0.4907, 0.5408, 0.5408, 0.6209, 0.7051,
               0.9407)
 KANG_COEFFICIENTS = (-15, 10, 37, 47, -52, 80, 43, 76, 10, 3, 69, 26, 97, 80, 78)
@@ -143,9 +143,12 @@ KANG_COEFFICIENTS = (-15, 10, 37, 47, -52, 80, 43, 76, 10, 3, 69, 26, 97, 80, 78
 def kang_spline() -> tuple[np.ndarray, np.ndarray]:
     """A cubic B-spline on [0, 1] with interior knots 0.0439, 0.0653, 0.2293, 0.2367, 0.4821,
     0.4907, 0.5408 (double), 0.6209, 0.7051, 0.9407 and control values -15, 10, 37, 47, -52,
-    80, 43, 76, 10, 3, 69, 26, 97, 80, 78, sampled at 1,001 equally spaced points: a
-    known-answer instance whose true knots can be recovered. Kang, Chen, Chen & Huang,
-    "Feature-preserving ... sparse ... knot selection", CAD 58 (2015)."""
+    80, 43, 76, 10, 3, 69, 26, 97, 80, 78, sampled at 1,001 equally spaced points ``i / 1000``:
+    a known-answer instance whose true knots can be recovered. The knots lie between data
+    parameters (0.0439 between 0.043 and 0.044, ...), so index sets can only come near them;
+    free knots with a double knot allowed (``merge_spacing``) reproduce the data. H. Kang,
+    F. Chen, Y. Li, J. Deng & Z. Yang, "Knot calculation for spline fitting via sparse
+    optimization", Computer-Aided Design 58 (2015)."""
     t = np.concatenate(([0.0] * 4, KANG_KNOTS, [1.0] * 4))
     x = np.linspace(0.0, 1.0, 1001)
     return x, BSpline(t, np.asarray(KANG_COEFFICIENTS, dtype=np.float64), 3)(x)
