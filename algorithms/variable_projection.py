@@ -23,6 +23,11 @@ The knots are kept ordered by searching their spacings' logarithms (Jupp 1978): 
 spans of the parameter range are the softmax of ``(0, z_1, ..., z_K)``, so every ``z`` gives
 ordered interior knots, and a span shrinking towards zero sends its ``z`` to minus infinity
 instead of crossing its neighbour.
+
+On a problem that allows multiple knots (``FreeKnots(merge_spacing=...)``) a span driven below
+the problem's ``merge_spacing`` becomes a multiple knot: the knots are merged as the problem
+merges them, and the search goes on over the distinct knots, each group moving as one (its
+derivative is the sum of its copies').
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ from scipy.optimize import least_squares
 from metaknot.budget import BudgetExhausted, Evaluator
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problems import FreeKnotSpace
+from metaknot.problems.knot_problems import merge_close_knots
 from metaknot.registry import register
 from metaknot.task import ProblemView
 
@@ -200,7 +206,9 @@ class VariableProjection(Optimizer):
         ``least_squares``' ``ftol``, ``xtol`` and ``gtol`` (> 0).
     initial
         Knots to start from first, before the averaging knots (``K`` increasing values inside
-        the range), e.g. the best index set's: a search that starts there ends no worse.
+        the range), e.g. the best index set's: a search that starts there ends no worse. On a
+        problem that allows multiple knots a value may repeat (up to the degree): a multiple
+        knot, kept as one.
     """
 
     encodings = ("continuous",)
@@ -222,42 +230,49 @@ class VariableProjection(Optimizer):
             if self.initial.shape != (space.n_knots,):
                 raise ValueError(f"initial must hold the problem's {space.n_knots} knots; got "
                                  f"{self.initial.size}")
-            if not (np.all(np.diff(self.initial) > 0) and self.initial[0] > lower
-                    and self.initial[-1] < upper):
+            allowed = getattr(space, "max_multiplicity", 1)
+            _, counts = np.unique(self.initial, return_counts=True)
+            if not (np.all(np.diff(self.initial) >= 0) and counts.max() <= allowed
+                    and self.initial[0] > lower and self.initial[-1] < upper):
                 raise ValueError(f"initial knots must be increasing and inside ({lower:g}, "
-                                 f"{upper:g})")
+                                 f"{upper:g})" + (f", each at most {allowed} times"
+                                                  if allowed > 1 else ""))
         super().setup(problem, rng)
 
-    def _starts(self) -> list[np.ndarray]:
+    def _starts(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The deterministic starts: log spans of distinct knots and their multiplicities."""
         bounds = self.problem.knot_bounds
         k = self.problem.n_knots
         uniform = np.linspace(*bounds, k + 2)[1:-1]
-        given = [] if self.initial is None else [log_spans_from_knots(self.initial, bounds)]
-        return [*given, log_spans_from_knots(np.sort(self.problem.start_knots(k)), bounds),
-                log_spans_from_knots(uniform, bounds)]
+        given = [] if self.initial is None else [_grouped(self.initial, bounds)]
+        return [*given, _grouped(np.sort(self.problem.start_knots(k)), bounds),
+                _grouped(uniform, bounds)]
 
     def run(self, evaluator: Evaluator) -> None:
         problem = self.problem
         bounds = problem.knot_bounds
         u, points, degree = problem.params, problem.points, problem.degree
         closed = bool(problem.closed)
-        best: list = [np.inf, None]
+        merge = getattr(problem, "merge_spacing", None)  # multiple knots allowed if set
+        best: list = [np.inf, None, None]  # value, log spans, multiplicities
         seen: dict[bytes, np.ndarray] = {}  # a point tried again (a start) is not re-evaluated
+        # the multiplicity of each distinct knot the search moves (all 1 without merging)
+        groups = np.ones(problem.n_knots, dtype=np.int64)
 
         def residual(z: np.ndarray) -> np.ndarray:
-            key = z.tobytes()
+            key = z.tobytes() + groups.tobytes()
             if key not in seen:
                 seen.clear()
                 seen[key] = _residual(z)
             return seen[key]
 
         def _residual(z: np.ndarray) -> np.ndarray:
-            knots, _ = knots_from_log_spans(z, bounds)
+            knots = np.repeat(knots_from_log_spans(z, bounds)[0], groups)
             value = float(evaluator(knots[None, :])[0])
             if not np.isfinite(value):
                 return np.full(points.size, np.inf)
             if value < best[0]:
-                best[0], best[1] = value, z.copy()
+                best[:] = value, z.copy(), groups.copy()
             self.count_fits(1)
             try:
                 return residual_jacobian(u, points, degree, knots, bounds, closed=closed,
@@ -266,11 +281,24 @@ class VariableProjection(Optimizer):
                 return np.full(points.size, np.inf)
 
         def jacobian(z: np.ndarray) -> np.ndarray:
-            knots, chain = knots_from_log_spans(z, bounds)
+            distinct, chain = knots_from_log_spans(z, bounds)
+            knots = np.repeat(distinct, groups)
             self.count_fits(knots.size + 1)
             derivative = residual_jacobian(u, points, degree, knots, bounds, closed=closed)[1]
             assert derivative is not None
+            if groups.size < knots.size:  # a group moves as one: its copies' sum
+                derivative = np.add.reduceat(derivative,
+                                             np.cumsum(groups) - groups, axis=1)
             return derivative @ chain
+
+        def solve(z0: np.ndarray) -> np.ndarray | None:
+            """One solve from ``z0`` (None if its fit is infeasible): the log spans reached."""
+            share = max(1, min(evaluator.remaining // 2, start_evaluations(problem.n_knots)))
+            if not np.isfinite(residual(z0)).all():
+                return None
+            return least_squares(residual, z0, jac=jacobian, method="trf", max_nfev=share,
+                                 x_scale="jac", ftol=self.tolerance, xtol=self.tolerance,
+                                 gtol=self.tolerance).x
 
         starts = self._starts()
         try:
@@ -279,18 +307,32 @@ class VariableProjection(Optimizer):
                                                 and run >= len(starts) + self.restarts):
                     break
                 if run < len(starts):
-                    z0 = starts[run]
+                    z0, groups = starts[run]
                 elif best[1] is not None and (run - len(starts)) % 2 == 0:
                     scale = self.perturbation * 2.0 ** ((run - len(starts)) // 2 % 4 - 1)
                     z0 = best[1] + self.rng.normal(0.0, scale, best[1].size)
+                    groups = best[2]
                 else:  # spans drawn uniformly (a flat Dirichlet): anywhere in the range
                     z0 = np.log(self.rng.exponential(size=problem.n_knots + 1))
                     z0 = z0[1:] - z0[0]
-                share = max(1, min(evaluator.remaining // 2, start_evaluations(problem.n_knots)))
-                if not np.isfinite(residual(z0)).all():
+                    groups = np.ones(problem.n_knots, dtype=np.int64)
+                reached = solve(z0)
+                if merge is None or reached is None:
                     continue
-                least_squares(residual, z0, jac=jacobian, method="trf", max_nfev=share,
-                              x_scale="jac", ftol=self.tolerance, xtol=self.tolerance,
-                              gtol=self.tolerance)
+                # spans driven below the problem's merge_spacing: multiple knots, and on
+                knots = np.repeat(knots_from_log_spans(reached, bounds)[0], groups)
+                merged, counts = np.unique(merge_close_knots(knots, merge), return_counts=True)
+                if counts.size < groups.size and counts.max() <= degree \
+                        and merged[0] > bounds[0] and merged[-1] < bounds[1]:
+                    groups = counts
+                    solve(log_spans_from_knots(merged, bounds))
         except BudgetExhausted:
             pass
+
+
+def _grouped(knots: np.ndarray, bounds: tuple[float, float]
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Sorted knots (a value repeated: a multiple knot) as the log spans of the distinct knots
+    and their multiplicities."""
+    distinct, counts = np.unique(knots, return_counts=True)
+    return log_spans_from_knots(distinct, bounds), counts

@@ -159,7 +159,7 @@ class KnotProblem(Problem):
 
     public_attributes = Problem.public_attributes | {
         "data", "points", "params", "degree", "closed", "parameterization", "objective",
-        "info", "knot_bounds", "last_candidate_point", "start_knots"}
+        "info", "knot_bounds", "last_candidate_point", "start_knots", "max_multiplicity"}
     metric_names = ("n_control_points", "sse", "rmse", "euclidean_distance", "max_deviation")
     #: How often an interior knot of a candidate may repeat (1: distinct knots; a problem
     #: that makes multiple knots sets it up to the degree).

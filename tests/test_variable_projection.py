@@ -234,3 +234,78 @@ def test_the_methods_own_fits_are_declared(monkeypatch):
     result = mk.minimize(problem, "varpro", budget=100, seed=0)
     assert calls[True] > 0
     assert result.external_fits == calls[False] + (6 + 1) * calls[True]
+
+
+MULTIPLE_KNOTS = np.array([0.13, 0.37, 0.37, 0.58, 0.58, 0.58, 0.81])  # a double, a triple
+
+
+def _multiple_knot_problem(**options) -> FreeKnots:
+    """Points of a cubic spline with a double knot (a kink) and a triple one (a corner), none
+    at a data parameter."""
+    x = np.linspace(0.0, 1.0, 301)
+    coefficients = np.array([0.0, 1.0, -1.0, 2.0, 0.5, -0.5, 1.5, 0.2, 1.0, -0.3, 0.4])
+    y = BSpline(np.r_[[0.0] * 4, MULTIPLE_KNOTS, [1.0] * 4], coefficients, 3)(x)
+    return FreeKnots(PointSet(y[:, None], "kinks", params=x), n_knots=MULTIPLE_KNOTS.size,
+                     objective="rmse", **options)
+
+
+def test_the_jacobian_of_a_multiple_knot_moves_its_copies_together():
+    rng = np.random.default_rng(5)
+    u, q = _data(rng, 80, 2)
+    knots = np.array([0.2, 0.45, 0.45, 0.6, 0.6, 0.6, 0.8])
+    _, jacobian, _ = residual_jacobian(u, q, 3, knots, (0.0, 1.0))
+    step = 1e-6
+    for group in ([1, 2], [3, 4, 5]):
+        up, down = knots.copy(), knots.copy()
+        up[group] += step
+        down[group] -= step
+        central = (residual_jacobian(u, q, 3, up, (0.0, 1.0), jacobian=False)[0]
+                   - residual_jacobian(u, q, 3, down, (0.0, 1.0), jacobian=False)[0]) \
+            / (2 * step)
+        together = jacobian[:, group].sum(axis=1)
+        assert np.abs(together - central).max() <= 1e-6 * max(1.0, np.abs(central).max())
+
+
+def test_a_double_and_a_triple_knot_are_recovered_to_rounding_when_spans_may_merge():
+    """From knots near the truth with every multiple knot split apart, the search drives the
+    split spans below ``merge_spacing``, merges them and ends at the true multiple knots;
+    the same start without merging cannot end there."""
+    start = MULTIPLE_KNOTS + np.array([0.01, -0.004, 0.004, -0.006, 0.0, 0.006, -0.01])
+    merging = mk.minimize(_multiple_knot_problem(merge_spacing=1e-4), "varpro", budget=1500,
+                          seed=0, optimizer_kwargs={"initial": list(start)})
+    assert merging.best_f <= 1e-12
+    solution = _multiple_knot_problem(merge_spacing=1e-4).decode(merging.best_x)
+    np.testing.assert_allclose(solution.fit.spline.t[4:-4], MULTIPLE_KNOTS, atol=1e-9)
+    plain = mk.minimize(_multiple_knot_problem(), "varpro", budget=1500, seed=0,
+                        optimizer_kwargs={"initial": list(start)})
+    assert plain.best_f > 1e3 * merging.best_f
+
+
+def test_a_start_with_a_multiple_knot_needs_a_problem_that_allows_it():
+    given = list(MULTIPLE_KNOTS)
+    result = mk.minimize(_multiple_knot_problem(merge_spacing=0.0), "varpro", budget=20,
+                         seed=0, optimizer_kwargs={"initial": given})
+    assert result.trace.best_f[0] <= 1e-12  # the true knots, tried first
+    with pytest.raises(ValueError, match="increasing and inside"):
+        mk.minimize(_multiple_knot_problem(), "varpro", budget=5, seed=0,
+                    optimizer_kwargs={"initial": given})
+    with pytest.raises(ValueError, match="each at most 3 times"):
+        mk.minimize(_multiple_knot_problem(merge_spacing=0.0), "varpro", budget=5, seed=0,
+                    optimizer_kwargs={"initial": [0.1, 0.2, 0.3, 0.3, 0.3, 0.3, 0.5]})
+
+
+def test_kangs_spline_is_recovered_from_the_data_sites_nearest_its_knots():
+    """kang_spline (1,001 points, knots between them, a double one at 0.5408): from the data
+    parameters nearest its 11 knots, the double knot split into 0.540 and 0.542, the search
+    with merge_spacing=1e-4 ends at the true knots."""
+    from metaknot.suite import get_instance
+    from metaknot.suite.functions import KANG_KNOTS
+
+    start = np.round(np.array(KANG_KNOTS), 3)
+    start[6:8] = 0.540, 0.542
+    problem = FreeKnots(get_instance("kang_spline").point_set(), n_knots=11, objective="rmse",
+                        merge_spacing=1e-4)
+    result = mk.minimize(problem, "varpro", budget=1000, seed=0,
+                         optimizer_kwargs={"initial": list(start)})
+    assert result.best_f <= 1e-12
+    np.testing.assert_allclose(np.sort(result.best_x), KANG_KNOTS, atol=1e-9)
