@@ -292,13 +292,16 @@ class NloptKnots(Optimizer):
     def _sse_and_gradient(self, y: np.ndarray, with_gradient: bool
                           ) -> tuple[float, np.ndarray]:
         """The sum of squared errors at the unit-box point ``y`` and (``with_gradient``) its
-        gradient with respect to ``y``, by the method's own fit (declared: one fit, and
-        ``K + 1`` more for the Jacobian). ``+inf`` for a fit that is rank deficient."""
+        gradient with respect to ``y``, by the method's own fit (declared: one fit, a repeat
+        of the evaluation's; the Jacobian charged to the budget as ``K + 1`` fits, one refined
+        basis per knot and the fit). ``+inf`` for a fit that is rank deficient."""
         from .variable_projection import residual_jacobian
 
         problem = self.problem
         knots = self.knots(y)
-        self.count_fits(1 + (knots.size + 1 if with_gradient else 0))
+        self.count_fits(1)
+        if with_gradient:
+            self.count_fits(knots.size + 1, charged=True)
         try:
             residual, jacobian, _ = residual_jacobian(
                 problem.params, problem.points, problem.degree, knots, problem.knot_bounds,

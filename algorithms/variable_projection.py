@@ -52,10 +52,11 @@ __all__ = ["VariableProjection", "knots_from_log_spans", "log_spans_from_knots",
 
 
 def start_evaluations(n_knots: int) -> int:
-    """The most evaluations one start of :class:`VariableProjection` may take (and at most half
-    of those left): enough for Gauss-Newton to converge from a good start, few enough that a
+    """The most of the budget one start of :class:`VariableProjection` may use (and at most
+    half of what is left): 50 iterations, each an evaluation and a Jacobian charged as
+    ``K + 1`` fits; enough for Gauss-Newton to converge from a good start, few enough that a
     start in a poor basin gives way to the next."""
-    return 200 + 20 * n_knots
+    return 50 * (n_knots + 2)
 
 
 def _knot_vector(interior: np.ndarray, bounds: tuple[float, float], p: int, closed: bool
@@ -184,9 +185,10 @@ class VariableProjection(Optimizer):
 
     Every point the solver tries is evaluated through the run's evaluator (one evaluation; a
     point whose fit the problem finds infeasible is an infinite residual, on which the solver
-    shrinks its step). The method's own fit of the same point (for the residual vector) and
-    each Jacobian are declared with ``count_fits``: one fit, and ``K + 1`` per Jacobian (one
-    refined basis per knot, and the fit).
+    shrinks its step). The method's own fit of the same point (for the residual vector) is
+    declared with ``count_fits`` (a repeat of the evaluation's fit); each Jacobian is charged
+    to the budget as ``K + 1`` fits (one refined basis per knot, and the fit), so that a run
+    of ``varpro`` and one of a derivative-free method at the same budget do comparable work.
 
     Starts: ``initial`` if given, the problem's averaging knots, equally spaced knots, then,
     in turn, a perturbation of the best point so far (its log spans plus normal noise, of
@@ -283,12 +285,11 @@ class VariableProjection(Optimizer):
         def jacobian(z: np.ndarray) -> np.ndarray:
             distinct, chain = knots_from_log_spans(z, bounds)
             knots = np.repeat(distinct, groups)
-            self.count_fits(knots.size + 1)
+            self.count_fits(knots.size + 1, charged=True)
             derivative = residual_jacobian(u, points, degree, knots, bounds, closed=closed)[1]
             assert derivative is not None
             if groups.size < knots.size:  # a group moves as one: its copies' sum
-                derivative = np.add.reduceat(derivative,
-                                             np.cumsum(groups) - groups, axis=1)
+                derivative = np.add.reduceat(derivative, np.cumsum(groups) - groups, axis=1)
             return derivative @ chain
 
         def solve(z0: np.ndarray) -> np.ndarray | None:
@@ -296,9 +297,32 @@ class VariableProjection(Optimizer):
             share = max(1, min(evaluator.remaining // 2, start_evaluations(problem.n_knots)))
             if not np.isfinite(residual(z0)).all():
                 return None
-            return least_squares(residual, z0, jac=jacobian, method="trf", max_nfev=share,
+            # at most one Jacobian per residual: the share bounds the budget used
+            calls = max(1, share // (problem.n_knots + 2))
+            return least_squares(residual, z0, jac=jacobian, method="trf", max_nfev=calls,
                                  x_scale="jac", ftol=self.tolerance, xtol=self.tolerance,
                                  gtol=self.tolerance).x
+
+        def merge_and_solve(z0: np.ndarray, reached: np.ndarray) -> None:
+            """After a solve from ``z0`` to ``reached``, with multiple knots allowed: the spans
+            below ``merge_spacing`` merged into multiple knots (as the problem merges them),
+            else the smallest span if the solve drove it below half the smallest span it
+            started from, and a solve on from there over the distinct knots."""
+            nonlocal groups
+            knots = np.repeat(knots_from_log_spans(reached, bounds)[0], groups)
+            distinct = np.unique(knots)
+            if distinct.size < 2:
+                return
+            smallest = np.diff(distinct).min()
+            shrinking = smallest < 0.5 * np.diff(knots_from_log_spans(z0, bounds)[0]).min()
+            assert merge is not None  # called only when the problem merges
+            for spacing in [merge, *([smallest * (1.0 + 1e-9)] if shrinking else [])]:
+                merged = merge_close_knots(knots, spacing)
+                values, counts = np.unique(merged, return_counts=True)
+                if counts.size < distinct.size and counts.max() <= degree:
+                    groups = counts
+                    solve(log_spans_from_knots(values, bounds))
+                    return
 
         starts = self._starts()
         try:
@@ -317,15 +341,8 @@ class VariableProjection(Optimizer):
                     z0 = z0[1:] - z0[0]
                     groups = np.ones(problem.n_knots, dtype=np.int64)
                 reached = solve(z0)
-                if merge is None or reached is None:
-                    continue
-                # spans driven below the problem's merge_spacing: multiple knots, and on
-                knots = np.repeat(knots_from_log_spans(reached, bounds)[0], groups)
-                merged, counts = np.unique(merge_close_knots(knots, merge), return_counts=True)
-                if counts.size < groups.size and counts.max() <= degree \
-                        and merged[0] > bounds[0] and merged[-1] < bounds[1]:
-                    groups = counts
-                    solve(log_spans_from_knots(merged, bounds))
+                if merge is not None and reached is not None:
+                    merge_and_solve(z0, reached)
         except BudgetExhausted:
             pass
 

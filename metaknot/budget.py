@@ -64,7 +64,8 @@ class Evaluator:
     task
         The optimizer's view of the problem (no evaluation), bound to this budget.
     budget, n_evaluations, remaining
-        Evaluations allowed, used and left.
+        Evaluations allowed, used and left (used: the candidates evaluated and the
+        ``charged_fits``).
     best_x, best_f
         Best candidate so far and its value (``None`` and ``inf`` at first). With two
         objectives, ``best_f`` is the hypervolume gap of the front and ``best_x`` the front's
@@ -73,7 +74,13 @@ class Evaluator:
         With two objectives, the :class:`~metaknot.front.ParetoArchive` of the non-dominated
         candidates; else ``None``.
     external_fits
-        Fits the optimizer declared making on its own (:meth:`Task.count_fits`).
+        Fits the optimizer declared making on its own, uncharged (:meth:`Task.count_fits`).
+    charged_fits
+        Fits the optimizer declared as charged to the budget (:meth:`Task.count_fits`), each
+        counted as an evaluation in ``n_evaluations``. A charge is made at the next evaluation,
+        leaving room for it (so every count a callback sees follows an evaluation); what the
+        budget cannot take, or is declared after the last evaluation or a stop, is an external
+        fit.
     delta_evaluations
         Evaluations the problem decided by exact delta evaluation (batches passed with
         ``near``; see :meth:`__call__`).
@@ -98,6 +105,8 @@ class Evaluator:
         self._best_x: np.ndarray | None = None
         self._best_f = np.inf
         self._external_fits = 0
+        self._charged_fits = 0
+        self._pending_charge = 0  # declared charged fits not yet taken from the budget
         self._delta_evaluations = 0
         self._extra_fits = 0  # fits made during its calls beyond one per evaluation counted
         self._stop_requested = False
@@ -117,8 +126,10 @@ class Evaluator:
     best_x = property(lambda self: self._best_x, doc="Best candidate so far (or None).")
     best_f = property(lambda self: self._best_f, doc="Its objective value (inf at first).")
     front = property(lambda self: self._front, doc="The Pareto archive (two objectives).")
-    external_fits = property(lambda self: self._external_fits,
-                             doc="Fits declared with :meth:`Task.count_fits`.")
+    external_fits = property(lambda self: self._external_fits + self._pending_charge,
+                             doc="Fits declared with :meth:`Task.count_fits`, uncharged.")
+    charged_fits = property(lambda self: self._charged_fits,
+                            doc="Declared fits charged to the budget (in n_evaluations).")
     delta_evaluations = property(lambda self: self._delta_evaluations,
                                  doc="Evaluations decided by delta evaluation.")
     stop_requested = property(lambda self: self._stop_requested,
@@ -141,7 +152,7 @@ class Evaluator:
     def accounted_fits(self) -> int:
         """Model fits this evaluator accounts for: one per evaluation, those made during its
         calls beyond that, and the declared external fits."""
-        return self._n_evaluations + self._extra_fits + self._external_fits
+        return self._n_evaluations + self._extra_fits + self.external_fits
 
     @property
     def remaining(self) -> int:
@@ -153,11 +164,26 @@ class Evaluator:
         """True once the budget is spent or a callback asked to stop."""
         return self.remaining <= 0 or self._stop_requested
 
-    def _declare_external_fits(self, n: int) -> None:
-        """Record ``n`` fits an optimizer made outside the evaluator (:meth:`Task.count_fits`)."""
+    def _declare_external_fits(self, n: int, charged: bool = False) -> None:
+        """Record ``n`` fits an optimizer made outside the evaluator (:meth:`Task.count_fits`):
+        as external fits, or ``charged`` to the budget (what is left, at most; the rest as
+        external fits)."""
         if not is_integer(n) or n < 0:
             raise ValueError(f"count_fits takes a whole number of fits >= 0; got {n!r}")
-        self._external_fits += int(n)
+        if charged:
+            self._pending_charge += int(n)
+        else:
+            self._external_fits += int(n)
+
+    def _charge(self) -> None:
+        """Take the pending charged fits from the budget, leaving the evaluation about to be
+        made (none after a stop; the rest are external fits)."""
+        charge = 0 if self._stop_requested else max(0, min(self._pending_charge,
+                                                           self.remaining - 1))
+        self._n_evaluations += charge
+        self._charged_fits += charge
+        self._external_fits += self._pending_charge - charge
+        self._pending_charge = 0
 
     def __call__(self, X: np.ndarray, near: np.ndarray | None = None,
                  accept: np.ndarray | None = None) -> np.ndarray:
@@ -185,6 +211,8 @@ class Evaluator:
         ValueError
             If ``accept`` does not have one value per row, or the problem has two objectives.
         """
+        if self._pending_charge:
+            self._charge()
         if self.done:
             raise BudgetExhausted(f"evaluation budget of {self._budget} spent")
         problem = self._problem

@@ -126,11 +126,12 @@ class Optimizer(ABC):
         """
         return None
 
-    def count_fits(self, n: int = 1) -> None:
-        """Report ``n`` fits made outside the evaluator (recorded as ``external_fits``)."""
+    def count_fits(self, n: int = 1, *, charged: bool = False) -> None:
+        """Report ``n`` fits made outside the evaluator (recorded as ``external_fits``, or with
+        ``charged=True`` using the budget: :meth:`metaknot.Task.count_fits`)."""
         count = getattr(self.problem, "count_fits", None)
         if count is not None:
-            count(n)
+            count(n, charged=charged)
 
     def run(self, evaluator: Evaluator) -> None:
         """Ask, evaluate and tell until the budget is spent or :meth:`finished`.

@@ -37,6 +37,9 @@ class RunResult:
         ``optimize_seconds`` and ``decode_seconds``.
     external_fits
         Fits the optimizer made on its own, outside the evaluation budget (a FITPACK scan).
+    charged_fits
+        Fits the optimizer made on its own and charged to the budget (a Jacobian), counted in
+        ``n_evaluations``: the candidates evaluated are ``n_evaluations - charged_fits``.
     delta_evaluations
         Evaluations decided by exact delta evaluation of local moves (the rest were full fits
         or knot checks); every one counts against the budget like a full fit.
@@ -75,6 +78,7 @@ class RunResult:
     seed_spawn_key: tuple[int, ...] = ()
     timings: dict[str, float] = field(default_factory=dict)
     external_fits: int = 0
+    charged_fits: int = 0
     delta_evaluations: int = 0
     status: str = "ok"
     error: str | None = None
@@ -148,6 +152,7 @@ class RunResult:
             "elapsed_seconds": float(self.elapsed),
             **{k: float(v) for k, v in self.timings.items()},
             "external_fits": int(self.external_fits),
+            "charged_fits": int(self.charged_fits),
             "delta_evaluations": int(self.delta_evaluations),
             "audited_fits": int(self.audited_fits),
             "accounted_fits": int(self.accounted_fits),

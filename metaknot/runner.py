@@ -243,6 +243,7 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         seed_spawn_key=spawn_key,
         timings=timings,
         external_fits=evaluator.external_fits,
+        charged_fits=evaluator.charged_fits,
         delta_evaluations=evaluator.delta_evaluations,
         status=status,
         error=error,

@@ -65,7 +65,7 @@ class BudgetOwner(Protocol):
     @property
     def remaining(self) -> int: ...
 
-    def _declare_external_fits(self, n: int) -> None: ...
+    def _declare_external_fits(self, n: int, charged: bool = False) -> None: ...
 
 
 class _Binding:
@@ -167,11 +167,16 @@ class Task:
         """Evaluations left."""
         return _BINDINGS[self].evaluator.remaining
 
-    def count_fits(self, n: int = 1) -> None:
-        """Declare ``n`` fits the optimizer made outside the evaluator (recorded in the run's
-        ``external_fits``; they are not objective evaluations and do not use the budget, but
-        the run's audit accepts them)."""
-        _BINDINGS[self].evaluator._declare_external_fits(n)
+    def count_fits(self, n: int = 1, *, charged: bool = False) -> None:
+        """Declare ``n`` fits the optimizer made outside the evaluator.
+
+        By default they are recorded in the run's ``external_fits``: not objective
+        evaluations, not using the budget, but accepted by the run's audit. ``charged=True``
+        makes them use the budget instead, ``n`` evaluations' worth, counted in
+        ``n_evaluations`` and ``charged_fits`` from the next evaluation on (what the budget can
+        take; the rest are external fits): work an optimizer does per step beyond its
+        evaluations (a Jacobian), so that equal budgets mean comparable work."""
+        _BINDINGS[self].evaluator._declare_external_fits(n, charged)
 
 
 def _read_only(value: Any) -> Any:

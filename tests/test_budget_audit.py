@@ -348,3 +348,35 @@ def test_knot_spaces_are_recognised_through_a_task():
         mk.minimize(Plain(), "local_search", budget=5, seed=0)
     with pytest.raises(ValueError, match="needs a FreeKnots problem"):
         mk.minimize(KnotSelection(SPIRAL), "nlopt", budget=5, seed=0)
+
+
+class Charging(mk.Optimizer):
+    """One candidate per step, and ``charge`` fits of its own charged to the budget after
+    each (as a Jacobian would be)."""
+
+    encodings = ("continuous",)
+
+    def __init__(self, charge: int = 4) -> None:
+        self.charge = charge
+
+    def run(self, evaluator: mk.Evaluator) -> None:
+        while not evaluator.done:
+            evaluator(self.problem.sample(self.rng, 1))
+            self.count_fits(self.charge, charged=True)
+
+
+def test_fits_charged_to_the_budget_count_as_evaluations_before_the_next_one():
+    problem = FreeKnots(SPIRAL, n_knots=5)
+    seen: list[mk.Progress] = []
+    result = mk.minimize(problem, Charging(4), budget=23, seed=0, callbacks=[seen.append])
+    # each step after the charge of the one before; the sixth charge takes what leaves room
+    # for its evaluation (1 of 4), the last one is declared after the last evaluation
+    assert [p.n_evaluations for p in seen] == [1, 6, 11, 16, 21, 23]
+    assert result.n_evaluations == 23 and result.charged_fits == 4 * 4 + 1
+    assert result.external_fits == 3 + 4  # what the budget could not take: not charged
+    assert result.status == "ok" and result.record()["charged_fits"] == 17
+    tight = mk.minimize(problem, Charging(4), budget=8, seed=0)
+    assert (tight.n_evaluations, tight.charged_fits, tight.external_fits) == (8, 4 + 1, 3 + 4)
+    stopped = mk.minimize(problem, Charging(4), budget=50, seed=0,
+                          callbacks=[lambda p: p.n_evaluations >= 6])
+    assert (stopped.n_evaluations, stopped.charged_fits, stopped.external_fits) == (6, 4, 4)

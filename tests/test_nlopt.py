@@ -215,7 +215,9 @@ def test_an_error_of_the_problem_is_raised_even_if_nlopt_uses_its_type(algorithm
     with pytest.raises(type(error), match=str(error)) as info:
         mk.minimize(problem, NloptKnots(variant=algorithm), budget=80, seed=0)
     assert problem.calls == 7
-    assert info.value.partial_result.n_evaluations == 6
+    used = info.value.partial_result.n_evaluations  # with gradients: each charged 5 + 1 fits
+    assert used == 6 if algorithm not in GRADIENT_ALGORITHMS else \
+        (used - 6) % 6 == 0 and 6 < used <= 6 + 6 * 6
 
 
 class Broken(FreeKnots):
@@ -427,7 +429,10 @@ def test_the_gradient_algorithms_recover_a_kink_that_bobyqa_misses(variant):
     result = mk.minimize(problem, f"nlopt:{variant}", budget=400, seed=0)
     start = problem.evaluate(np.sort(problem.start_knots(4))[None, :])[0]
     assert result.best_f < 0.5 * start
-    assert result.external_fits > result.n_evaluations  # their own fits are declared
+    # each gradient charged to the budget as 4 + 1 fits: the evaluations (the fits the
+    # model layer made) are a small part of the budget used
+    assert result.status == "ok" and result.n_evaluations == 400
+    assert 0 < result.audited_fits < 400 / 3
 
 
 def test_the_gradient_algorithms_refuse_an_objective_they_do_not_minimise():
