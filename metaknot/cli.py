@@ -44,9 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
     report.add_argument("--no-figures", action="store_true", help="tables only (faster)")
     report.set_defaults(func=_report)
     export = sub.add_parser("export", help="a stored study's traces in another tool's format",
-                            description="Writes the study's traces for IOHanalyzer "
-                                        "(--format iohprofiler: the files ioh's Analyzer "
-                                        "logger writes). Never modifies the study.")
+                            description="Writes the study's traces for IOHanalyzer and "
+                                        "IOHinspector (--format iohprofiler: the files ioh's "
+                                        "Analyzer logger writes). Never modifies the study.")
     export.add_argument("study", help="the study folder, RESULTS_DIR/STUDY")
     export.add_argument("--format", required=True, choices=["iohprofiler"],
                         help="the output format")
