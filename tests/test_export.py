@@ -235,3 +235,13 @@ def test_iohinspector_loads_the_export(budgets, tmp_path) -> None:
     # a mask's bits are integers, as ioh writes an integer problem's candidates
     meta = json.loads(next((out / "ga_budget=40").glob("*.json")).read_text())
     assert all(type(v) is int for v in meta["scenarios"][0]["runs"][0]["best"]["x"])
+
+
+def test_every_task_of_the_suite_has_its_own_small_function_id():
+    from metaknot.experiments.export import suite_function_id
+    from metaknot.suite import instances
+    from metaknot.suite.tasks import tasks
+
+    ids = [suite_function_id(instance.id, task.id) for instance in instances(plugins=False)
+           for task in tasks(instance)]
+    assert None not in ids and len(set(ids)) == len(ids) and max(ids) < 10_000
