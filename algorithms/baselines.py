@@ -94,7 +94,9 @@ class _KnotCountBaseline(Optimizer):
         self.free_count = kind == "binary" or (isinstance(problem, FreeKnotSpace)
                                                and problem.variable_count)
         if self.free_count:
+            # a mask's most knots: N - p - 1 on an open curve, N - 1 (interpolation) closed
             cap = counted.n_knots if kind == "continuous" else \
+                problem.data.n_points - 1 if problem.closed else \
                 problem.data.n_points - problem.degree - 1
             self.counts = list(range(1, min(cap, self.max_knots or cap) + 1))
         else:

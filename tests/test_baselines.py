@@ -292,3 +292,22 @@ def test_unsuitable_problems_are_rejected():
 
     with pytest.raises(ValueError, match="knot problem"):
         mk.minimize(Sphere(), "uniform", budget=5)
+
+
+@pytest.mark.parametrize("name", ["uniform", "averaging"])
+def test_a_scan_on_a_closed_outline_goes_up_to_interpolation(name):
+    """A closed outline of N points takes up to N - 1 interior knots (N control points, the
+    interpolating spline), more than an open curve's N - p - 1: a tolerance only
+    interpolation meets is met by the scan."""
+    from metaknot.bspline import closed_parameterize
+
+    angle = np.linspace(0.0, 2 * np.pi, 30, endpoint=False)
+    square = np.column_stack((np.clip(1.5 * np.cos(angle), -1, 1),
+                              np.clip(1.5 * np.sin(angle), -1, 1)))
+    problem = KnotSelection(square, closed=True, objective="error_bounded",
+                            objective_options={"tolerance": 1e-9})
+    opt = set_up(name, problem)
+    assert opt.counts == list(range(1, 30))  # N - 1 = 29
+    result = mk.minimize(problem, name, budget=100, seed=0)
+    assert result.n_evaluations == 29 and result.best_f < 31  # within the tolerance: N + err
+    assert closed_parameterize(square).size == 30

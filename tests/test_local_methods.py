@@ -381,7 +381,8 @@ def evaluated(problem, optimizer, budget=2000):
 
 
 @pytest.mark.parametrize("options, message", [({"iterated": "yes"}, "iterated"),
-                                              ({"kick": 0}, "kick")])
+                                              ({"kick": 0}, "kick"),
+                                              ({"pivot": "worst"}, "pivot must be")])
 def test_bad_local_search_settings_are_named(options, message):
     with pytest.raises(ValueError, match=message):
         LocalSearch(**options)
@@ -410,3 +411,19 @@ def test_a_kick_onto_an_infeasible_candidate_kicks_again():
         assert np.isfinite(result.best_f) and search.kicks > 0
         infeasible_kicks += search.infeasible_kicks
     assert infeasible_kicks  # the case the test is about did occur
+
+
+def test_iterated_local_search_keeps_up_with_the_one_plus_one_ea_on_a_glyph_with_corners():
+    """digit_1's tolerance task (1e-3 of the diagonal, 3,000 evaluations): the averaging
+    knots need 188 control points; best improvement pays the whole neighbourhood (about 240
+    evaluations) per knot removed and ended at 177, the (1+1) EA at 52. First improvement
+    (the default) takes a knot in a few evaluations."""
+    from metaknot.suite import get_instance
+    from metaknot.suite.tasks import get_task
+
+    task = get_task(get_instance("digit_1"), "tolerance_1e-3")
+    first = mk.minimize(task.problem(), "local_search", budget=3000, seed=0)
+    best = mk.minimize(task.problem(), "local_search", budget=3000, seed=0,
+                       optimizer_kwargs={"pivot": "best"})
+    ea = mk.minimize(task.problem(), "one_plus_one", budget=3000, seed=0)
+    assert first.best_f <= ea.best_f < 100 < best.best_f

@@ -153,7 +153,8 @@ DEFAULTS = {
     "ga": {"population": 50, "tournament_size": 2, "crossover": "uniform", "crossover_rate": 0.9,
            "mutation_rate": None, "elite": 1, "index_mutation": "step", "max_step": 3},
     "one_plus_one": {"rate": None, "offspring": 1, "max_step": 1},
-    "local_search": {"max_step": 2, "batch_size": 64, "iterated": True, "kick": 3},
+    "local_search": {"max_step": 2, "batch_size": 64, "iterated": True, "kick": 3,
+                     "pivot": "first"},
     "random_search": {"batch_size": 100},
     "nlopt": {"variant": "LN_BOBYQA", "local_variant": "LN_BOBYQA", "restarts": 0,
               "min_gap": 1e-4, "data_gap": None, "box_map": "auto", "span_range": 4.0,
@@ -254,9 +255,28 @@ def drive_to_the_first_neighbourhood(ls: LocalSearch, problem: mk.Problem) -> mk
 
 
 def test_local_search_uses_max_step_on_masks():
-    ls = LocalSearch(max_step=3)
+    ls = LocalSearch(max_step=3, pivot="best")
     _, X = drive_to_the_first_neighbourhood(ls, KnotSelection(SPIRAL))
     assert np.array_equal(X, mask_neighbours(ls.incumbent, 3))
+
+
+def test_first_improvement_tries_the_whole_neighbourhood_in_chunks_in_a_random_order():
+    ls = LocalSearch(max_step=3, batch_size=10)
+    _, X = drive_to_the_first_neighbourhood(ls, KnotSelection(SPIRAL))
+    whole = mask_neighbours(ls.incumbent, 3)
+    threshold = ls.acceptance()
+    assert threshold is not None and (threshold < ls.incumbent_f).all() \
+        and (threshold == np.nextafter(ls.incumbent_f, -np.inf)).all()
+    tried = [X]
+    while len(ls._untried):  # told no better neighbour, it asks the next chunk
+        ls.tell(tried[-1], np.full(len(tried[-1]), ls.incumbent_f))
+        tried.append(ls.ask())
+        assert len(tried[-1]) <= 10
+    together = np.concatenate(tried)
+    assert len(together) == len(whole) and not np.array_equal(together, whole)
+    assert np.array_equal(np.unique(together, axis=0), whole)
+    ls.tell(tried[-1], np.full(len(tried[-1]), ls.incumbent_f))
+    assert ls._stuck  # the whole neighbourhood tried: a local optimum
 
 
 def test_local_search_counts_its_improving_steps_and_copies_the_incumbent():
