@@ -519,7 +519,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
             encoding_out["max_multiplicity"] = multiplicity
     else:
         known = {"kind", "n_knots"} | ({"variable_count", "merge_spacing"} if kind == "free"
-                                       else set())
+                                       else {"max_multiplicity"})
         _unknown("encoding", encoding, known)
         n_knots = encoding.get("n_knots", 20)
         if n_knots == "max":
@@ -537,6 +537,11 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         else:
             n_knots = _int("encoding.n_knots", n_knots, low=1)
         encoding_out = {"kind": kind, "n_knots": n_knots}
+        if kind == "indices":
+            multiplicity = _int("encoding.max_multiplicity",
+                                encoding.get("max_multiplicity", 1), low=1, high=degree)
+            if multiplicity > 1:  # only when set, so the run ids of other runs stay
+                encoding_out["max_multiplicity"] = multiplicity
         if kind == "free":
             encoding_out["variable_count"] = _bool("encoding.variable_count",
                                                    encoding.get("variable_count", False))
@@ -694,7 +699,8 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
         elif isinstance(n_knots, str):
             n_knots = fitpack_count(data, float(n_knots.split(":", 1)[1]), common)
         if kind == "indices":
-            return KnotIndices(data, n_knots=n_knots, **common)
+            return KnotIndices(data, n_knots=n_knots,
+                               max_multiplicity=encoding.get("max_multiplicity", 1), **common)
         return FreeKnots(data, n_knots=n_knots, variable_count=encoding["variable_count"],
                          merge_spacing=encoding.get("merge_spacing"), **common)
     except (ValueError, TypeError) as exc:

@@ -402,18 +402,29 @@ class KnotIndices(KnotProblem):
 
     Alternatives are ordered along the curve. A candidate is a set: it is sorted before fitting,
     and a repeated index (coincident knots) makes it infeasible.
+
+    With ``max_multiplicity`` above 1 (up to the degree) an index may repeat that many times: a
+    knot of that multiplicity at the data point (a kink, or a corner at the degree). A
+    candidate is then a sorted multiset (the encoding's ``distinct_sorted`` is off: sampling
+    and repair no longer keep the values apart), ``n_knots`` counting every copy; local moves
+    are fitted in full.
     """
 
     public_attributes = KnotProblem.public_attributes | {"n_knots"}
 
     def __init__(self, points: PointSet | str | ArrayLike = "epitrochoid", *,
-                 n_knots: int = 20, **kwargs: Any) -> None:
+                 n_knots: int = 20, max_multiplicity: int = 1, **kwargs: Any) -> None:
         super().__init__(points, **kwargs)
         self.n_knots = _check_n_knots(n_knots, self.curve)
+        self.max_multiplicity = check_multiplicity(max_multiplicity, self.degree)
         self.encoding = Encoding.integer(self.n_knots, 1, self.last_candidate_point,
-                                         distinct_sorted=True)
+                                         distinct_sorted=self.max_multiplicity == 1)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
+        if self.max_multiplicity > 1:
+            return self.curve.evaluate_knots(*self._stack(X),
+                                             max_deviation=self.objective.needs_max_deviation,
+                                             max_multiplicity=self.max_multiplicity)
         return self.curve.evaluate_indices(X, max_deviation=self.objective.needs_max_deviation)
 
     def _interior_knots(self, x: np.ndarray) -> np.ndarray:
@@ -426,7 +437,9 @@ class KnotIndices(KnotProblem):
         return self.params[idx].ravel(), np.arange(0, idx.size + 1, idx.shape[1])
 
     def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "n_knots": self.n_knots}
+        multiple = {} if self.max_multiplicity == 1 else \
+            {"max_multiplicity": self.max_multiplicity}
+        return {**super().describe(), "n_knots": self.n_knots, **multiple}
 
 
 @register("free")

@@ -284,3 +284,28 @@ def test_a_search_over_multiplicities_places_knots_at_the_corners():
     assert found[3].best_f < found[1].best_f - 20
     counts = np.asarray(found[3].best_x)
     assert counts.max() >= 2 and set(x[1:-1][counts >= 2]) & {x[90], x[160]}
+
+
+def test_index_sets_with_repeats_are_multiple_knots_when_allowed():
+    """KnotIndices with max_multiplicity: an index repeated is a multiple knot at that data
+    point, fitted as the same knots are by a mask of multiplicities; by default a repeat is
+    infeasible, as before."""
+    from metaknot.problems import KnotIndices, KnotSelection, PointSet
+
+    x = np.linspace(0.0, 1.0, 41)
+    data = PointSet(np.column_stack((x, np.abs(x - 0.45))), "corner", params=x)
+    indices = KnotIndices(data, n_knots=4, max_multiplicity=3, objective="rmse")
+    assert indices.encoding.kind == "integer" and not indices.encoding.distinct_sorted
+    rows = np.array([[18, 18, 18, 30], [30, 18, 18, 5], [18, 18, 18, 18], [5, 12, 18, 30]])
+    values = indices.evaluate(rows)
+    masks = KnotSelection(data, max_multiplicity=3, objective="rmse")
+    for row, value in zip(rows, values, strict=True):
+        counts = np.bincount(row - 1, minlength=39)
+        expected = masks.evaluate(counts[None, :])[0] if counts.max() <= 3 else np.inf
+        assert value == pytest.approx(expected, rel=1e-12, abs=1e-15)
+    assert values[0] < 1e-12 and values[2] == np.inf  # a corner; four copies refused
+    assert indices.decode(rows[1]).fit.n_control_points == 4 + 4
+    plain = KnotIndices(data, n_knots=4, objective="rmse")
+    assert plain.evaluate(rows[:1])[0] == np.inf and plain.encoding.distinct_sorted
+    assert "max_multiplicity" not in plain.describe() and \
+        indices.describe()["max_multiplicity"] == 3

@@ -208,6 +208,7 @@ BAD_PLAIN = [  # a plain mapping of the same shape
     ({"encoding__max_multiplicity": 4}, "encoding.max_multiplicity"),  # degree 3
     ({"encoding__max_multiplicity": 0}, "encoding.max_multiplicity"),
     ({"encoding": {"kind": "free", "max_multiplicity": 2}}, "encoding.max_multiplicity"),
+    ({"encoding": {**INDICES, "max_multiplicity": 5}}, "encoding.max_multiplicity"),
     ({"encoding": {"kind": "free", "merge_spacing": "close"}}, "encoding.merge_spacing"),
     ({"encoding": {**INDICES, "merge_spacing": 0.1}}, "encoding.merge_spacing"),
     ({"encoding": {"kind": "free", "density": 0.3}}, "encoding.density"),
@@ -962,3 +963,11 @@ def test_a_mask_of_multiplicities_is_an_integer_encoding_for_the_optimizers():
     assert problem.max_multiplicity == 3 and problem.encoding.kind == "integer"
     assert spec_of("problem.n_points=40", "encoding.max_multiplicity=3",
                    "optimizer=ga").compatible() is None
+
+
+def test_index_sets_with_repeats_are_configured_by_the_encoding():
+    spec = spec_of("encoding=indices", "encoding.n_knots=6", "encoding.max_multiplicity=2")
+    assert spec.config["encoding"] == {"kind": "indices", "n_knots": 6, "max_multiplicity": 2}
+    problem = spec.build_problem()
+    assert problem.max_multiplicity == 2 and not problem.encoding.distinct_sorted
+    assert "max_multiplicity" not in spec_of("encoding=indices").config["encoding"]
