@@ -265,3 +265,58 @@ def test_every_answer_can_be_fitted(name):
             assert "fit needs at least" in str(error)
             continue
         assert np.isfinite(found.error), (n, degree, closed, found.knots)
+
+
+def newnot_as_published(breaks, jumps_source, k, count):
+    """NEWNOT as A Practical Guide to Splines prints it, for a function: ``jumps_source[i]``
+    is the (k-1)st derivative on interval i; returns the ``count`` new interior breaks."""
+    spans = breaks.size - 1
+    slope = np.empty(spans)
+    g = np.zeros(spans + 1)
+    previous = abs(jumps_source[1] - jumps_source[0]) / (breaks[2] - breaks[0])
+    for i in range(1, spans):  # the Fortran loop i = 2..spans
+        current = abs(jumps_source[i] - jumps_source[i - 1]) / (breaks[i + 1] - breaks[i - 1])
+        slope[i - 1] = (current + previous) ** (1.0 / k)
+        g[i] = g[i - 1] + slope[i - 1] * (breaks[i] - breaks[i - 1])
+        previous = current
+    slope[spans - 1] = (2.0 * previous) ** (1.0 / k)
+    g[spans] = g[spans - 1] + slope[spans - 1] * (breaks[spans] - breaks[spans - 1])
+    step = g[spans] / (count + 1)
+    if step <= 0:
+        return breaks[0] + np.arange(1, count + 1) * (breaks[-1] - breaks[0]) / (count + 1)
+    out, j = [], 0
+    for i in range(1, count + 1):
+        level = i * step
+        while j < spans - 1 and level > g[j + 1]:
+            j += 1
+        out.append(0.5 * (breaks[j] + breaks[j + 1]) if slope[j] == 0 else
+                   breaks[j] + (level - g[j]) / slope[j])
+    return np.array(out)
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4])
+def test_newnot_without_a_floor_is_de_boors_newnot(degree):
+    """floor=0: the knots NEWNOT computes from the same pilot fit, to rounding; with the
+    default floor they move towards uniform (a little)."""
+    from metaknot.algorithms.newknt import newnot
+
+    x, y = titanium()
+    target = Target(x, y, 1.0, degree=degree)
+    knots = np.linspace(x[0], x[-1], 9)[1:-1]
+    pilot = target.fit(knots)
+    breaks = np.concatenate(([x[0]], knots, [x[-1]]))
+    derivative = pilot.spline.derivative(degree)(0.5 * (breaks[1:] + breaks[:-1])).ravel()
+    expected = newnot_as_published(breaks, derivative, degree + 1, knots.size)
+    np.testing.assert_allclose(newnot(target, knots, floor=0.0), expected, rtol=0, atol=1e-9)
+    floored = newnot(target, knots)
+    assert 0 < np.abs(floored - expected).max() < 0.05 * np.ptp(x)
+
+
+def test_newnot_with_zero_density_is_uniform_and_skips_flat_spans():
+    from metaknot.algorithms.newknt import _inverse
+
+    breaks = np.array([0.0, 1.0, 2.0, 4.0])
+    np.testing.assert_allclose(_inverse(breaks, np.zeros(3), 3), [1.0, 2.0, 3.0])
+    # g rises on the first and last spans only: no new knot lands inside the flat one
+    np.testing.assert_allclose(_inverse(breaks, np.array([1.0, 0.0, 0.5]), 3),
+                               [0.5, 1.0, 3.0])
