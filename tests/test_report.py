@@ -1105,3 +1105,43 @@ def test_report_of_a_real_study(tmp_path, monkeypatch):
     (row,) = pairwise.itertuples()
     x, y = _pair_values(comparison.runs, "archimedean", 300, row.A, row.B)
     assert row.n == 6 and row.A12 == pytest.approx(a12(x, y))
+
+
+def _build_in_a_process(study: str, out: str, metrics: tuple[str, ...]) -> int:
+    return len(build(study, out, metrics=metrics, figures=False).summary)
+
+
+def _whole(out: Path) -> tuple[str, ...]:
+    """The metrics of the report in ``out``, checked to be those of its tables and pages."""
+    tested = tuple(sorted(p.stem.removeprefix("pairwise_")
+                          for p in (out / "tables").glob("pairwise_*.csv")))
+    ranked = tuple(sorted(p.stem.removeprefix("ranks_")
+                          for p in (out / "tables").glob("ranks_*.csv")))
+    assert tested == ranked, (tested, ranked)
+    return tested
+
+
+def test_a_report_replaces_the_whole_report_and_keeps_the_users_files(tmp_path):
+    """A report without the rmse tests built after one with them leaves no rmse table
+    behind (its files used to be written over the earlier ones, the rest kept), and two
+    reports built at once leave one of them whole; a file of the user's in the folder stays,
+    and no building folder is left behind."""
+    import concurrent.futures
+    import multiprocessing
+
+    study = _write(tmp_path / "study", _dominance_runs(seeds=6))
+    out = tmp_path / "study-report"
+    build(study, out, metrics=("best_f", "rmse"), figures=False)
+    (out / "notes.txt").write_text("mine")
+    assert _whole(out) == ("best_f", "rmse")
+    build(study, out, metrics=("best_f",), figures=False)
+    assert _whole(out) == ("best_f",)
+    context = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(2, mp_context=context) as pool:
+        for _ in range(3):
+            jobs = [pool.submit(_build_in_a_process, str(study), str(out), metrics)
+                    for metrics in (("best_f",), ("best_f", "rmse"))]
+            assert all(job.result() > 0 for job in jobs)
+            assert _whole(out) in (("best_f",), ("best_f", "rmse"))
+            assert (out / "notes.txt").read_text() == "mine"
+            assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]

@@ -7,6 +7,9 @@ import datetime as _dt
 import html
 import os
 import re
+import shutil
+import tempfile
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,7 +69,9 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
         :class:`~metaknot.experiments.store.Study`.
     out
         Output folder (default: ``<results_dir>/<study>-report``); created if missing, files in
-        it are replaced. It may not be inside the study.
+        it are replaced. It may not be inside the study. The report is built in a private
+        folder beside it and moved into place when complete (other files in the folder are
+        moved along), so that reports built at once each stay whole: the last one wins.
     alpha
         Significance level of the tests.
     metrics
@@ -99,6 +104,68 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
         raise ReportError(f"the report folder {out} is inside the study; choose another")
     if out.exists() and not out.is_dir():
         raise ReportError(f"{out} exists and is not a folder")
+    final = out
+    final.parent.mkdir(parents=True, exist_ok=True)
+    out = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".building",
+                                dir=final.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    out.chmod(0o777 & ~umask)  # as a folder made by mkdir (mkdtemp's is private)
+    try:
+        report = _build(comparison, out, alpha, metrics, figures, say)
+        _move_into_place(out, final)
+    except BaseException:
+        shutil.rmtree(out, ignore_errors=True)
+        raise
+    moved = Report(out=final, html=final / report.html.name, markdown=final / report.markdown.name,
+                   summary=report.summary, tables=report.tables,
+                   figures=[final / path.relative_to(out) for path in report.figures])
+    say(f"report: {moved.html}")
+    return moved
+
+
+#: What a report writes into its folder (the rest of a folder's files are the user's).
+REPORT_ENTRIES = ("tables", "figures", "report.html", "report.md")
+
+
+def _move_into_place(built: Path, final: Path, attempts: int = 20) -> None:
+    """Put the complete report folder ``built`` at ``final``: the files of an earlier
+    ``final`` that are not the report's are moved into ``built`` first; then the earlier
+    folder is renamed aside, ``built`` renamed into place, and the earlier one removed. A
+    report moved into place at the same moment by another process makes a rename fail: it is
+    tried again (the last one in place wins, each whole)."""
+    for _ in range(attempts):
+        aside = None
+        if final.exists():
+            for entry in final.iterdir():
+                if entry.name not in REPORT_ENTRIES and not (built / entry.name).exists():
+                    try:
+                        entry.rename(built / entry.name)
+                    except FileNotFoundError:
+                        pass  # taken along by another report being moved at once
+            aside = final.with_name(f".{final.name}.{os.getpid()}.{time.monotonic_ns()}.old")
+            try:
+                final.rename(aside)
+            except FileNotFoundError:
+                aside = None  # moved aside by another report just now
+            except OSError:
+                continue
+        try:
+            built.rename(final)
+        except OSError:  # another report took the place first: move it aside again
+            if aside is not None:
+                shutil.rmtree(aside, ignore_errors=True)
+            continue
+        if aside is not None:
+            shutil.rmtree(aside, ignore_errors=True)
+        return
+    raise ReportError(f"the report could not be moved into {final}: other reports kept "
+                      "taking its place")
+
+
+def _build(comparison: Comparison, out: Path, alpha: float, metrics: Sequence[str],
+           figures: bool, say: Callable[[str], None]) -> Report:
+    """The report's tables, figures and pages, written into ``out``."""
     (out / "tables").mkdir(parents=True, exist_ok=True)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     say(f"report of {comparison.name}: {len(comparison.runs)} runs, "
@@ -135,7 +202,6 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
                          suite)
     report.html.write_text(_html(comparison, sections, out), encoding="utf-8")
     report.markdown.write_text(_markdown(comparison, sections, out), encoding="utf-8")
-    say(f"report: {report.html}")
     return report
 
 
