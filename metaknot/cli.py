@@ -16,7 +16,9 @@ from .registry import available_optimizers, available_problems
 
 
 def _list(args: argparse.Namespace) -> int:
-    print("problems:  ", ", ".join(available_problems()))
+    # the registered problems are the encodings a study chooses (encoding=mask, ...); the data
+    # curve is the config group problem
+    print("encodings: ", ", ".join(available_problems()))
     print("optimizers:", ", ".join(available_optimizers()))
     return 0
 
@@ -25,7 +27,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="metaknot", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     commands.add_demo(sub)
-    lst = sub.add_parser("list", help="registered problems and optimizers")
+    lst = sub.add_parser("list", help="the encodings (registered problems) and optimizers")
     lst.set_defaults(func=_list)
     commands.add_fit(sub)
     suite_command.add_suite(sub)

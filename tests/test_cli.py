@@ -47,6 +47,9 @@ def test_list_names_builtins(capsys: pytest.CaptureFixture[str]) -> None:
     for name in ("mask", "indices", "free", "random_search", "dolphin",
                  "ga", "nlopt", "uniform", "averaging", "fitpack"):
         assert name in out
+    # the word a study's configuration uses for them (encoding=mask), not "problems", which
+    # a study uses for the data (problem=archimedean)
+    assert out.splitlines()[0].split(":")[0] == "encodings"
 
 
 def test_bad_option_is_a_clear_error(capsys: pytest.CaptureFixture[str]) -> None:
