@@ -188,14 +188,11 @@ def render_rows(p: int, d: int) -> str:
     lines += _basis_lines(p, ind)
     lines += [
         f"        first = span - U{p}",
-        "        # x lies inside the support of basis functions first..span, but not of those",
-        "        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last",
-        "        # point belongs to the last one",
+        "        # x lies inside the support of basis functions first..span, but not of span",
+        "        # itself at its left end (x == t[span]); the last point belongs to the last one",
         "        before_last = matched",
         "        unmatched |= matched < first",
         "        hi = span - U1 if l1 == 0.0 else span",
-        "        while l1 == 0.0 and hi > first and t[hi] == x:",
-        "            hi -= U1",
         "        matched = matched + U1 if matched <= hi else matched",
         "        if store:",
         "            spans[j] = span",

@@ -17,8 +17,11 @@ singular.
 *Multiple knots.* ``max_mult`` (1 to the degree ``p``) is the multiplicity an interior knot may
 have: 1 for the encodings whose knots are distinct, up to ``p`` where a problem allows multiple
 knots (continuity C^(p - m) at a knot of multiplicity m). The basis recurrence takes a zero-length
-span's reciprocal as 0 (de Boor's convention), the span search skips such spans, and the
-Schoenberg-Whitney matching counts the multiplicity of a knot a data point sits on.
+span's reciprocal as 0 (de Boor's convention) and the span search skips such spans. The
+generated row loop's Schoenberg-Whitney test takes distinct knots (a multiple knot can pass it
+wrongly, never fail it wrongly), so a candidate that repeats a knot is tested again by
+:func:`schoenberg_whitney`, which counts the multiplicity of a knot a data point sits on; the
+row loop of distinct knots stays as it was, at its speed.
 """
 
 from __future__ import annotations
@@ -63,14 +66,22 @@ def _build_knots(u, interior, p, t, max_mult):
     outside = False
     unsorted = False
     prev = u0
-    run = 1  # copies of the knot so far
-    for i in range(k):
-        x = interior[i]
-        t[p + 1 + i] = x
-        outside |= not ((x > u0) & (x < um))  # also catches NaN
-        run = run + 1 if x == prev else 1
-        unsorted |= (x < prev) | (run > max_mult)
-        prev = x
+    if max_mult == 1:  # distinct knots: the loop without the count of copies
+        for i in range(k):
+            x = interior[i]
+            t[p + 1 + i] = x
+            outside |= not ((x > u0) & (x < um))  # also catches NaN
+            unsorted |= x <= prev
+            prev = x
+    else:
+        run = 1  # copies of the knot so far
+        for i in range(k):
+            x = interior[i]
+            t[p + 1 + i] = x
+            outside |= not ((x > u0) & (x < um))  # also catches NaN
+            run = run + 1 if x == prev else 1
+            unsorted |= (x < prev) | (run > max_mult)
+            prev = x
     if outside:
         return KNOT_OUT_OF_RANGE
     if unsorted:
@@ -102,7 +113,7 @@ def reciprocal_differences(t, p):
 
 
 @njit(cache=True)
-def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st):
+def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st, max_mult=1):
     """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
 
     Square-root-free Givens rotations (Gentleman 1973), row by row as in FITPACK's ``fpcurf``:
@@ -123,6 +134,8 @@ def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st):
     st[: n * width] = 0.0
     st[: n * width : width] = EMPTY
     sse, matched = rows(u, q, t, iv, p, n, st, basis, spans)
+    if matched and max_mult > 1 and _repeats(t, p, n):  # the row loop's test takes distinct
+        matched = schoenberg_whitney(u, t, p, n)  # knots: a multiple one can pass it wrongly
     if not matched:
         return SCHOENBERG_WHITNEY, np.inf
     # 1 / dinv is the squared diagonal of R: compare its smallest entry with its largest
@@ -239,7 +252,46 @@ def _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st, max_mult):
     reason = _build_knots(u, interior, p, t, max_mult)
     if reason != FEASIBLE:
         return reason, np.inf
-    return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st)
+    return _solve_into(u, q, t, p, n, coef, basis, spans, iv, st, max_mult)
+
+
+@njit(cache=True)
+def _repeats(t, p, n):
+    """Whether the clamped knot vector ``t`` (``n`` B-splines) repeats an interior knot."""
+    for i in range(p + 2, n):
+        if t[i] == t[i - 1]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def schoenberg_whitney(u, t, p, n):
+    """The Schoenberg-Whitney conditions for the clamped knot vector ``t`` (interior knots of
+    any multiplicity up to ``p``) and the increasing parameters ``u``: each of the ``n``
+    B-splines gets a data point of its own where it is nonzero.
+
+    The greedy matching of the generated row loop (points in order, each to the first
+    unmatched B-spline nonzero there), with the B-splines nonzero at a point on a knot of
+    multiplicity ``m`` counted right: ``span - p .. span - m`` (those starting at the point are
+    zero there, unless ``m`` is ``p + 1``, the clamped start)."""
+    matched = 0
+    span = p
+    last = n - 1
+    for j in range(u.size):
+        x = u[j]
+        while span < last and t[span + 1] <= x:
+            span += 1
+        first = span - p
+        if matched < first:
+            return False
+        hi = span
+        if x == t[span]:
+            hi = span - 1
+            while hi > first and t[hi] == x:
+                hi -= 1
+        if matched <= hi:
+            matched += 1
+    return matched == n
 
 
 @njit(cache=True)

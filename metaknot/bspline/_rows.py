@@ -50,14 +50,11 @@ def rows_p1_d1(u, q, t, iv, n, st, basis, spans):
         s1_0 = l1 * tmp
         h1 = s1_0
         first = span - U1
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -126,14 +123,11 @@ def rows_p1_d2(u, q, t, iv, n, st, basis, spans):
         s1_0 = l1 * tmp
         h1 = s1_0
         first = span - U1
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -209,14 +203,11 @@ def rows_p1_d3(u, q, t, iv, n, st, basis, spans):
         s1_0 = l1 * tmp
         h1 = s1_0
         first = span - U1
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -309,14 +300,11 @@ def rows_p2_d1(u, q, t, iv, n, st, basis, spans):
         s2_1 = l1 * tmp
         h2 = s2_1
         first = span - U2
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -414,14 +402,11 @@ def rows_p2_d2(u, q, t, iv, n, st, basis, spans):
         s2_1 = l1 * tmp
         h2 = s2_1
         first = span - U2
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -529,14 +514,11 @@ def rows_p2_d3(u, q, t, iv, n, st, basis, spans):
         s2_1 = l1 * tmp
         h2 = s2_1
         first = span - U2
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -667,14 +649,11 @@ def rows_p3_d1(u, q, t, iv, n, st, basis, spans):
         s3_2 = l1 * tmp
         h3 = s3_2
         first = span - U3
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -807,14 +786,11 @@ def rows_p3_d2(u, q, t, iv, n, st, basis, spans):
         s3_2 = l1 * tmp
         h3 = s3_2
         first = span - U3
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -960,14 +936,11 @@ def rows_p3_d3(u, q, t, iv, n, st, basis, spans):
         s3_2 = l1 * tmp
         h3 = s3_2
         first = span - U3
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -1142,14 +1115,11 @@ def rows_p4_d1(u, q, t, iv, n, st, basis, spans):
         s4_3 = l1 * tmp
         h4 = s4_3
         first = span - U4
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -1323,14 +1293,11 @@ def rows_p4_d2(u, q, t, iv, n, st, basis, spans):
         s4_3 = l1 * tmp
         h4 = s4_3
         first = span - U4
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -1520,14 +1487,11 @@ def rows_p4_d3(u, q, t, iv, n, st, basis, spans):
         s4_3 = l1 * tmp
         h4 = s4_3
         first = span - U4
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -1752,14 +1716,11 @@ def rows_p5_d1(u, q, t, iv, n, st, basis, spans):
         s5_4 = l1 * tmp
         h5 = s5_4
         first = span - U5
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -1980,14 +1941,11 @@ def rows_p5_d2(u, q, t, iv, n, st, basis, spans):
         s5_4 = l1 * tmp
         h5 = s5_4
         first = span - U5
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
@@ -2227,14 +2185,11 @@ def rows_p5_d3(u, q, t, iv, n, st, basis, spans):
         s5_4 = l1 * tmp
         h5 = s5_4
         first = span - U5
-        # x lies inside the support of basis functions first..span, but not of those
-        # starting at x (x == t[span], a knot of multiplicity m: the last m); the last
-        # point belongs to the last one
+        # x lies inside the support of basis functions first..span, but not of span
+        # itself at its left end (x == t[span]); the last point belongs to the last one
         before_last = matched
         unmatched |= matched < first
         hi = span - U1 if l1 == 0.0 else span
-        while l1 == 0.0 and hi > first and t[hi] == x:
-            hi -= U1
         matched = matched + U1 if matched <= hi else matched
         if store:
             spans[j] = span
