@@ -455,3 +455,22 @@ def test_bad_suite_instances_in_a_tuning_study(tmp_path, override, message) -> N
                      "~objective.error_floor", override]
     with pytest.raises(ConfigError, match=message):
         spec_of(tmp_path, *overrides)
+
+
+def test_the_trials_added_are_those_of_this_commands_workers(tmp_path) -> None:
+    """Several tune commands on one study: each says how many trials its own workers ran,
+    and how many the others added meanwhile (it used to count them all as its own)."""
+    from metaknot.experiments.tuning.app import trials_added
+
+    spec = spec_of(tmp_path, "n_trials=3", "evaluate=false", "pruner=none")
+    tune(spec, progress=False)
+    study = open_study(spec, open_storage(spec))
+    trials = study.get_trials(deepcopy=False)
+    workers = {t.user_attrs["worker"] for t in trials}
+    assert len(workers) == 1
+    assert trials_added(spec, study, 0, workers) == \
+        "tune tune-dolphin: added 3 trials (3 complete); the study holds 3"
+    assert trials_added(spec, study, 0, {"elsewhere:1"}) == \
+        "tune tune-dolphin: added no trials; other workers added 3; the study holds 3"
+    assert trials_added(spec, study, 1, {"elsewhere:1"}).endswith(
+        "other workers added 2; the study holds 3")

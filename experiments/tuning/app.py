@@ -35,6 +35,7 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
         references,
         run_workers,
         storage_description,
+        worker_name,
     )
 
     storage = open_storage(spec)  # errors here stop everything before a trial starts
@@ -44,9 +45,11 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
           f"{storage_description(spec)}", flush=True)
     references(spec, study)
     before = len(study.get_trials(deepcopy=False))
-    for line in fail_trials_of_dead_workers(study, run_workers(spec, progress=progress)):
+    spawned = run_workers(spec, progress=progress)
+    for line in fail_trials_of_dead_workers(study, spawned):
         print(line, flush=True)
-    print(trials_added(spec, study, before), flush=True)
+    ours = {worker_name(), *(worker_name(pid) for _, pid, _ in spawned)}
+    print(trials_added(spec, study, before, ours), flush=True)
     try:
         best = study.best_trial
     except ValueError:
@@ -71,17 +74,23 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     return {**written, "best_value": best.value, "best_params": best.params}
 
 
-def trials_added(spec: TuneSpec, study: Any, before: int) -> str:
-    """The line saying how many trials the study got since it held ``before`` (by their
-    state: complete, pruned, fail, ...) and how many it holds now."""
+def trials_added(spec: TuneSpec, study: Any, before: int,
+                 workers: set[str] | None = None) -> str:
+    """The line saying how many trials this command's ``workers`` (their ``host:pid``; all
+    if None) added since the study held ``before`` (by their state: complete, pruned, fail,
+    ...), how many other commands' workers added meanwhile, and how many it holds now."""
     from collections import Counter
 
     trials = study.get_trials(deepcopy=False)
-    states = Counter(trial.state.name.lower() for trial in trials[before:])
-    added = len(trials) - before
+    new = trials[before:]
+    mine = [t for t in new if workers is None or t.user_attrs.get("worker", "") in workers]
+    states = Counter(trial.state.name.lower() for trial in mine)
+    added = len(mine)
     detail = ", ".join(f"{n} {state}" for state, n in sorted(states.items()))
     what = f"added {added} trial{'s' * (added != 1)} ({detail})" if added else "added no trials"
-    return f"tune {spec.study}: {what}; the study holds {len(trials)}"
+    others = len(new) - added
+    meanwhile = f"; other workers added {others}" if others else ""
+    return f"tune {spec.study}: {what}{meanwhile}; the study holds {len(trials)}"
 
 
 def task(cfg: Any) -> None:
