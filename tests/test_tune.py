@@ -474,3 +474,20 @@ def test_the_trials_added_are_those_of_this_commands_workers(tmp_path) -> None:
         "tune tune-dolphin: added no trials; other workers added 3; the study holds 3"
     assert trials_added(spec, study, 1, {"elsewhere:1"}).endswith(
         "other workers added 2; the study holds 3")
+
+
+def test_two_commands_creating_a_sqlite_study_at_once_retry_instead_of_failing() -> None:
+    """SQLite's errors when another command creates Optuna's tables at the same moment are
+    retried, as PostgreSQL's are; other errors are not."""
+    import sqlite3
+
+    from sqlalchemy.exc import OperationalError
+
+    from metaknot.experiments.tuning.runner import _schema_race
+
+    for text in ("table studies already exists", "database is locked"):
+        error = OperationalError("CREATE TABLE studies (...)", {}, sqlite3.OperationalError(text))
+        assert _schema_race(error), text
+    other = OperationalError("SELECT 1", {}, sqlite3.OperationalError("unable to open database"))
+    assert not _schema_race(other)
+    assert not _schema_race(RuntimeError("table studies already exists"))
