@@ -481,13 +481,16 @@ def test_two_commands_creating_a_sqlite_study_at_once_retry_instead_of_failing()
     retried, as PostgreSQL's are; other errors are not."""
     import sqlite3
 
-    from sqlalchemy.exc import OperationalError
+    from sqlalchemy.exc import IntegrityError, OperationalError
 
     from metaknot.experiments.tuning.runner import _schema_race
 
     for text in ("table studies already exists", "database is locked"):
         error = OperationalError("CREATE TABLE studies (...)", {}, sqlite3.OperationalError(text))
         assert _schema_race(error), text
+    version = IntegrityError("INSERT INTO alembic_version ...", {}, sqlite3.IntegrityError(
+        "UNIQUE constraint failed: alembic_version.version_num"))
+    assert _schema_race(version)
     other = OperationalError("SELECT 1", {}, sqlite3.OperationalError("unable to open database"))
     assert not _schema_race(other)
     assert not _schema_race(RuntimeError("table studies already exists"))

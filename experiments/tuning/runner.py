@@ -104,14 +104,16 @@ SCHEMA_ATTEMPTS = 5
 def _schema_race(exc: Exception) -> bool:
     """True for the errors of two workers (or two commands) creating Optuna's tables in a new
     database at once: PostgreSQL's unique violation on its catalogue or "already exists";
-    SQLite's "table studies already exists" or "database is locked" (an OperationalError)."""
+    SQLite's "table studies already exists" or "database is locked" (an OperationalError) and
+    its unique violation on the schema version ("UNIQUE constraint failed")."""
     from sqlalchemy.exc import IntegrityError, OperationalError, ProgrammingError
 
     text = str(exc)
     if isinstance(exc, OperationalError):
         return "already exists" in text or "database is locked" in text
     return isinstance(exc, IntegrityError | ProgrammingError) and (
-        "already exists" in text or "duplicate key" in text)
+        "already exists" in text or "duplicate key" in text
+        or "UNIQUE constraint failed" in text)
 
 
 def _sampler(spec: TuneSpec, worker_index: int) -> Any:
