@@ -369,8 +369,12 @@ def unreadable(arg: str, exc: Exception) -> str:
     command-line text, and Hydra's reason without its own framing."""
     lines = [line.strip() for line in str(exc).splitlines() if line.strip()
              and not line.startswith(("Error parsing override", "See https://"))]
-    key = arg.partition("=")[0].lstrip("+~") if "=" in arg else arg
+    key, _, value = arg.partition("=")
+    key = key.lstrip("+~") if value or "=" in arg else arg
     reason = lines[0] if lines else type(exc).__name__
+    if value and not value.isascii() and value[:1] not in "'\"":  # Hydra's grammar is ASCII
+        return (f"{key}: cannot read {arg[:80]!r}: a value with characters beyond ASCII is "
+                f"read only in quotes: {key}='{value}'")
     return f"{key}: cannot read {arg[:80]!r}: {reason}"
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import inspect
 import json
+import os
 import re
 import types
 import typing
@@ -423,6 +424,14 @@ def check_study(cfg: Mapping[str, Any]) -> tuple[str, str]:
     results_dir = cfg.get("results_dir")
     if not isinstance(results_dir, str) or not results_dir:
         raise ConfigError(f"results_dir: a directory path, got {results_dir!r}")
+    try:
+        if not os.path.isdir(os.path.realpath(results_dir, strict=True)):
+            raise ConfigError(f"results_dir: {results_dir} is not a folder")
+    except FileNotFoundError:
+        pass  # made when the first run is stored
+    except OSError as exc:  # a loop of symbolic links, a folder without permission, ...
+        raise ConfigError(f"results_dir: {results_dir} cannot be used: "
+                          f"{os.strerror(exc.errno) if exc.errno else exc}") from None
     return study, results_dir
 
 

@@ -462,7 +462,14 @@ def load_study(path: str | os.PathLike) -> Study:
 
     store = Store(path)
     if not store.study_dir.is_dir():
-        raise StoreError(f"{store.study_dir}: no such study directory")
+        try:
+            os.stat(store.study_dir)
+        except FileNotFoundError:
+            raise StoreError(f"{store.study_dir}: no such study directory") from None
+        except OSError as exc:  # a loop of symbolic links, a folder without permission, ...
+            raise StoreError(f"{store.study_dir}: cannot be read: "
+                             f"{os.strerror(exc.errno) if exc.errno else exc}") from None
+        raise StoreError(f"{store.study_dir}: not a study directory (a file)")
     if not (store.runs_dir.is_dir() or store.failed_dir.is_dir()):
         studies = sorted(p.name for p in _entries(store.study_dir)
                          if (p / "runs").is_dir() or (p / "failed").is_dir())

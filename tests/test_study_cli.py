@@ -758,3 +758,32 @@ def test_a_signal_while_the_sweep_is_planned_stops_it_before_any_run(tmp_path):
     assert (tmp_path / "stderr").read_text().strip() == (
         "interrupted before any run started; run the same command to start again")
     assert not (tmp_path / "default" / "runs").exists()
+
+
+def test_a_results_dir_that_cannot_be_used_is_one_line_before_anything_runs(tmp_path):
+    """A loop of symbolic links (a traceback from Hydra's folder before), a file, and a path
+    beyond ASCII unquoted (Hydra's lexer error before, without the fix); the report of a
+    study behind a loop says why it cannot be read (it said "no such study directory")."""
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    for value, message in ((str(loop), "cannot be used: Too many levels of symbolic links"),
+                           (str(afile), "is not a folder"),
+                           (str(tmp_path / "résultats"),
+                            "a value with characters beyond ASCII is read only in quotes: "
+                            "results_dir='")):
+        for sweep in ((), ("-m",)):
+            done = metaknot(*sweep, f"results_dir={value}", "budget=5", cwd=tmp_path)
+            assert done.returncode != 0
+            (line,) = done.stderr.strip().splitlines()
+            assert line.startswith("metaknot run: error: results_dir: ") and message in line, \
+                line
+    done = metaknot(f"results_dir='{tmp_path / 'résultats'}'", "budget=5",
+                    "problem.n_points=30", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert list((tmp_path / "résultats" / "default" / "runs").glob("*.parquet"))
+    report = subprocess.run([sys.executable, "-m", "metaknot.cli", "report",
+                             str(loop / "default")], capture_output=True, text=True)
+    assert report.returncode != 0
+    assert "Too many levels of symbolic links" in report.stderr.strip().splitlines()[-1]
