@@ -484,6 +484,10 @@ def load_study(path: str | os.PathLike) -> Study:
         if row.get("run_id") != run_id:
             raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r:.40}, not "
                              f"of {run_id!r}")
+        changed = _changed_after_the_run(row)
+        if changed is not None:
+            raise StoreError(f"{entry}: {changed}: the record was changed after its run; move "
+                             "it out of the study (or delete it to run that run again)")
         rows.append(row)
     failures = []
     for entry in _entries(store.failed_dir):
@@ -504,6 +508,20 @@ def load_study(path: str | os.PathLike) -> Study:
         columns=["run_id", "evaluations", "best_f", "improvement", "checkpoint"])
     return Study(path=store.study_dir, name=store.study_dir.name, runs=runs, trace=trace,
                  failures=_frame(failures))
+
+
+def _changed_after_the_run(row: Mapping[str, Any]) -> str | None:
+    """What shows a stored run's record was edited (None: nothing does): a best value that
+    is not a number, or a finite one that is not the best of its own trace."""
+    best = row.get("best_f")
+    if best is None:
+        return None
+    if best != best:
+        return "its best value is not a number"
+    trace = [v for v in row.get(f"{TRACE_PREFIX}best_f") or () if v is not None and v == v]
+    if trace and np.isfinite(best) and min(trace) != best:
+        return f"its best value {best!r} is not the best of its own trace ({min(trace)!r})"
+    return None
 
 
 def _read_records(paths: list[Path]) -> Iterator[dict[str, Any]]:

@@ -948,3 +948,24 @@ def test_a_result_that_cannot_be_kept_anywhere_is_reported_lost(tmp_path, monkey
     assert outcome["error"] == "No space left on device"
     monkeypatch.setattr(Store, "write", write)
     assert execute(spec)["status"] == "ok"  # nothing was stored: the run is computed again
+
+
+@pytest.mark.parametrize("edited", [-1e308, float("nan"), 0.5])
+def test_a_record_edited_after_its_run_is_named_on_load(tmp_path, edited):
+    """best_f changed in a stored record (its format mark kept): a value that is not the best
+    of the record's own trace, or not a number, is refused by name (a report used it: a NaN
+    was dropped silently, -1e308 gave a mean of -1.25e307)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    store = Store(tmp_path / "s")
+    path = store.write(_record(RUN_A, seed=1, best_f=2.0), best_x=np.array([1, 0, 1]),
+                       trace={"evaluations": np.array([1, 2]), "best_f": np.array([3.0, 2.0])})
+    assert len(load_study(store.study_dir).runs) == 1
+    table = pq.read_table(path)
+    column = table.schema.get_field_index("best_f")
+    table = table.set_column(column, "best_f", pa.array([edited]))
+    pq.write_table(table, path)
+    with pytest.raises(StoreError, match=rf"{RUN_A}\.parquet: its best value .*changed after "
+                                         "its run"):
+        load_study(store.study_dir)
