@@ -480,6 +480,92 @@ def basis_at(t, span, x, p, out, left, right):
 
 
 @njit(cache=True)
+def rotate_dense(st, far, width, p, d, ncol, row, values, first, band_stop, big_w):
+    """Rotate one row into a factor of ``ncol`` columns whose last ``p`` are wrap-around
+    columns, by the square-root-free Givens rotations of the generated row loop (the one
+    rotation rule of open and closed fits and of delta evaluation).
+
+    The factor is the flat ``st`` (``width = 1 + p + d`` entries per column: reciprocal weight,
+    the unit triangular row's entries in the next ``p`` columns, the right-hand sides;
+    ``dinv = EMPTY`` for a column no row has reached) and ``far[col, k]``, the entry of row
+    ``col`` in wrap-around column ``ncol - p + k`` beyond its band (``ncol - p + k > col + p``);
+    an open factor has no wrap-around entries. ``row[:ncol]`` holds the row's entries (the first
+    nonzero at ``first``), ``values[:d]`` its right-hand side, ``big_w`` its reciprocal weight.
+    Columns ``first .. band_stop - 1`` are rotated, then the wrap-around columns: rows given in
+    the order of their first column fill in no band column beyond their first ``p + 1``
+    (``band_stop = first + p + 1``); any other row needs ``band_stop = ncol``. Leaves the
+    rotated entries of ``row`` zero and returns the squared residual left of the row (none if
+    an empty column takes it).
+    """
+    wrap0 = ncol - p
+    col = first
+    while col < ncol:
+        if col >= band_stop and col < wrap0:
+            col = wrap0
+            continue
+        hc = row[col]
+        if hc == 0.0:  # a rotation by a zero entry changes nothing
+            col += 1
+            continue
+        o = col * width
+        di = st[o]
+        if di == EMPTY:  # an empty column takes the row, scaled: nothing of it is left
+            inv = 1.0 / hc
+            st[o] = big_w * inv * inv
+            for a in range(1, min(p, ncol - 1 - col) + 1):
+                st[o + a] = row[col + a] * inv
+                row[col + a] = 0.0
+            for k in range(max(0, col + 2 * p + 1 - ncol), p):
+                far[col, k] = row[wrap0 + k] * inv
+                row[wrap0 + k] = 0.0
+            for c in range(d):
+                st[o + p + 1 + c] = values[c] * inv
+            row[col] = 0.0
+            return 0.0
+        hd = hc * di
+        bw = big_w + hc * hd
+        inv = 1.0 / bw
+        cb = big_w * inv
+        sb = hd * inv
+        st[o] = di * cb
+        for a in range(1, min(p, ncol - 1 - col) + 1):
+            ra = st[o + a]
+            st[o + a] = cb * ra + sb * row[col + a]
+            row[col + a] -= hc * ra
+        for k in range(max(0, col + 2 * p + 1 - ncol), p):  # columns beyond the band
+            ra = far[col, k]
+            far[col, k] = cb * ra + sb * row[wrap0 + k]
+            row[wrap0 + k] -= hc * ra
+        for c in range(d):
+            zk = st[o + p + 1 + c]
+            st[o + p + 1 + c] = cb * zk + sb * values[c]
+            values[c] -= hc * zk
+        row[col] = 0.0
+        big_w = bw
+        col += 1
+    left_over = 0.0
+    for c in range(d):
+        left_over += values[c] * values[c]
+    return left_over / big_w
+
+
+@njit(cache=True)
+def back_substitute(st, far, width, p, d, ncol, x):
+    """Solve the unit triangular factor of :func:`rotate_dense` (``ncol`` columns, the last
+    ``p`` wrap-around) for ``x[:ncol]``."""
+    wrap0 = ncol - p
+    for i in range(ncol - 1, -1, -1):
+        o = i * width
+        for c in range(d):
+            v = st[o + p + 1 + c]
+            for a in range(1, min(p, ncol - 1 - i) + 1):
+                v -= st[o + a] * x[i + a, c]
+            for k in range(max(0, i + 2 * p + 1 - ncol), p):
+                v -= far[i, k] * x[wrap0 + k, c]
+            x[i, c] = v
+
+
+@njit(cache=True)
 def closed_workspaces(m, p, d):
     """The workspaces of :func:`solve_closed_into` for ``m`` control points: the
     reciprocals, the factor, its wrap-around entries, a dense row, the solution and the
@@ -542,62 +628,11 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
             row[e - p if e >= p else m - p + e] += h[k]
         for c in range(d):
             values[c] = q[i, c]
-        big_w = 1.0
-        absorbed = False
-        for col in range(m):
-            hc = row[col]
-            if hc == 0.0:  # a rotation by a zero entry changes nothing
-                continue
-            o = col * width
-            di = st[o]
-            if di == EMPTY:  # an empty column takes the row, scaled: nothing of it is left
-                inv = 1.0 / hc
-                st[o] = big_w * inv * inv
-                for a in range(1, min(p, m - 1 - col) + 1):
-                    st[o + a] = row[col + a] * inv
-                for k in range(max(0, col + 2 * p + 1 - m), p):
-                    far[col, k] = row[m - p + k] * inv
-                for c in range(d):
-                    st[o + p + 1 + c] = values[c] * inv
-                absorbed = True
-                break
-            hd = hc * di
-            bw = big_w + hc * hd
-            inv = 1.0 / bw
-            cb = big_w * inv
-            sb = hd * inv
-            st[o] = di * cb
-            for a in range(1, min(p, m - 1 - col) + 1):
-                ra = st[o + a]
-                st[o + a] = cb * ra + sb * row[col + a]
-                row[col + a] -= hc * ra
-            for k in range(max(0, col + 2 * p + 1 - m), p):  # columns beyond the band
-                ra = far[col, k]
-                far[col, k] = cb * ra + sb * row[m - p + k]
-                row[m - p + k] -= hc * ra
-            for c in range(d):
-                zk = st[o + p + 1 + c]
-                st[o + p + 1 + c] = cb * zk + sb * values[c]
-                values[c] -= hc * zk
-            row[col] = 0.0
-            big_w = bw
-        if not absorbed:
-            left_over = 0.0
-            for c in range(d):
-                left_over += values[c] * values[c]
-            sse += left_over / big_w
+        sse += rotate_dense(st, far, width, p, d, m, row, values, 0, m, 1.0)
     smallest_dinv, largest_dinv, _, _ = bound(st, p, width, m)
     if not (smallest_dinv > 0.0 and smallest_dinv > pivot_ratio * pivot_ratio * largest_dinv):
         return SINGULAR, np.inf
-    for i in range(m - 1, -1, -1):  # back substitution, band and wrap-around entries
-        o = i * width
-        for c in range(d):
-            v = st[o + p + 1 + c]
-            for a in range(1, min(p, m - 1 - i) + 1):
-                v -= st[o + a] * x[i + a, c]
-            for k in range(max(0, i + 2 * p + 1 - m), p):
-                v -= far[i, k] * x[m - p + k, c]
-            x[i, c] = v
+    back_substitute(st, far, width, p, d, m, x)
     for ci in range(m):
         for c in range(d):
             coef[ci, c] = x[ci - p if ci >= p else m - p + ci, c]

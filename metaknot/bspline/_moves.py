@@ -1,4 +1,5 @@
-"""Compiled delta evaluation of local knot moves (numba); see :mod:`metaknot.bspline.moves`.
+"""Compiled delta evaluation of local knot moves on open and closed curves (numba); see
+:mod:`metaknot.bspline.moves`. Closed curves: the notes above :func:`bind_closed`.
 
 Notation: ``t`` is the incumbent's clamped knot vector with ``n`` basis functions (columns);
 data row ``j`` lies in knot span ``spans[j]`` (``t[k] <= u[j] < t[k + 1]``, the last point in
@@ -43,10 +44,18 @@ from ._kernel import (
     COND_LIMIT,
     FEASIBLE,
     KNOT_OUT_OF_RANGE,
+    PIVOT_RATIO,
     SCHOENBERG_WHITNEY,
+    SINGULAR,
     TOO_MANY_CONTROL_POINTS,
     _fit_into,
     _max_deviation,
+    back_substitute,
+    basis_at,
+    deviation_from_basis,
+    extended_knots,
+    fit_closed,
+    rotate_dense,
 )
 from ._moves_rows import EMPTY, FASTMATH, absorb, sweep, window
 
@@ -64,6 +73,9 @@ CERTIFY = 0.5
 
 # A column whose reciprocal weight is still above this was reached by no row (see EMPTY).
 UNREACHED = EMPTY * 1e-10
+
+# The wrap-around entries of an open factor: none.
+NO_FAR = np.zeros((0, 1))
 
 
 @njit(cache=True, inline='always')
@@ -117,9 +129,11 @@ def empty_state(st, columns, width):
 
 
 @njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
-def inverse_norm_bound(st, p, d, size, v, wv):
+def inverse_norm_bound(st, p, d, size, v, wv, far, ncol):
     """Upper bound of the 2-norm of ``R^-1`` for the flat factor's first ``size`` columns
-    (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row).
+    (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row); ``far`` holds
+    the wrap-around entries of a factor of :func:`._kernel.rotate_dense` with ``ncol`` columns
+    (none: an open factor).
 
     ``|rb^-1| <= M^-1`` elementwise for the comparison matrix ``M`` of the unit triangular
     ``rb``, so its infinity and 1-norms are at most the largest entries of ``M^-1 e`` and
@@ -138,12 +152,18 @@ def inverse_norm_bound(st, p, d, size, v, wv):
         acc = 1.0
         for a in range(min(p, size - 1 - i), 0, -1):
             acc += abs(st[i * w + a]) * v[i + a]
+        for k in range(max(0, i + 2 * p + 1 - ncol), p if far.shape[0] > 0 else 0):
+            if ncol - p + k < size:
+                acc += abs(far[i, k]) * v[ncol - p + k]
         v[i] = acc
         v_max = max(v_max, acc)
     for j in range(size):  # w = M^-T e
         acc = 1.0
         for a in range(min(p, j), 0, -1):
             acc += abs(st[(j - a) * w + a]) * wv[j - a]
+        if far.shape[0] > 0 and j >= ncol - p:
+            for i in range(j - p):  # the rows that hold column j beyond their band
+                acc += abs(far[i, j - ncol + p]) * wv[i]
         wv[j] = acc
         w_max = max(w_max, acc)
     return math.sqrt(v_max * w_max * d_max)
@@ -405,7 +425,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
             # [left final rows; merged rows; right final rows] is a square factor S of the
             # candidate's normal matrix, block triangular around the merged block, with the
             # left and right blocks parts of the incumbent's factors (see the module notes)
-            inv_m = inverse_norm_bound(stl, p, d, size, bound_v, bound_w)
+            inv_m = inverse_norm_bound(stl, p, d, size, bound_v, bound_w, NO_FAR, size)
             inv_s = inv_m + inverse_left * (1.0 + gram_norm * inv_m) \
                 + inverse_right * (1.0 + gram_norm * inv_m)
             # ||B'||_2^2 <= largest column sum (entries >= 0, rows summing to 1); the columns
@@ -513,8 +533,8 @@ def bind(u, q, u_mirror, q_mirror, t, p):
             Gcol[c, a] = mirror_col[s, p - 1 - a]
     work_v = np.empty(n)
     work_w = np.empty(n)
-    inverse_left = inverse_norm_bound(st_f, p, d, n, work_v, work_w)
-    inverse_right = inverse_norm_bound(st_m, p, d, n, work_v, work_w)
+    inverse_left = inverse_norm_bound(st_f, p, d, n, work_v, work_w, NO_FAR, n)
+    inverse_right = inverse_norm_bound(st_m, p, d, n, work_v, work_w, NO_FAR, n)
     return (spans, basis, row_start, match, iv, F, Fsse, Fcol, st_f, G, Gsse, Gcol, st_m,
             inverse_left, inverse_right, column_sums)
 
@@ -559,3 +579,498 @@ def mask_replacements(u, near, masks):
                 inserted[pos] = u[i + 1]
                 pos += 1
     return starts, stops, inserted, offsets
+
+
+# --- closed curves --------------------------------------------------------------------------
+#
+# A periodic incumbent has ``m`` breakpoints ``b_0 = 0 < b_1 < ... < b_{m-1} < 1`` and the
+# extended knot vector ``t`` of :func:`._kernel.extended_knots`; data row ``r`` lies in natural
+# span ``spans[r]`` and touches the natural columns ``spans[r] .. spans[r] + p`` (mod ``m``).
+#
+# *Frames.* A frame cuts the circle at a breakpoint ``s`` and orders the columns as the closed
+# fit (:func:`._kernel.solve_closed_into`) does for ``s = 0``: frame column ``c`` is natural
+# column ``(s + p + c) mod m``, so the ``nb = m - p`` *band columns* come first and the ``p``
+# *wrap columns* (natural ``s .. s + p - 1``) last; a row of frame span ``k`` (natural span
+# ``(s + k) mod m``) touches the frame columns ``(k - p .. k) mod m``. The factor is the one of
+# the fits: square-root-free rotations (:func:`._kernel.rotate_dense`), a band plus the entries
+# of each row in the wrap columns beyond it. The mirrored sweep runs the frame spans backwards
+# with the band columns mirrored (``nb - 1 - c``), the wrap columns in place.
+#
+# *States* ``K`` of a frame: the forward state holds the rows of frame spans ``< K`` rotated,
+# the mirrored one those of spans ``>= K``; each keeps its ``p`` active band rows (band columns
+# ``K - p .. K - 1``, mirrored for the backward state), the wrap triangle, the residual and the
+# active columns' sums. A move changes the breakpoints between two unchanged ones; if
+# ``p <= KL`` and ``KR <= nb`` (the change lies at least about ``2p`` spans from the cut) the
+# candidate's SSE is exactly the two states' residuals plus that of [forward rows; window rows
+# under the candidate's knots; backward rows], a small least-squares problem over the band
+# columns ``KL - p .. KR' - 1`` and the wrap columns. Every incumbent is swept from two cuts or
+# more (:func:`metaknot.bspline.moves._cuts`), so every change of one or two neighbouring knots
+# lies inside one frame.
+#
+# *Certificate.* The closed fit reports a system singular when a pivot is at most
+# ``PIVOT_RATIO`` times the largest. Every pivot lies between ``sigma_min(B)`` and the largest
+# column norm of ``B`` (at most the square root of the largest column sum); ``[left final rows;
+# right final rows; merged factor]`` is a block triangular square factor of the candidate's
+# normal matrix, so bounding the inverse of each block bounds ``1 / sigma_min``. A candidate is
+# reported feasible on the delta path only when that bound keeps every pivot above
+# ``PIVOT_RATIO / CERTIFY`` times the largest; the full fit decides the rest.
+
+# _closed_candidate's verdict on knots given out of order (sorted there) but feasible so far.
+UNSORTED = -1
+
+
+@njit(cache=True)
+def _row_entries(st, far, width, p, ncol, i, dense):
+    """Row ``i`` of a factor of :func:`._kernel.rotate_dense` as ``dense[:ncol]`` (its entries
+    right of the diagonal: zero elsewhere); returns its reciprocal weight."""
+    dense[:ncol] = 0.0
+    o = i * width
+    for a in range(1, min(p, ncol - 1 - i) + 1):
+        dense[i + a] = st[o + a]
+    for k in range(max(0, i + 2 * p + 1 - ncol), p):
+        dense[ncol - p + k] = far[i, k]
+    return st[o]
+
+
+@njit(cache=True)
+def _frame_sweep(q, basis, p, m, s, mirror, row_start, st, far, S_st, S_far, S_col, S_sse):
+    """One sweep of the frame cut at ``s``: forward (frame spans ``0 .. m - 1``, state ``K``
+    saved before span ``K``) or mirrored (spans ``m - 1 .. 0``, state ``K`` saved after span
+    ``K``). ``S_st[K, a]`` is active band row ``a`` (forward band column ``K - p + a``, mirrored
+    ``nb - K + a``; ``dinv = EMPTY`` outside the band) and ``S_st[K, p + a]`` wrap row ``a``,
+    ``S_far[K, a]`` the active rows' wrap entries. Leaves the final factor in ``st`` and
+    ``far``."""
+    d = q.shape[1]
+    width = 1 + p + d
+    nb = m - p
+    empty_state(st, m, width)
+    far[:] = 0.0
+    row = np.zeros(m)
+    values = np.empty(d)
+    colsum = np.zeros(max(nb, 1))  # by (mirrored) band column
+    sse = 0.0
+    for step in range(m + 1):
+        K = step if not mirror else m - step
+        lo = nb - K if mirror else K - p
+        for a in range(p):
+            pos = lo + a
+            if 0 <= pos < nb:
+                S_st[K, a, :] = st[pos * width : (pos + 1) * width]
+                S_far[K, a, :] = far[pos]
+                S_col[K, a] = colsum[pos]
+            else:
+                S_st[K, a, :] = 0.0
+                S_st[K, a, 0] = EMPTY
+                S_far[K, a, :] = 0.0
+                S_col[K, a] = 0.0
+            S_st[K, p + a, :] = st[(nb + a) * width : (nb + a + 1) * width]
+        S_sse[K] = sse
+        if step == m:
+            break
+        k = K if not mirror else K - 1
+        j = s + k
+        if j >= m:
+            j -= m
+        r0, r1 = row_start[j], row_start[j + 1]
+        for i in range(r1 - r0):
+            r = r0 + i if not mirror else r1 - 1 - i
+            first = m
+            for e in range(p + 1):
+                c = k - p + e
+                if c < 0:
+                    c += m
+                if c < nb:
+                    if mirror:
+                        c = nb - 1 - c
+                    colsum[c] += basis[r, e]
+                    first = min(first, c)
+                row[c] += basis[r, e]
+            for c in range(d):
+                values[c] = q[r, c]
+            sse += rotate_dense(st, far, width, p, d, m, row, values, first,
+                                min(first + p + 1, nb), 1.0)
+
+
+@njit(cache=True)
+def bind_closed(u, q, t, p, cuts):
+    """Everything delta evaluation caches for the periodic incumbent with extended knot vector
+    ``t`` (a feasible fit): spans and basis values of the rows, ``row_start`` (first row of each
+    natural span), the column sums, and per frame (cut at breakpoint ``cuts[f]``) and side
+    (forward, mirrored) the states, the final factors and the bounds of their band blocks'
+    inverses."""
+    n, d = q.shape
+    width = 1 + p + d
+    m = t.size - 2 * p - 1
+    nb = m - p
+    spans = np.empty(n, dtype=np.int64)
+    basis = np.empty((n, p + 1))
+    row_start = np.empty(m + 1, dtype=np.int64)
+    column_sums = np.zeros(m)
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    j = 0
+    row_start[0] = 0
+    for r in range(n):
+        x = u[r]
+        while j < m - 1 and x >= t[p + j + 1]:
+            j += 1
+            row_start[j] = r
+        spans[r] = j
+        basis_at(t, p + j, x, p, basis[r], left, right)
+        for i in range(p + 1):
+            column_sums[(j + i) % m] += basis[r, i]
+    while j < m - 1:  # spans without rows (not in a feasible fit, but kept consistent)
+        j += 1
+        row_start[j] = n
+    row_start[m] = n
+    frames = cuts.size
+    S_st = np.zeros((frames, 2, m + 1, 2 * p, width))
+    S_far = np.zeros((frames, 2, m + 1, p, p))
+    S_col = np.zeros((frames, 2, m + 1, p))
+    S_sse = np.zeros((frames, 2, m + 1))
+    final_st = np.zeros((frames, 2, m * width))
+    final_far = np.zeros((frames, 2, m, p))
+    inverse = np.zeros((frames, 2))
+    v = np.empty(m)
+    w = np.empty(m)
+    for f in range(frames):
+        for side in range(2):
+            _frame_sweep(q, basis, p, m, cuts[f], side == 1, row_start, final_st[f, side],
+                         final_far[f, side], S_st[f, side], S_far[f, side], S_col[f, side],
+                         S_sse[f, side])
+            inverse[f, side] = inverse_norm_bound(final_st[f, side], p, d, nb, v, w,
+                                                  final_far[f, side], m)
+    return (spans, basis, row_start, column_sums, S_st, S_far, S_col, S_sse, final_st,
+            final_far, inverse)
+
+
+@njit(cache=True)
+def _closed_candidate(interior, start, stop, inserted, breaks):
+    """Fill ``breaks`` with 0 and the incumbent's interior knots whose ``start:stop`` are
+    replaced by ``inserted``; return the reason the batch evaluator would give for malformed
+    knots (out of range before coincident), only the inserted knots being checked. Knots out
+    of order are sorted, as the batch evaluator sorts them (``UNSORTED``: no longer a local
+    change, the full fit decides)."""
+    k = interior.size
+    breaks[0] = 0.0
+    for i in range(start):
+        breaks[1 + i] = interior[i]
+    for i in range(inserted.size):
+        breaks[1 + start + i] = inserted[i]
+    tail = 1 + start + inserted.size
+    for i in range(stop, k):
+        breaks[tail + i - stop] = interior[i]
+    for i in range(inserted.size):
+        x = inserted[i]
+        if not (x > 0.0 and x < 1.0):  # also catches NaN
+            return KNOT_OUT_OF_RANGE
+    for i in range(max(start + 1, 2), min(tail + 1, breaks.size)):
+        if breaks[i] < breaks[i - 1]:  # out of order: the batch evaluator sorts the knots
+            breaks[1:] = np.sort(breaks[1:])
+            for j in range(2, breaks.size):
+                if breaks[j] <= breaks[j - 1]:
+                    return COINCIDENT_KNOTS
+            return UNSORTED
+        if breaks[i] == breaks[i - 1]:
+            return COINCIDENT_KNOTS
+    return FEASIBLE
+
+
+@njit(cache=True)
+def _changed_block(interior, knots, lo, hi):
+    """The incumbent's interior knots ``start:stop`` that candidate ``knots[lo:hi]`` replaces
+    (by its knots ``lo + start : hi - (k - stop)``): the common head and tail removed."""
+    k = interior.size
+    k2 = hi - lo
+    e = 0
+    while e < k and e < k2 and interior[e] == knots[lo + e]:
+        e += 1
+    f = 0
+    while f < k - e and f < k2 - e and interior[k - 1 - f] == knots[hi - 1 - f]:
+        f += 1
+    return e, k - f, lo + e, hi - f
+
+
+@njit(cache=True)
+def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st, S_far, S_col,
+                          S_sse, final_st, final_far, inverse, gram_norm, base_sse,
+                          base_max_dev, knots, offsets, starts, stops, max_window_rows,
+                          want_max_dev, sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
+    """:func:`evaluate_moves` of a periodic incumbent: candidates merged from a frame's cached
+    states; the full fit decides where no frame holds the change, the change spans more than
+    ``max_window_rows`` rows, or the certificate fails."""
+    n, d = q.shape
+    width = 1 + p + d
+    m = interior.size + 1
+    nb = m - p
+    n_cand = offsets.size - 1
+    check_offsets(offsets, knots.size)
+    m_max = n + 1
+    # a candidate's breakpoints are gathered before its count is checked against the data:
+    # room for the largest (the incumbent's and all its inserted knots at most)
+    widest = 0
+    for b in range(n_cand):
+        widest = max(widest, offsets[b + 1] - offsets[b])
+    breaks = np.empty(max(m_max, m + widest))
+    t2 = np.empty(m_max + 2 * p + 1)
+    coef = np.zeros((m_max, d))
+    cols_max = m_max + 2 * p
+    stm = np.empty(cols_max * width)  # the merged factor
+    farm = np.zeros((cols_max, p))
+    mcol = np.zeros(cols_max)
+    row = np.zeros(cols_max)
+    entries = np.zeros(m)
+    values = np.empty(d)
+    v = np.empty(cols_max)
+    w = np.empty(cols_max)
+    x_band = np.zeros((m_max, d))
+    x_merged = np.zeros((cols_max, d))
+    full_basis = np.empty((n if want_max_dev else 0, p + 1))  # the full fit's rows
+    full_spans = np.empty(n if want_max_dev else 0, dtype=np.int64)
+    window_basis = np.empty((n, p + 1))
+    window_span = np.empty(n, dtype=np.int64)
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    replacing = starts.size > 0
+    for b in range(n_cand):
+        lo, hi = offsets[b], offsets[b + 1]
+        if replacing:
+            start, stop, ins_lo, ins_hi = starts[b], stops[b], lo, hi
+        else:
+            start, stop, ins_lo, ins_hi = _changed_block(interior, knots, lo, hi)
+        inserted = knots[ins_lo:ins_hi]
+        m2 = m - (stop - start) + inserted.size
+        delta = m2 - m
+        n_ctrl_out[b] = m2
+        sse_out[b] = np.inf
+        if want_max_dev:
+            max_dev_out[b] = np.inf
+        path_out[b] = PATH_CHECKS
+        br = breaks[:m2]
+        code = _closed_candidate(interior, start, stop, inserted, br)
+        local = code == FEASIBLE
+        if code == UNSORTED:
+            code = FEASIBLE
+        if code == FEASIBLE and m2 < p:
+            code = SINGULAR
+        if code == FEASIBLE and m2 > n:
+            code = TOO_MANY_CONTROL_POINTS
+        if code != FEASIBLE:
+            reason_out[b] = code
+            continue
+        tb = t2[: m2 + 2 * p + 1]
+        extended_knots(br, p, tb)
+        if local and start == stop and inserted.size == 0:  # the incumbent itself
+            reason_out[b] = FEASIBLE
+            sse_out[b] = base_sse
+            path_out[b] = PATH_DELTA
+            if want_max_dev:
+                max_dev_out[b] = base_max_dev
+            continue
+        # the frame that holds the change: breakpoints start (natural) and stop + 1 are the
+        # last and first unchanged ones; rows of frame spans < KL and >= KR keep their basis
+        frame = -1
+        KL = KR = s2 = 0
+        for f in range(cuts.size if local else 0):
+            s = cuts[f]
+            A = start - s
+            if A < 0:
+                A += m
+            B = A + (stop - start) + 1
+            KL = A - p + 1
+            KR = B + p - 1
+            if KL >= p and KR <= nb:
+                frame = f
+                s2 = s if s <= start else s + delta
+                break
+        rows_lo = row_start[(cuts[frame] + KL) % m] if frame >= 0 else 0
+        rows_hi = row_start[(cuts[frame] + KR) % m] if frame >= 0 else 0
+        window_rows = rows_hi - rows_lo
+        if window_rows < 0:
+            window_rows += n
+        if frame >= 0 and window_rows <= max_window_rows:
+            KR2 = KR + delta
+            nbm = KR2 - KL + p  # merged band columns: band columns KL - p .. KR2 - 1
+            ncol = nbm + p
+            empty_state(stm, ncol, width)
+            farm[:ncol] = 0.0
+            mcol[:nbm] = 0.0
+            res = 0.0
+            # the forward state's active rows (merged columns 0 .. p - 1) and wrap triangle
+            for a in range(p):
+                for c in range(d):
+                    values[c] = S_st[frame, 0, KL, a, p + 1 + c]
+                big_w = S_st[frame, 0, KL, a, 0]
+                mcol[a] += S_col[frame, 0, KL, a]
+                if big_w >= UNREACHED:
+                    continue
+                row[a] = 1.0
+                for k in range(1, p + 1):  # band entries (columns below KL only)
+                    if KL - p + a + k < KL:
+                        row[a + k] = S_st[frame, 0, KL, a, k]
+                for k in range(p):
+                    row[nbm + k] = S_far[frame, 0, KL, a, k]
+                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, a, ncol, big_w)
+            for a in range(2 * p):  # both wrap triangles
+                side = 0 if a < p else 1
+                K = KL if a < p else KR
+                wa = a % p
+                big_w = S_st[frame, side, K, p + wa, 0]
+                if big_w >= UNREACHED:
+                    continue
+                row[nbm + wa] = 1.0
+                for k in range(1, p - wa):
+                    row[nbm + wa + k] = S_st[frame, side, K, p + wa, k]
+                for c in range(d):
+                    values[c] = S_st[frame, side, K, p + wa, p + 1 + c]
+                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, nbm + wa, ncol,
+                                    big_w)
+            # the window: the rows between the unchanged spans, under the candidate's knots
+            j2 = s2 + KL
+            if j2 >= m2:
+                j2 -= m2
+            r = rows_lo
+            for _ in range(window_rows):
+                if r == n:
+                    r = 0
+                    j2 = 0
+                x = u[r]
+                while j2 < m2 - 1 and x >= tb[p + j2 + 1]:
+                    j2 += 1
+                hj = window_basis[r]
+                basis_at(tb, p + j2, x, p, hj, left, right)
+                k = j2 - s2
+                if k < 0:
+                    k += m2
+                window_span[r] = k
+                first = k - KL  # merged column of band column k - p
+                for i in range(p + 1):
+                    row[first + i] = hj[i]
+                    mcol[first + i] += hj[i]
+                for c in range(d):
+                    values[c] = q[r, c]
+                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, first,
+                                    min(first + p + 1, nbm), 1.0)
+                r += 1
+            # the backward state's active rows: mirrored band column nb - KR + a is band
+            # column KR - 1 - a, merged column P; its entries lie leftwards
+            for a in range(p):
+                big_w = S_st[frame, 1, KR, a, 0]
+                mcol[nbm - 1 - a] += S_col[frame, 1, KR, a]
+                if big_w >= UNREACHED:
+                    continue
+                P = nbm - 1 - a
+                row[P] = 1.0
+                first = P
+                for k in range(1, p + 1):
+                    value = S_st[frame, 1, KR, a, k]
+                    if value != 0.0 and P - k >= 0:
+                        row[P - k] = value
+                        first = P - k
+                for k in range(p):
+                    row[nbm + k] = S_far[frame, 1, KR, a, k]
+                for c in range(d):
+                    values[c] = S_st[frame, 1, KR, a, p + 1 + c]
+                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, first, ncol,
+                                    big_w)
+            # the certificate (see the notes above)
+            inv_m = inverse_norm_bound(stm, p, d, ncol, v, w, farm, ncol)
+            inv_s = inv_m + (inverse[frame, 0] + inverse[frame, 1]) * (1.0 + gram_norm * inv_m)
+            largest_sum = gram_norm * gram_norm
+            for i in range(nbm):
+                largest_sum = max(largest_sum, mcol[i])
+            if inv_s * math.sqrt(largest_sum) * PIVOT_RATIO <= CERTIFY:
+                reason_out[b] = FEASIBLE
+                sse_out[b] = S_sse[frame, 0, KL] + S_sse[frame, 1, KR] + res
+                path_out[b] = PATH_DELTA
+                if want_max_dev:
+                    back_substitute(stm, farm, width, p, d, ncol, x_merged)
+                    _closed_coefficients(x_merged, nbm, final_st[frame], final_far[frame],
+                                         entries, p, d, m, KL, KR, delta, m2, x_band, coef)
+                    max_dev_out[b] = _closed_max_deviation(
+                        q, p, spans, basis, window_basis, window_span, cuts[frame], m, m2, KR,
+                        rows_lo, window_rows, coef)
+                continue
+        # the full fit decides
+        path_out[b] = PATH_FULL
+        c2 = coef[:m2]
+        code, value = fit_closed(u, q, tb, p, c2, full_basis, full_spans)
+        reason_out[b] = code
+        sse_out[b] = value
+        if want_max_dev and code == FEASIBLE:
+            max_dev_out[b] = deviation_from_basis(q, p, m2, c2, full_basis, full_spans)
+
+
+@njit(cache=True)
+def _closed_coefficients(x_merged, nbm, fst, ffar, entries, p, d, m, KL, KR, delta, m2, x_band,
+                         coef):
+    """Control points of a merged periodic candidate in natural order: the merged block's
+    solution ``x_merged`` (band columns ``KL - p ..``, then the wrap columns), the incumbent's
+    final forward rows (``fst[0]``, ``ffar[0]``) leftwards and its final mirrored rows
+    rightwards (band columns counted in the candidate: ``+ delta`` right of the change)."""
+    nb = m - p
+    width = 1 + p + d
+    base = KL - p
+    for i in range(nbm):
+        for c in range(d):
+            x_band[base + i, c] = x_merged[i, c]
+    for pos in range(base - 1, -1, -1):  # the final forward rows
+        _row_entries(fst[0], ffar[0], width, p, m, pos, entries)
+        for c in range(d):
+            acc = fst[0][pos * width + p + 1 + c]
+            for k in range(1, p + 1):
+                acc -= entries[pos + k] * x_band[pos + k, c]
+            for k in range(p):
+                acc -= entries[nb + k] * x_merged[nbm + k, c]
+            x_band[pos, c] = acc
+    for P in range(KR, nb):  # the final mirrored rows (mirrored column nb - 1 - P)
+        mp = nb - 1 - P
+        _row_entries(fst[1], ffar[1], width, p, m, mp, entries)
+        for c in range(d):
+            acc = fst[1][mp * width + p + 1 + c]
+            for k in range(1, p + 1):
+                if mp + k < nb:
+                    acc -= entries[mp + k] * x_band[P - k + delta, c]
+            for k in range(p):
+                acc -= entries[nb + k] * x_merged[nbm + k, c]
+            x_band[P + delta, c] = acc
+    for fc in range(m2):  # natural column s2 + fc: the wrap columns, then the band
+        for c in range(d):
+            coef[fc, c] = x_merged[nbm + fc, c] if fc < p else x_band[fc - p, c]
+
+
+@njit(cache=True)
+def _closed_max_deviation(q, p, spans, basis, window_basis, window_span, s, m, m2, KR, rows_lo,
+                          window_rows, coef):
+    """Largest distance of a data point to a merged periodic candidate with the coefficients
+    ``coef`` (counted from the candidate's cut): every row's value from its basis (the window's
+    for rows in the window, the incumbent's elsewhere)."""
+    n, d = q.shape
+    delta = m2 - m
+    worst = 0.0
+    for r in range(n):
+        in_window = r - rows_lo
+        if in_window < 0:
+            in_window += n
+        if in_window < window_rows:
+            k = window_span[r]
+            h = window_basis[r]
+        else:
+            k = spans[r] - s
+            if k < 0:
+                k += m
+            if k >= KR:
+                k += delta
+            h = basis[r]
+        dist2 = 0.0
+        for c in range(d):
+            acc = 0.0
+            for i in range(p + 1):
+                fc = k + i
+                if fc >= m2:
+                    fc -= m2
+                acc += h[i] * coef[fc, c]
+            diff = q[r, c] - acc
+            dist2 += diff * diff
+        worst = max(worst, dist2)
+    return math.sqrt(worst)

@@ -38,8 +38,8 @@ per candidate, the path that decided it.
 
 Closed curves have :class:`PeriodicMoveEvaluator`, behind the same interface: the circle is cut
 at a few breakpoints and the same forward and backward states are cached from each cut, the
-wrap-around block of the periodic factor in every state (:mod:`._periodic_moves`); the same
-certificate rule holds against the periodic kernel's singularity test.
+factor being the closed fit's (a band plus wrap-around columns, :mod:`._moves`); the same
+certificate rule holds against the closed fit's singularity test.
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ from numpy.typing import ArrayLike
 
 from .. import audit
 from ..validate import is_integer
-from . import _kernel, _moves, _periodic_moves
+from . import _kernel, _moves
 from .fit import BatchFit, Infeasibility, _prepare
 from .knots import _offsets, _periodic_knots
 
@@ -297,7 +297,7 @@ class PeriodicMoveEvaluator(MoveEvaluator):
     ``2 degree`` breakpoints on either side, between the ends of one cut's sweeps is merged
     from that cut's states; the rest (changes wider than about half the circle) is fitted in
     full, as is a candidate the conditioning certificate cannot declare feasible (see
-    :mod:`metaknot.bspline._periodic_moves`).
+    :mod:`metaknot.bspline._moves`).
 
     Parameters
     ----------
@@ -348,12 +348,12 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         self._max_dev = float(_kernel.deviation_from_basis(q, p, m, coef, basis, spans))
         self._cuts = _cuts(m, p)
         (self.spans, self.basis, self.row_start, column_sums, *self._states,
-         self._inverse) = _periodic_moves.bind(u, q, t, p, self._cuts)
+         self._inverse) = _moves.bind_closed(u, q, t, p, self._cuts)
         self._gram_norm = float(np.sqrt(column_sums.max()))
 
     def _score(self, knots, offsets, starts, stops, max_deviation, sse, max_dev, n_ctrl, reason,
                path):
-        _periodic_moves.evaluate_moves(
+        _moves.evaluate_closed_moves(
             self.u, self.q, self.degree, self.interior, self.spans, self.basis,
             self.row_start, self._cuts, *self._states, self._inverse, self._gram_norm,
             self.sse, self._max_dev, knots, offsets, starts, stops, self.max_window_rows,
