@@ -198,6 +198,50 @@ def test_function_data_as_a_plane_curve_in_dxf(tmp_path) -> None:
     np.testing.assert_allclose(fitted[:, 1], f(x)[:, 0], atol=1e-12)
 
 
+@pytest.mark.parametrize(("metric", "name", "other"), [("rmse", "RMSE", "max deviation"),
+                                                     ("max_deviation", "max deviation", "RMSE")])
+def test_the_figure_title_names_the_metric_the_tolerance_bounds(metric, name, other) -> None:
+    """The title gives the error the tolerance is about and the tolerance, whole (it once
+    gave the maximum deviation under an RMSE tolerance, so the fit looked beyond it, and ran
+    off the figure's edge with a long method name)."""
+    from dataclasses import replace
+
+    from metaknot.apps.fit_output import _draw, _title
+
+    points = get_curve("archimedean").points
+    result = replace(mk.fit(points, 0.0105, metric=metric, method="fitpack"),
+                     method="knot removal + fixed-count search")
+    value = result.metrics[metric]
+    assert 0 < value <= 0.0105
+    assert _title(result).splitlines() == [
+        f"{result.n_control_points} control points (knot removal + fixed-count search; "
+        f"FITPACK: {result.fitpack['n_control_points']})",
+        f"{name} {value:.4g} (tolerance 0.0105)"]
+    assert other not in _title(result)
+    fig = _draw(result, points)
+    fig.canvas.draw()
+    title = fig.axes[0].title
+    assert title.get_text() == _title(result)
+    extent = title.get_window_extent()
+    assert 0 <= extent.x0 and extent.x1 <= fig.bbox.width  # not cut off at either side
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_an_error_within_the_tolerance_never_reads_as_beyond_it() -> None:
+    """Rounded to four digits, an RMSE of 0.0104996 would read 0.0105, above the tolerance
+    0.010499 shown: it is then given to as many digits as the tolerance."""
+    from dataclasses import replace
+
+    from metaknot.apps.fit_output import _title
+
+    result = mk.fit(get_curve("archimedean").points, 0.0105, metric="rmse", method="fitpack")
+    close = replace(result, tolerance=0.010499,
+                    metrics={**result.metrics, "rmse": 0.0104986})
+    assert _title(close).splitlines()[1] == "RMSE 0.0104986 (tolerance 0.010499)"
+
+
 @pytest.mark.parametrize(("content", "args", "message"), [
     ("x,y\n0,0\n1,1\n2,zero\n3,1\n4,0\n", [], "line 4, column 2: 'zero' is not a number"),
     ("0,0\n1,1\n2\n3,1\n4,0\n", [], "line 3 has 1 columns, line 1 has 2"),
