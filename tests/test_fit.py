@@ -157,7 +157,7 @@ def test_command_writes_every_file(tmp_path) -> None:
     done = run_fit("curve.csv", "--tol", "1e-3", "--relative", "--open", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "FITPACK:" in done.stdout and "result:" in done.stdout
-    out = tmp_path / "curve-fit"
+    out = tmp_path / "curve.csv-fit"
     summary = json.loads((out / "fit.json").read_text())
     from scipy.interpolate import BSpline
 
@@ -259,7 +259,7 @@ def test_bad_files_are_one_line_errors_and_leave_nothing(tmp_path, content, args
     assert done.returncode == 2
     (line,) = done.stderr.strip().splitlines()
     assert message in line and len(line) < 200
-    assert not (tmp_path / "pts-fit").exists() or not any((tmp_path / "pts-fit").iterdir())
+    assert not (tmp_path / "pts.csv-fit").exists()
 
 
 def test_a_missing_file_is_named(tmp_path) -> None:
@@ -307,6 +307,27 @@ def test_the_destination_is_checked_before_the_fit(tmp_path, capsys, out, messag
     assert line.endswith(message.format(tmp=tmp_path)) and line.startswith("metaknot: error: --out")
     assert captured.out == ""  # refused before the points were read or anything was fitted
     assert (tmp_path / "taken").read_text() == "mine"
+
+
+def test_files_of_one_stem_get_a_default_folder_each(tmp_path, capsys) -> None:
+    """Without --out, ellipse.csv and ellipse.txt in one folder are written to ellipse.csv-fit
+    and ellipse.txt-fit (both went to ellipse-fit, and the second fit was refused), as
+    ``fit --help`` says."""
+    angle = np.linspace(0, 1.5 * np.pi, 60)
+    ellipse = np.column_stack((2 * np.cos(angle), np.sin(angle)))
+    np.savetxt(tmp_path / "ellipse.csv", ellipse, delimiter=",", header="x,y", comments="")
+    np.savetxt(tmp_path / "ellipse.txt", ellipse[::2])
+    for name, n in (("ellipse.csv", 60), ("ellipse.txt", 30)):
+        assert main(["fit", str(tmp_path / name), "--tol", "1e-3", "--method", "fitpack"]) == 0
+        captured = capsys.readouterr()
+        assert captured.err == "" and f"wrote 7 files to {tmp_path / name}-fit" in captured.out
+        summary = json.loads((tmp_path / f"{name}-fit" / "fit.json").read_text())
+        assert summary["metrics"]["n_control_points"] <= n
+    assert sorted(path.name for path in tmp_path.iterdir()) == [
+        "ellipse.csv", "ellipse.csv-fit", "ellipse.txt", "ellipse.txt-fit"]
+    with pytest.raises(SystemExit):
+        main(["fit", "--help"])
+    assert "ellipse.csv-fit for ellipse.csv" in " ".join(capsys.readouterr().out.split())
 
 
 def test_a_folder_given_as_the_points_is_named(tmp_path, capsys) -> None:
@@ -437,7 +458,7 @@ def test_closed_outline_in_dxf_and_csv(tmp_path) -> None:
     done = run_fit("star.csv", "--tol", "3e-3", "--relative", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "closed (periodic) curve of 150 points" in done.stdout
-    out = tmp_path / "star-fit"
+    out = tmp_path / "star.csv-fit"
     summary = json.loads((out / "fit.json").read_text())
     assert summary["closed"] is True
     control = np.loadtxt(out / "control_points.csv", delimiter=",", skiprows=1)

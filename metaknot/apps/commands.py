@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["SEED_CURVES", "add_demo", "add_fit", "demo", "fit"]
+__all__ = ["SEED_CURVES", "add_demo", "add_fit", "default_out", "demo", "fit"]
 
 SEED_CURVES = ("epitrochoid", "archimedean", "vivaldi")
 
@@ -66,7 +66,10 @@ def add_fit(sub: Any) -> None:
     parser.add_argument("--budget", type=int, default=20000,
                      help="evaluations of the GA at each count of the fixed-count search")
     parser.add_argument("--seed", type=int, default=0, help="seed of the searches")
-    parser.add_argument("--out", default=None, help="output folder (default: <points>-fit)")
+    parser.add_argument("--out", default=None,
+                        help="output folder (default: the points file's whole name and -fit, "
+                             "next to it: ellipse.csv-fit for ellipse.csv, so that "
+                             "ellipse.txt beside it gets its own folder)")
     parser.add_argument("--force", action="store_true",
                      help="replace the files of a previous fit in the --out folder (only "
                           "those its fit.json lists)")
@@ -106,6 +109,15 @@ def demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def default_out(points: str | Path) -> Path:
+    """The output folder of ``metaknot fit`` without ``--out``: the points file's whole name
+    with ``-fit`` added, beside it (``ellipse.csv`` to ``ellipse.csv-fit``). The suffix is
+    kept so that files of one stem (``ellipse.csv``, ``ellipse.txt``, ``ellipse.npy``) in one
+    folder get a folder each."""
+    points = Path(points)
+    return points.with_name(points.name + "-fit")
+
+
 def fit(args: argparse.Namespace) -> int:
     """``metaknot fit``: read the points, check the destination, fit, write the files."""
 
@@ -114,8 +126,7 @@ def fit(args: argparse.Namespace) -> int:
     from .fit_output import check_destination
 
     points = load_points(args.points).points
-    out = Path(args.out) if args.out else Path(args.points).with_name(
-        Path(args.points).stem + "-fit")
+    out = Path(args.out) if args.out else default_out(args.points)
     check_destination(out, force=args.force)
     created = not out.exists()
     try:  # made before the fit, so that a folder that cannot be made costs no fit
