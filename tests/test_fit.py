@@ -262,6 +262,47 @@ def test_bad_files_are_one_line_errors_and_leave_nothing(tmp_path, content, args
     assert not (tmp_path / "pts.csv-fit").exists()
 
 
+@pytest.mark.parametrize(("content", "args", "message"), [
+    ("0,5;1,25\n1,5;2\n2,5;2,75\n3,5;3\n4,5;1\n5,5;0\n", [],
+     "line 1: '0,5;1,25' is written with decimal commas, which are not read; write decimal "
+     "points ('0.5;1.25')"),
+    ("0.5 1.25\n1.5 2\n2,5 2,75\n3.5 3\n4.5 1\n5.5 0\n", [],
+     "line 3: '2,5 2,75' is written with decimal commas, which are not read; write decimal "
+     "points ('2.5 2.75')"),
+    ("0.5,1.25\n", [], "a degree-3 fit needs at least 5 points; got 1"),
+    ("0.5,1.25\n", ["--degree", "2"], "a degree-2 fit needs at least 4 points; got 1"),
+    ("x,y\n0,0\n1,1\n2,0\n3,1\n", [], "a degree-3 fit needs at least 5 points; got 4"),
+], ids=["decimal-commas-first", "decimal-commas-later", "one-point", "one-point-degree-2",
+        "four-points"])
+def test_input_the_fit_cannot_take_is_one_line_naming_the_file_once(
+        tmp_path, capsys, content, args, message) -> None:
+    """Decimal commas (a first line of them was dropped as a header) and too few points for
+    the degree asked (``one.csv: one: a degree-1 fit needs ...`` whatever --degree said; four
+    points were ``points: a degree-3 fit ...``): one line naming the file once, before
+    anything is fitted or made, with the exit status of other bad input (2)."""
+    path = tmp_path / "one.csv"
+    path.write_text(content)
+    assert main(["fit", str(path), "--tol", "0.01", *args]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"metaknot: error: {path}: {message}\n"
+    assert captured.out == ""  # nothing was fitted
+    assert sorted(tmp_path.iterdir()) == [path]  # no output folder
+
+
+def test_the_header_the_reader_skips_is_named(tmp_path) -> None:
+    """A header row is skipped, as ``fit --help`` says, and the first line of the output
+    names it (it was dropped without a word, as a first line of decimal commas was)."""
+    points = get_curve("archimedean").points[::4]
+    np.savetxt(tmp_path / "arc.csv", points, delimiter=",", header="x,y", comments="")
+    done = run_fit("arc.csv", "--tol", "1e-2", "--method", "fitpack", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[0] == (f"read {len(points)} points (2-D) from arc.csv; "
+                                           "line 1 skipped as a header: 'x,y'")
+    np.savetxt(tmp_path / "plain.csv", points, delimiter=",")
+    done = run_fit("plain.csv", "--tol", "1e-2", "--method", "fitpack", cwd=tmp_path)
+    assert done.stdout.splitlines()[0] == f"read {len(points)} points (2-D) from plain.csv"
+
+
 def test_a_missing_file_is_named(tmp_path) -> None:
     done = run_fit("nothing.csv", "--tol", "0.01", cwd=tmp_path)
     assert done.returncode == 2 and "point file not found: nothing.csv" in done.stderr
