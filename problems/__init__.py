@@ -8,6 +8,7 @@ from .curves import (
     check_points_file,
     epitrochoid,
     get_curve,
+    header_line,
     load_points,
     vivaldi,
 )
@@ -54,6 +55,7 @@ __all__ = [
     "epitrochoid",
     "get_curve",
     "get_objective",
+    "header_line",
     "load_points",
     "vivaldi",
 ]

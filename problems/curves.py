@@ -13,8 +13,9 @@ from typing import BinaryIO
 
 import numpy as np
 
-from metaknot.bspline import as_points
+from metaknot.bspline import as_points, check_degree
 from metaknot.bspline._codegen import MAX_DIMENSION
+from metaknot.bspline.parameterize import check_point_count
 from metaknot.validate import is_integer
 
 __all__ = [
@@ -29,6 +30,7 @@ __all__ = [
     "check_points_file",
     "epitrochoid",
     "get_curve",
+    "header_line",
     "load_points",
     "vivaldi",
 ]
@@ -150,12 +152,15 @@ def get_curve(name: str, **kwargs: float) -> PointSet:
     return factory(**kwargs)
 
 
-def load_points(path: str | Path, *, params_column: int | None = None) -> PointSet:
+def load_points(path: str | Path, *, params_column: int | None = None,
+                degree: int = 1) -> PointSet:
     """Load points from a ``.npy`` file or a text table (``.csv``/``.txt``).
 
-    A text table has one point per line, its values separated by commas or else by
-    whitespace; blank lines and ``#`` comments are skipped, and so is a first row with no
-    number in it (a header). A file may hold at most ``MAX_POINTS`` points of at most
+    A text table has one point per line, its values separated by semicolons, else by commas,
+    else by whitespace; blank lines and ``#`` comments are skipped, and so is a first row with
+    no number in it (a header). Decimal commas are not read: a line that reads as numbers only
+    with its commas taken as decimal points (``0,5;1,25``, ``0,5 1,25``) is an error, a first
+    line too (it is no header). A file may hold at most ``MAX_POINTS`` points of at most
     ``MAX_COLUMNS`` values; :func:`check_points_file` is checked first, so a file of another
     kind is refused after reading its first bytes (docs/input-files.md).
 
@@ -166,13 +171,18 @@ def load_points(path: str | Path, *, params_column: int | None = None) -> PointS
     params_column
         Index of a column holding explicit parameter values (for example ``x`` of function
         data); the remaining columns become the points.
+    degree
+        The spline degree the points are for: fewer than ``degree + 2`` points (too few for
+        one interior knot) are refused, naming the file and the degree.
 
     Raises
     ------
     ValueError
         Naming the file (and the line of a text file) if it is missing, of another kind,
-        empty, ragged, not numeric, beyond the limits or holds NaN/inf.
+        empty, ragged, not numeric (decimal commas included), beyond the limits, holds
+        NaN/inf or too few points for ``degree``; or if ``degree`` is not one of 1..5.
     """
+    degree = check_degree(degree)
     path = check_points_file(path)
     data = _read_npy(path) if path.suffix.lower() == ".npy" else _read_text(path)
     if data.ndim == 1:
@@ -183,10 +193,36 @@ def load_points(path: str | Path, *, params_column: int | None = None) -> PointS
             raise ValueError(f"{path}: params_column {params_column} is not a valid column")
         params = data[:, params_column].astype(np.float64)
         data = np.delete(data, params_column, axis=1)
+    check_point_count(data.shape[0], degree, str(path))  # the file named once
     try:
         return PointSet(data, name=path.stem, params=params)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
+
+
+def header_line(path: str | Path) -> tuple[int, str] | None:
+    """The header row :func:`load_points` skips in a text table, so that a caller can say
+    which line it dropped.
+
+    Reads the file up to its first data row only.
+
+    Returns
+    -------
+    tuple of (int, str) or None
+        The header's line number and its text (stripped), or ``None`` for a ``.npy`` file or
+        a table whose first row holds a number.
+
+    Raises
+    ------
+    ValueError
+        As :func:`load_points` does for the lines read.
+    """
+    path = check_points_file(path)
+    if path.suffix.lower() == ".npy":
+        return None
+    headers: list[tuple[int, str]] = []
+    next(_data_rows(path, headers), None)
+    return headers[0] if headers else None
 
 
 def check_points_file(path: str | Path) -> Path:
@@ -290,11 +326,12 @@ def _read_text(path: Path) -> np.ndarray:
     """The table of a text file, read a line at a time into one growing float buffer."""
     values = array("d")
     width = rows = width_line = 0
-    for number, cells in _data_rows(path):
+    for number, cells, text in _data_rows(path):
         if not width:
             width, width_line = len(cells), number
             _check_table_shape(path, (1, width))  # the limit on columns
         elif len(cells) != width:
+            _check_decimal_commas(path, number, text)
             raise ValueError(f"{path}: line {number} has {len(cells)} columns, line "
                              f"{width_line} has {width}")
         if rows == MAX_POINTS:
@@ -303,6 +340,7 @@ def _read_text(path: Path) -> np.ndarray:
         try:
             values.extend(map(float, cells))
         except ValueError:
+            _check_decimal_commas(path, number, text)
             column = next(i for i, cell in enumerate(cells) if not _is_number(cell))
             cell = cells[column].strip()
             hint = " (a decimal comma? write decimal points)" if \
@@ -316,7 +354,7 @@ def _read_text(path: Path) -> np.ndarray:
     finite = np.isfinite(data).all(axis=1)
     if not finite.all():  # found again to name its line
         row = int(np.argmin(finite))
-        number, cells = next(itertools.islice(_data_rows(path), row, None))
+        number, cells, _ = next(itertools.islice(_data_rows(path), row, None))
         column = int(np.argmin(np.isfinite(data[row])))
         raise ValueError(f"{path}: line {number}, column {column + 1}: "
                          f"{_quote(cells[column].strip())} is not a finite number (NaN or "
@@ -324,10 +362,13 @@ def _read_text(path: Path) -> np.ndarray:
     return data
 
 
-def _data_rows(path: Path) -> Iterator[tuple[int, list[str]]]:
-    """Line number and fields of each data row of a text table (separated by semicolons,
-    else commas, else spaces or tabs): blank lines, ``#`` comments and a first row without a
-    number (a header) are skipped."""
+def _data_rows(path: Path, headers: list[tuple[int, str]] | None = None
+               ) -> Iterator[tuple[int, list[str], str]]:
+    """Line number, fields and stripped text of each data row of a text table (separated by
+    semicolons, else commas, else spaces or tabs): blank lines, ``#`` comments and a first row
+    without a number (a header; its line number and text appended to ``headers``) are
+    skipped; a first row of numbers with decimal commas is an error
+    (:func:`_check_decimal_commas`), not a header."""
     first = True
     with path.open(encoding="utf-8-sig") as file:  # a byte-order mark (spreadsheets) is dropped
         for number in itertools.count(1):
@@ -348,8 +389,32 @@ def _data_rows(path: Path) -> Iterator[tuple[int, list[str]]]:
             if first:
                 first = False
                 if not any(map(_is_number, cells)):
+                    _check_decimal_commas(path, number, text)
+                    if headers is not None:
+                        headers.append((number, text))
                     continue  # a header row: no field is a number
-            yield number, cells
+            yield number, cells, text
+
+
+def _decimal_commas(text: str) -> bool:
+    """Whether a line reads as numbers only with its commas taken as decimal points: its
+    fields, separated by semicolons, else by whitespace, are numbers once the one comma each
+    may hold is a point, and one has a comma (``0,5;1,25``, ``0,5 1,25``, ``0,5;2``)."""
+    if "," not in text:
+        return False
+    fields = text.split(";") if ";" in text else text.split()
+    return all(_is_number(field.strip().replace(",", ".", 1)) for field in fields)
+
+
+def _check_decimal_commas(path: Path, number: int, text: str) -> None:
+    """Refuse line ``number`` of ``path`` if it is written with decimal commas
+    (:func:`_decimal_commas`), naming the file and the line and giving the line with decimal
+    points. Called where a line cannot be read as it is (so ``0,5`` alone, two values
+    separated by a comma, is read as such)."""
+    if _decimal_commas(text):
+        raise ValueError(f"{path}: line {number}: {_quote(text)} is written with decimal "
+                         "commas, which are not read; write decimal points "
+                         f"({_quote(text.replace(',', '.'))})")
 
 
 def _is_number(text: str) -> bool:

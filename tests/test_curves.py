@@ -18,6 +18,7 @@ from metaknot.problems import (
     curves,
     epitrochoid,
     get_curve,
+    header_line,
     load_points,
     vivaldi,
 )
@@ -162,13 +163,68 @@ def test_semicolons_separate_values_as_commas_do(tmp_path, table):
     (tmp_path / "semi.csv").write_text("x;y;z\n" + body + "\n")
     np.testing.assert_array_equal(load_points(tmp_path / "semi.csv").points, table)
     (tmp_path / "comma.csv").write_text("x;y\n1,5;2,25\n")
-    with pytest.raises(ValueError, match=r"line 2, column 1: '1,5' is not a number \(a decimal "
-                                         r"comma\? write decimal points\)"):
+    with pytest.raises(ValueError, match=r"line 2: '1,5;2,25' is written with decimal commas, "
+                                         r"which are not read; write decimal points "
+                                         r"\('1\.5;2\.25'\)"):
         load_points(tmp_path / "comma.csv")
     (tmp_path / "points.dat").write_text("1 2\n")
     with pytest.raises(ValueError, match=r"unsupported file type '\.dat' \(use \.csv, \.txt or "
                                          r"\.npy\)"):
         load_points(tmp_path / "points.dat")
+
+
+@pytest.mark.parametrize(("content", "line", "text", "points"), [
+    ("0,5;1,25\n1,5;2\n2,5;2,75\n", 1, "0,5;1,25", "0.5;1.25"),
+    ("0,5 1,25\n1,5 2\n2,5 2,75\n", 1, "0,5 1,25", "0.5 1.25"),
+    ("0,5\t1,25\n", 1, "0,5\t1,25", "0.5\t1.25"),
+    ("# scan\n\n0,5;1,25\n", 3, "0,5;1,25", "0.5;1.25"),
+    ("0.5;1.25\n1.5;2\n2,5;2,75\n", 3, "2,5;2,75", "2.5;2.75"),
+    ("0.5 1.25\n1.5 2\n2,5 2,75\n", 3, "2,5 2,75", "2.5 2.75"),
+    ("0.5 1.25\n1,5 2\n", 2, "1,5 2", "1.5 2"),
+    ("x;y\n0,5;1,25\n", 2, "0,5;1,25", "0.5;1.25"),
+], ids=["semicolons-first", "spaces-first", "tab-first", "after-comments", "semicolons-later",
+        "spaces-later", "one-comma-later", "after-a-header"])
+def test_decimal_commas_are_refused_naming_the_line(tmp_path, content, line, text,
+                                                   points) -> None:
+    """A line written with decimal commas is an error naming the file and the line, the first
+    line too: it was taken for a header and dropped (``0,5;1,25``), or read as a number
+    followed by '5 1' (``0,5 1,25``), or a later line's commas as more columns."""
+    (tmp_path / "scan.csv").write_text(content)
+    with pytest.raises(ValueError) as info:
+        load_points(tmp_path / "scan.csv")
+    assert str(info.value) == (
+        f"{tmp_path / 'scan.csv'}: line {line}: {text!r} is written with decimal commas, which "
+        f"are not read; write decimal points ({points!r})")
+
+
+def test_a_header_is_skipped_and_named_and_comma_separated_numbers_are_read(tmp_path) -> None:
+    """A first row without a number (``x,y``) is skipped, and :func:`header_line` names it;
+    a first row of comma-separated numbers with decimal points is data."""
+    (tmp_path / "header.csv").write_text("# from a scanner\nx,y\n0.5,1.25\n1,2\n2,3\n")
+    (tmp_path / "data.csv").write_text("0.5,1.25\n1,2\n2,3\n")
+    np.save(tmp_path / "data.npy", [[0.5, 1.25], [1, 2], [2, 3]])
+    expected = [[0.5, 1.25], [1, 2], [2, 3]]
+    for name in ("header.csv", "data.csv", "data.npy"):
+        np.testing.assert_array_equal(load_points(tmp_path / name).points, expected)
+    assert header_line(tmp_path / "header.csv") == (2, "x,y")
+    assert header_line(tmp_path / "data.csv") is None
+    assert header_line(tmp_path / "data.npy") is None
+
+
+@pytest.mark.parametrize(("rows", "degree", "need"), [(1, 1, 3), (1, 3, 5), (4, 3, 5),
+                                                      (3, 2, 4)])
+def test_too_few_points_name_the_file_once_and_the_degree(tmp_path, rows, degree,
+                                                          need) -> None:
+    """``load_points(degree=p)`` refuses fewer than p + 2 points naming the file once (it
+    said ``one.csv: one: a degree-1 fit needs ...`` whatever the degree)."""
+    (tmp_path / "one.csv").write_text("".join(f"{i}.5,{i * i}\n" for i in range(rows)))
+    kwargs = {} if degree == 1 else {"degree": degree}
+    with pytest.raises(ValueError) as info:
+        load_points(tmp_path / "one.csv", **kwargs)
+    assert str(info.value) == (f"{tmp_path / 'one.csv'}: a degree-{degree} fit needs at least "
+                               f"{need} points; got {rows}")
+    with pytest.raises(ValueError, match="degree must be between 1 and 5, got 6"):
+        load_points(tmp_path / "one.csv", degree=6)
 
 
 def test_load_csv_skips_comments_and_blank_lines(tmp_path, table):

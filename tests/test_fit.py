@@ -157,7 +157,7 @@ def test_command_writes_every_file(tmp_path) -> None:
     done = run_fit("curve.csv", "--tol", "1e-3", "--relative", "--open", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "FITPACK:" in done.stdout and "result:" in done.stdout
-    out = tmp_path / "curve-fit"
+    out = tmp_path / "curve.csv-fit"
     summary = json.loads((out / "fit.json").read_text())
     from scipy.interpolate import BSpline
 
@@ -198,6 +198,50 @@ def test_function_data_as_a_plane_curve_in_dxf(tmp_path) -> None:
     np.testing.assert_allclose(fitted[:, 1], f(x)[:, 0], atol=1e-12)
 
 
+@pytest.mark.parametrize(("metric", "name", "other"), [("rmse", "RMSE", "max deviation"),
+                                                     ("max_deviation", "max deviation", "RMSE")])
+def test_the_figure_title_names_the_metric_the_tolerance_bounds(metric, name, other) -> None:
+    """The title gives the error the tolerance is about and the tolerance, whole (it once
+    gave the maximum deviation under an RMSE tolerance, so the fit looked beyond it, and ran
+    off the figure's edge with a long method name)."""
+    from dataclasses import replace
+
+    from metaknot.apps.fit_output import _draw, _title
+
+    points = get_curve("archimedean").points
+    result = replace(mk.fit(points, 0.0105, metric=metric, method="fitpack"),
+                     method="knot removal + fixed-count search")
+    value = result.metrics[metric]
+    assert 0 < value <= 0.0105
+    assert _title(result).splitlines() == [
+        f"{result.n_control_points} control points (knot removal + fixed-count search; "
+        f"FITPACK: {result.fitpack['n_control_points']})",
+        f"{name} {value:.4g} (tolerance 0.0105)"]
+    assert other not in _title(result)
+    fig = _draw(result, points)
+    fig.canvas.draw()
+    title = fig.axes[0].title
+    assert title.get_text() == _title(result)
+    extent = title.get_window_extent()
+    assert 0 <= extent.x0 and extent.x1 <= fig.bbox.width  # not cut off at either side
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_an_error_within_the_tolerance_never_reads_as_beyond_it() -> None:
+    """Rounded to four digits, an RMSE of 0.0104996 would read 0.0105, above the tolerance
+    0.010499 shown: it is then given to as many digits as the tolerance."""
+    from dataclasses import replace
+
+    from metaknot.apps.fit_output import _title
+
+    result = mk.fit(get_curve("archimedean").points, 0.0105, metric="rmse", method="fitpack")
+    close = replace(result, tolerance=0.010499,
+                    metrics={**result.metrics, "rmse": 0.0104986})
+    assert _title(close).splitlines()[1] == "RMSE 0.0104986 (tolerance 0.010499)"
+
+
 @pytest.mark.parametrize(("content", "args", "message"), [
     ("x,y\n0,0\n1,1\n2,zero\n3,1\n4,0\n", [], "line 4, column 2: 'zero' is not a number"),
     ("0,0\n1,1\n2\n3,1\n4,0\n", [], "line 3 has 1 columns, line 1 has 2"),
@@ -215,7 +259,48 @@ def test_bad_files_are_one_line_errors_and_leave_nothing(tmp_path, content, args
     assert done.returncode == 2
     (line,) = done.stderr.strip().splitlines()
     assert message in line and len(line) < 200
-    assert not (tmp_path / "pts-fit").exists() or not any((tmp_path / "pts-fit").iterdir())
+    assert not (tmp_path / "pts.csv-fit").exists()
+
+
+@pytest.mark.parametrize(("content", "args", "message"), [
+    ("0,5;1,25\n1,5;2\n2,5;2,75\n3,5;3\n4,5;1\n5,5;0\n", [],
+     "line 1: '0,5;1,25' is written with decimal commas, which are not read; write decimal "
+     "points ('0.5;1.25')"),
+    ("0.5 1.25\n1.5 2\n2,5 2,75\n3.5 3\n4.5 1\n5.5 0\n", [],
+     "line 3: '2,5 2,75' is written with decimal commas, which are not read; write decimal "
+     "points ('2.5 2.75')"),
+    ("0.5,1.25\n", [], "a degree-3 fit needs at least 5 points; got 1"),
+    ("0.5,1.25\n", ["--degree", "2"], "a degree-2 fit needs at least 4 points; got 1"),
+    ("x,y\n0,0\n1,1\n2,0\n3,1\n", [], "a degree-3 fit needs at least 5 points; got 4"),
+], ids=["decimal-commas-first", "decimal-commas-later", "one-point", "one-point-degree-2",
+        "four-points"])
+def test_input_the_fit_cannot_take_is_one_line_naming_the_file_once(
+        tmp_path, capsys, content, args, message) -> None:
+    """Decimal commas (a first line of them was dropped as a header) and too few points for
+    the degree asked (``one.csv: one: a degree-1 fit needs ...`` whatever --degree said; four
+    points were ``points: a degree-3 fit ...``): one line naming the file once, before
+    anything is fitted or made, with the exit status of other bad input (2)."""
+    path = tmp_path / "one.csv"
+    path.write_text(content)
+    assert main(["fit", str(path), "--tol", "0.01", *args]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"metaknot: error: {path}: {message}\n"
+    assert captured.out == ""  # nothing was fitted
+    assert sorted(tmp_path.iterdir()) == [path]  # no output folder
+
+
+def test_the_header_the_reader_skips_is_named(tmp_path) -> None:
+    """A header row is skipped, as ``fit --help`` says, and the first line of the output
+    names it (it was dropped without a word, as a first line of decimal commas was)."""
+    points = get_curve("archimedean").points[::4]
+    np.savetxt(tmp_path / "arc.csv", points, delimiter=",", header="x,y", comments="")
+    done = run_fit("arc.csv", "--tol", "1e-2", "--method", "fitpack", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[0] == (f"read {len(points)} points (2-D) from arc.csv; "
+                                           "line 1 skipped as a header: 'x,y'")
+    np.savetxt(tmp_path / "plain.csv", points, delimiter=",")
+    done = run_fit("plain.csv", "--tol", "1e-2", "--method", "fitpack", cwd=tmp_path)
+    assert done.stdout.splitlines()[0] == f"read {len(points)} points (2-D) from plain.csv"
 
 
 def test_a_missing_file_is_named(tmp_path) -> None:
@@ -263,6 +348,27 @@ def test_the_destination_is_checked_before_the_fit(tmp_path, capsys, out, messag
     assert line.endswith(message.format(tmp=tmp_path)) and line.startswith("metaknot: error: --out")
     assert captured.out == ""  # refused before the points were read or anything was fitted
     assert (tmp_path / "taken").read_text() == "mine"
+
+
+def test_files_of_one_stem_get_a_default_folder_each(tmp_path, capsys) -> None:
+    """Without --out, ellipse.csv and ellipse.txt in one folder are written to ellipse.csv-fit
+    and ellipse.txt-fit (both went to ellipse-fit, and the second fit was refused), as
+    ``fit --help`` says."""
+    angle = np.linspace(0, 1.5 * np.pi, 60)
+    ellipse = np.column_stack((2 * np.cos(angle), np.sin(angle)))
+    np.savetxt(tmp_path / "ellipse.csv", ellipse, delimiter=",", header="x,y", comments="")
+    np.savetxt(tmp_path / "ellipse.txt", ellipse[::2])
+    for name, n in (("ellipse.csv", 60), ("ellipse.txt", 30)):
+        assert main(["fit", str(tmp_path / name), "--tol", "1e-3", "--method", "fitpack"]) == 0
+        captured = capsys.readouterr()
+        assert captured.err == "" and f"wrote 7 files to {tmp_path / name}-fit" in captured.out
+        summary = json.loads((tmp_path / f"{name}-fit" / "fit.json").read_text())
+        assert summary["metrics"]["n_control_points"] <= n
+    assert sorted(path.name for path in tmp_path.iterdir()) == [
+        "ellipse.csv", "ellipse.csv-fit", "ellipse.txt", "ellipse.txt-fit"]
+    with pytest.raises(SystemExit):
+        main(["fit", "--help"])
+    assert "ellipse.csv-fit for ellipse.csv" in " ".join(capsys.readouterr().out.split())
 
 
 def test_a_folder_given_as_the_points_is_named(tmp_path, capsys) -> None:
@@ -393,7 +499,7 @@ def test_closed_outline_in_dxf_and_csv(tmp_path) -> None:
     done = run_fit("star.csv", "--tol", "3e-3", "--relative", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "closed (periodic) curve of 150 points" in done.stdout
-    out = tmp_path / "star-fit"
+    out = tmp_path / "star.csv-fit"
     summary = json.loads((out / "fit.json").read_text())
     assert summary["closed"] is True
     control = np.loadtxt(out / "control_points.csv", delimiter=",", skiprows=1)

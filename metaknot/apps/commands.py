@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["SEED_CURVES", "add_demo", "add_fit", "demo", "fit"]
+__all__ = ["SEED_CURVES", "add_demo", "add_fit", "default_out", "demo", "fit"]
 
 SEED_CURVES = ("epitrochoid", "archimedean", "vivaldi")
 
@@ -37,8 +37,9 @@ def add_fit(sub: Any) -> None:
                     "within the tolerance (never more than FITPACK needs), and write "
                     "knots, control points, metrics, a figure and a DXF file.")
     parser.add_argument("points", help="a .csv/.txt table (one point per row, values separated "
-                                    "by commas or spaces; a header row and # comments are "
-                                    "skipped) or a .npy array; see docs/input-files.md")
+                                    "by semicolons, commas or spaces, decimal points only; a "
+                                    "header row and # comments are skipped) or a .npy array; "
+                                    "see docs/input-files.md")
     parser.add_argument("--tolerance", "--tol", type=float, required=True,
                         help="the tolerance (--tol: the same)")
     parser.add_argument("--relative", action="store_true",
@@ -46,7 +47,8 @@ def add_fit(sub: Any) -> None:
     parser.add_argument("--metric", choices=["max_deviation", "rmse"], default="max_deviation")
     parser.add_argument("--function", action="store_true",
                      help="the first column is x, the others f(x); x is the parameter")
-    parser.add_argument("--degree", type=int, default=3)
+    parser.add_argument("--degree", type=int, default=3,
+                        help="spline degree, 1 to 5 (the points must be at least degree + 2)")
     parser.add_argument("--parameterization", choices=["centripetal", "chord", "uniform"],
                      default="centripetal")
     shape = parser.add_mutually_exclusive_group()
@@ -66,7 +68,10 @@ def add_fit(sub: Any) -> None:
     parser.add_argument("--budget", type=int, default=20000,
                      help="evaluations of the GA at each count of the fixed-count search")
     parser.add_argument("--seed", type=int, default=0, help="seed of the searches")
-    parser.add_argument("--out", default=None, help="output folder (default: <points>-fit)")
+    parser.add_argument("--out", default=None,
+                        help="output folder (default: the points file's whole name and -fit, "
+                             "next to it: ellipse.csv-fit for ellipse.csv, so that "
+                             "ellipse.txt beside it gets its own folder)")
     parser.add_argument("--force", action="store_true",
                      help="replace the files of a previous fit in the --out folder (only "
                           "those its fit.json lists)")
@@ -106,16 +111,25 @@ def demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def default_out(points: str | Path) -> Path:
+    """The output folder of ``metaknot fit`` without ``--out``: the points file's whole name
+    with ``-fit`` added, beside it (``ellipse.csv`` to ``ellipse.csv-fit``). The suffix is
+    kept so that files of one stem (``ellipse.csv``, ``ellipse.txt``, ``ellipse.npy``) in one
+    folder get a folder each."""
+    points = Path(points)
+    return points.with_name(points.name + "-fit")
+
+
 def fit(args: argparse.Namespace) -> int:
     """``metaknot fit``: read the points, check the destination, fit, write the files."""
 
-    from metaknot.problems import load_points
+    from metaknot.problems import header_line, load_points
 
     from .fit_output import check_destination
 
-    points = load_points(args.points).points
-    out = Path(args.out) if args.out else Path(args.points).with_name(
-        Path(args.points).stem + "-fit")
+    points = load_points(args.points, degree=args.degree).points  # enough for --degree
+    header = header_line(args.points)
+    out = Path(args.out) if args.out else default_out(args.points)
     check_destination(out, force=args.force)
     created = not out.exists()
     try:  # made before the fit, so that a folder that cannot be made costs no fit
@@ -124,7 +138,7 @@ def fit(args: argparse.Namespace) -> int:
         raise ValueError(f"--out {out}: cannot make the folder ({exc.strerror or exc})") \
             from None
     try:
-        return _fit_into(args, points, out)
+        return _fit_into(args, points, out, header)
     except BaseException:
         if created:  # leave no empty folder behind
             with contextlib.suppress(OSError):
@@ -132,9 +146,11 @@ def fit(args: argparse.Namespace) -> int:
         raise
 
 
-def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path) -> int:
+def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path,
+              header: tuple[int, str] | None = None) -> int:
     """The rest of ``metaknot fit``: fit ``points``, print the stages and the result, write
-    the files into the folder ``out`` (which exists)."""
+    the files into the folder ``out`` (which exists). ``header``: the line number and text of
+    the header row the reader skipped, which the first line names."""
     from .fit import fit as fit_points
     from .fit_output import write_fit
 
@@ -146,7 +162,9 @@ def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path) -> int:
     if points.shape[1] == 1:
         what = ("one column: read as a 1-D curve of values; for y = f(x) give x as the first "
                 "column and --function")
-    print(f"read {n} points ({what}) from {args.points}", flush=True)
+    skipped = "" if header is None else \
+        f"; line {header[0]} skipped as a header: {header[1][:80]!r}"
+    print(f"read {n} points ({what}) from {args.points}{skipped}", flush=True)
     result = fit_points(points, args.tolerance, relative=args.relative, metric=args.metric,
                  function=args.function, degree=args.degree,
                  parameterization=args.parameterization, closed=args.closed,

@@ -15,10 +15,14 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .fit import ToleranceFit
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["FILES", "check_destination", "write_fit"]
 
@@ -37,7 +41,32 @@ def _summary(result: ToleranceFit) -> dict:
     }
 
 
-def _figure(result: ToleranceFit, points: np.ndarray, folder: Path) -> None:
+#: How the figure's title names each metric.
+_METRIC_NAMES = {"max_deviation": "max deviation", "rmse": "RMSE"}
+
+
+def _title(result: ToleranceFit) -> str:
+    """The figure's title: the control points and the method on one line; the error the
+    tolerance bounds (``result.metric``) and the tolerance on the next.
+
+    The tolerance is shown to six significant digits, the error to four unless, so rounded,
+    it would read as above the tolerance shown (then to six as well: rounding keeps the
+    order, so an error within the tolerance never reads as beyond it).
+    """
+    m = result.metrics
+    tolerance = f"{result.tolerance:.6g}"
+    value = f"{m[result.metric]:.4g}"
+    if float(value) > float(tolerance):
+        value = f"{m[result.metric]:.6g}"
+    return (f"{m['n_control_points']} control points ({result.method}; FITPACK: "
+            f"{result.fitpack['n_control_points']})\n"
+            f"{_METRIC_NAMES.get(result.metric, result.metric)} {value} "
+            f"(tolerance {tolerance})")
+
+
+def _draw(result: ToleranceFit, points: np.ndarray) -> Figure:
+    """The figure of ``result``: the data, the fitted curve and its knots, under
+    :func:`_title` (function data: x against f(x))."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -61,11 +90,16 @@ def _figure(result: ToleranceFit, points: np.ndarray, folder: Path) -> None:
         ax.plot(curve[:, 0], curve[:, 1], "-", lw=1.3, color="C0", label="fit")
         ax.plot(knots[:, 0], knots[:, 1], "o", ms=4, mfc="none", color="C3", label="knots")
         ax.set_aspect("equal", adjustable="datalim")
-    m = result.metrics
-    ax.set_title(f"{m['n_control_points']} control points ({result.method}; FITPACK: "
-                 f"{result.fitpack['n_control_points']}), max deviation "
-                 f"{m['max_deviation']:.3g}, tolerance {result.tolerance:.3g}", fontsize=9)
+    ax.set_title(_title(result), fontsize=9)
     ax.legend(fontsize=8)
+    return fig
+
+
+def _figure(result: ToleranceFit, points: np.ndarray, folder: Path) -> None:
+    """Write the figure of ``result`` (:func:`_draw`) as ``fit.png`` and ``fit.svg``."""
+    import matplotlib.pyplot as plt
+
+    fig = _draw(result, points)
     for suffix in ("png", "svg"):
         fig.savefig(folder / f"fit.{suffix}", dpi=120)
     plt.close(fig)
