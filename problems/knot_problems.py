@@ -239,8 +239,7 @@ class KnotProblem(Problem):
                                  f"got {near.shape}")
             near = near[0]
         moves = self._move_evaluator(near) if self.delta_evaluation \
-            and self.max_multiplicity == 1 and type(self).evaluate is KnotProblem.evaluate \
-            else None  # the move evaluators take distinct knots
+            and type(self).evaluate is KnotProblem.evaluate else None
         if moves is None:
             return (*self.evaluate_with_metrics(X), 0)
         fit, path = self._evaluate_moves(moves, X, near)  # X checked by the evaluator
@@ -255,7 +254,8 @@ class KnotProblem(Problem):
             self._moves_key = key
             near = self.encoding.check(near)[0]
             # None for an infeasible incumbent: candidates are then fitted in full
-            self._moves = self.curve.move_evaluator(self._interior_knots(near), self._moves)
+            self._moves = self.curve.move_evaluator(self._interior_knots(near), self._moves,
+                                                    max_multiplicity=self.max_multiplicity)
         return self._moves
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -500,7 +500,7 @@ class FreeKnots(KnotProblem):
         return x[~np.isnan(x)] if self.variable_count else x
 
     def _stack(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return stack_positions(X, nan_is_absent=self.variable_count)
+        return stack_positions(self._merged(X), nan_is_absent=self.variable_count)
 
     def pad(self, positions: ArrayLike) -> np.ndarray:
         """A candidate from fewer than ``n_knots`` positions (NaN-padded; ``variable_count``)."""

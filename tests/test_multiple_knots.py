@@ -219,11 +219,11 @@ def test_free_knots_with_merge_spacing_recover_kangs_double_knot():
     assert solution.fit.n_control_points == 15
     assert merging.describe()["merge_spacing"] == 1e-6 and "merge_spacing" not in \
         plain.describe()
-    # local moves are fitted in full when knots may repeat: the same values as evaluate
+    # local moves near a double knot: delta evaluation, the values of evaluate
     moved = np.array([apart, np.where(np.arange(11) == 3, 0.3, apart)])
     near_values, _, delta = merging.evaluate_near(moved, apart)
-    np.testing.assert_array_equal(near_values, merging.evaluate(moved))
-    assert not np.any(delta)
+    np.testing.assert_allclose(near_values, merging.evaluate(moved), rtol=1e-9, atol=1e-12)
+    assert np.all(delta)
 
 
 @pytest.mark.parametrize("bad", [-1e-3, np.inf, np.nan, "0.1", True])
@@ -309,3 +309,114 @@ def test_index_sets_with_repeats_are_multiple_knots_when_allowed():
     assert plain.evaluate(rows[:1])[0] == np.inf and plain.encoding.distinct_sorted
     assert "max_multiplicity" not in plain.describe() and \
         indices.describe()["max_multiplicity"] == 3
+
+
+def count_moves(rng: np.random.Generator, counts: np.ndarray, most: int, sites: int
+                ) -> np.ndarray:
+    """Multiplicity vectors that set one site's count to each of ``0 .. most + 1`` (one more
+    than allowed: refused), at ``sites`` random sites."""
+    rows = []
+    for site in rng.choice(counts.size, sites, replace=False):
+        for value in range(most + 2):
+            moved = counts.copy()
+            moved[site] = value
+            rows.append(moved)
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+@pytest.mark.parametrize("degree", [2, 3, 4, 5])  # degree 1: knots are distinct
+def test_moves_that_raise_or_lower_a_multiplicity_score_as_the_batched_evaluator(closed, degree):
+    """Delta evaluation of multiplicity moves (a knot's count raised or lowered by any amount,
+    one more than allowed included) against the batched evaluator with the same
+    ``max_multiplicity``: same reasons, SSE, control points and maximum deviation; most
+    feasible candidates decided by the delta path (fewer at degrees 4-5, where the certificate
+    gives up on every move of an incumbent whose multiple knots make its bound large)."""
+    from metaknot.bspline.moves import PATH_DELTA, MoveEvaluator, PeriodicMoveEvaluator
+    from tests.test_moves import assert_same_scores
+
+    rng = np.random.default_rng(degree + 10 * closed)
+    decided = np.zeros(2, dtype=np.int64)  # feasible candidates: by the delta path, in all
+    for dim in (1, 2, 3):
+        u, points = wavy(150, dim, seed=dim)
+        if closed:
+            u = np.linspace(0.0, 1.0, 150, endpoint=False)
+            points = np.column_stack([np.cos(2 * np.pi * u), np.sin(2 * np.pi * u),
+                                      np.abs(u - 0.45)])[:, :dim] \
+                + rng.normal(0.0, 1e-3, (u.size, dim))
+        sites = u[1:] if closed else u[1:-1]
+        curve = (ClosedCurve if closed else OpenCurve)(u, points, degree)
+        evaluator = PeriodicMoveEvaluator if closed else MoveEvaluator
+        for most in range(2, degree + 1):
+            for _ in range(100):  # an incumbent that can be fitted
+                counts = np.where(rng.random(sites.size) < 0.24 / degree,
+                                  rng.integers(1, most + 1, sites.size), 0)
+                try:
+                    moves = evaluator(u, points, np.repeat(sites, counts), degree,
+                                      max_multiplicity=most)
+                    break
+                except ValueError:
+                    continue
+            rows = [np.repeat(sites, c) for c in count_moves(rng, counts, most, 25)]
+            offsets = np.cumsum([0] + [r.size for r in rows]).astype(np.int64)
+            knots = np.concatenate(rows)
+            fit, path = moves.evaluate(knots, offsets, max_deviation=True)
+            reference = curve.evaluate_knots(knots, offsets, max_deviation=True,
+                                             max_multiplicity=most)
+            assert_same_scores(fit, reference, moves.q, True)
+            assert (reference.reason == Infeasibility.COINCIDENT_KNOTS).sum() >= 25
+            feasible = reference.reason == Infeasibility.FEASIBLE
+            # the certificate is cautious with high multiplicities of degree 4-5 (about half)
+            decided += [np.count_nonzero(path[feasible] == PATH_DELTA), feasible.sum()]
+    assert decided[0] > (0.5 if degree <= 3 else 0.2) * decided[1], decided
+
+
+def test_a_move_evaluator_refuses_an_incumbent_beyond_its_multiplicity():
+    from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
+
+    u, points = wavy(80, 2)
+    knots = with_multiple_knot(3, 2)
+    MoveEvaluator(u, points, knots, 3, max_multiplicity=2)  # allowed
+    for evaluator in (MoveEvaluator, PeriodicMoveEvaluator):
+        with pytest.raises(ValueError, match=r"repeat|distinct|coincident"):
+            evaluator(u if evaluator is MoveEvaluator else u[:-1],
+                      points if evaluator is MoveEvaluator else points[:-1], knots, 3)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+@pytest.mark.parametrize(("encoding", "optimizer"), [("mask", "one_plus_one"),
+                                                      ("indices", "one_plus_one")])
+def test_runs_over_multiplicities_use_delta_evaluation_and_end_as_full_evaluation(
+        closed, encoding, optimizer):
+    """A search over knots of multiplicity up to 3 scores its moves by delta evaluation (most
+    of them) and ends, value for value, where the same run with every candidate fitted in
+    full ends."""
+    import metaknot as mk
+    from metaknot.problems import KnotIndices, KnotSelection
+
+    _, points = wavy(160, 2, seed=3)
+    if closed:
+        points = points[:-1]
+    results = {}
+    for delta in (True, False):
+        problem = KnotSelection(points, objective="bic", max_multiplicity=3, closed=closed) \
+            if encoding == "mask" else \
+            KnotIndices(points, objective="bic", n_knots=12, max_multiplicity=3, closed=closed)
+        problem.delta_evaluation = delta
+        results[delta] = mk.minimize(problem, optimizer, budget=1500, seed=2)
+    fast, full = results[True], results[False]
+    assert full.delta_evaluations == 0
+    assert fast.delta_evaluations > 0.5 * fast.n_evaluations
+    assert fast.n_evaluations == full.n_evaluations
+    np.testing.assert_allclose(fast.best_f, full.best_f, rtol=1e-9)
+    np.testing.assert_array_equal(fast.best_x, full.best_x)
+    # the best value after every evaluation (a tie broken by rounding is no improvement that
+    # counts: the traces may list different rows)
+    every = np.arange(1, fast.n_evaluations + 1)
+    np.testing.assert_allclose(best_after(fast.trace, every), best_after(full.trace, every),
+                               rtol=1e-9)
+
+
+def best_after(trace, evaluations: np.ndarray) -> np.ndarray:
+    """The best value of a run after each of ``evaluations`` (its trace as a step function)."""
+    return trace.best_f[np.searchsorted(trace.evaluations, evaluations, side="right") - 1]

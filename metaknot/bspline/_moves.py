@@ -248,7 +248,28 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
 
 
 @njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
-def _candidate_knots(u, t, interior, p, t2):
+def _order_verdict(t2, lo, hi, p, max_mult):
+    """``COINCIDENT_KNOTS`` if a knot of the clamped knot vector ``t2`` compared with the one
+    before it at ``lo .. hi - 1`` (interior knots) lies below it, or a run of equal interior
+    knots near there repeats more than ``max_mult`` times; else ``FEASIBLE``."""
+    if max_mult == 1:  # distinct knots: the loop without the count of copies
+        for i in range(lo, hi):
+            if t2[i] <= t2[i - 1]:
+                return COINCIDENT_KNOTS
+        return FEASIBLE
+    for i in range(lo, hi):
+        if t2[i] < t2[i - 1]:
+            return COINCIDENT_KNOTS
+    run = 1  # copies so far, interior knots only (the clamped ends repeat p + 1 times)
+    for i in range(max(lo - max_mult - 1, p + 2), min(hi + max_mult + 1, t2.size - p - 1)):
+        run = run + 1 if t2[i] == t2[i - 1] else 1
+        if run > max_mult:
+            return COINCIDENT_KNOTS
+    return FEASIBLE
+
+
+@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+def _candidate_knots(u, t, interior, p, t2, max_mult):
     """Fill ``t2`` with the candidate's clamped knot vector; return (reason, e, f): ``e`` the
     first index where it differs from the incumbent's ``t``, ``f`` the length of their common
     tail. Only the changed knots are checked (the others are the incumbent's): the reason is
@@ -291,14 +312,11 @@ def _candidate_knots(u, t, interior, p, t2):
         x = t2[i]
         if not (x > u0 and x < um):  # also catches NaN
             return KNOT_OUT_OF_RANGE, e, f
-    for i in range(max(e, p + 2), min(stop + 1, n2 - p - 1)):
-        if t2[i] <= t2[i - 1]:
-            return COINCIDENT_KNOTS, e, f
-    return FEASIBLE, e, f
+    return _order_verdict(t2, max(e, p + 2), min(stop + 1, n2 - p - 1), p, max_mult), e, f
 
 
 @njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
-def _replacement_knots(u, t, n, start, stop, inserted, p, t2):
+def _replacement_knots(u, t, n, start, stop, inserted, p, t2, max_mult):
     """Fill ``t2`` with the knots of the incumbent ``t`` whose interior knots ``start:stop``
     are replaced by ``inserted``; return (reason, e, f) as :func:`_candidate_knots` does, with
     only the inserted knots checked."""
@@ -322,19 +340,17 @@ def _replacement_knots(u, t, n, start, stop, inserted, p, t2):
             return KNOT_OUT_OF_RANGE, e, f
     if stop > k or start > stop:
         return KNOT_OUT_OF_RANGE, e, f
-    for i in range(max(e, p + 2), min(tail + 1, size - p - 1)):
-        if t2[i] <= t2[i - 1]:
-            return COINCIDENT_KNOTS, e, f
-    return FEASIBLE, e, f
+    return _order_verdict(t2, max(e, p + 2), min(tail + 1, size - p - 1), p, max_mult), e, f
 
 
 @njit(cache=True, error_model='numpy', fastmath=FASTMATH)
 def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse,
                    Gcol, st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
-                   gram_norm, knots, offsets, starts, stops, max_window_rows, want_max_dev,
-                   sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
-    """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``) by merging the
-    incumbent's cached states; fall back to the full fit where the cheap path cannot decide.
+                   gram_norm, max_mult, knots, offsets, starts, stops, max_window_rows,
+                   want_max_dev, sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
+    """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``, each repeated at
+    most ``max_mult`` times) by merging the incumbent's cached states; fall back to the full
+    fit where the cheap path cannot decide.
     With ``starts`` not empty, candidate ``b`` is instead the incumbent with its interior knots
     ``starts[b]:stops[b]`` replaced by ``knots[offsets[b]:offsets[b + 1]]`` (a move: no
     comparison of whole knot vectors is then needed).
@@ -380,9 +396,10 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
             continue
         tb = t2[: n2 + p + 1]
         if replacing:
-            code, e, f = _replacement_knots(u, t, n, starts[b], stops[b], inserted, p, tb)
+            code, e, f = _replacement_knots(u, t, n, starts[b], stops[b], inserted, p, tb,
+                                            max_mult)
         else:
-            code, e, f = _candidate_knots(u, t, inserted, p, tb)
+            code, e, f = _candidate_knots(u, t, inserted, p, tb, max_mult)
         interior = tb[p + 1 : n2]
         if code != FEASIBLE:
             reason_out[b] = code
@@ -464,7 +481,8 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
                 continue
         # the full fit decides
         path_out[b] = PATH_FULL
-        code, value = _fit_into(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws, 1)
+        code, value = _fit_into(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws,
+                                max_mult)
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
@@ -541,13 +559,14 @@ def bind(u, q, u_mirror, q_mirror, t, p):
 
 @njit(cache=True)
 def mask_replacements(u, near, masks):
-    """Each row of ``masks`` (0/1 over the interior points ``u[1:-1]``) as a replacement of the
-    knots of the mask ``near``: the incumbent's knots between its first and last differing bit
-    by the row's knots there. Returns ``(starts, stops, inserted, offsets)``."""
+    """Each row of ``masks`` (over the interior points ``u[1:-1]``: 0/1, or the multiplicity of
+    a knot at each point) as a replacement of the knots of the mask ``near``: the incumbent's
+    knots between its first and last differing entry by the row's knots there. Returns
+    ``(starts, stops, inserted, offsets)``."""
     n_cand, n_var = masks.shape
     rank = np.zeros(n_var + 1, dtype=np.int64)  # knots of near before each bit
     for i in range(n_var):
-        rank[i + 1] = rank[i] + (near[i] != 0)
+        rank[i + 1] = rank[i] + near[i]
     starts = np.zeros(n_cand, dtype=np.int64)
     stops = np.zeros(n_cand, dtype=np.int64)
     lo = np.zeros(n_cand, dtype=np.int64)
@@ -555,10 +574,10 @@ def mask_replacements(u, near, masks):
     offsets = np.zeros(n_cand + 1, dtype=np.int64)
     for b in range(n_cand):
         first = 0
-        while first < n_var and (masks[b, first] != 0) == (near[first] != 0):
+        while first < n_var and masks[b, first] == near[first]:
             first += 1
         last = n_var - 1
-        while last > first and (masks[b, last] != 0) == (near[last] != 0):
+        while last > first and masks[b, last] == near[last]:
             last -= 1
         if first == n_var:  # the incumbent itself: an empty replacement
             lo[b] = hi[b] = 0
@@ -569,13 +588,13 @@ def mask_replacements(u, near, masks):
         stops[b] = rank[hi[b]]
         count = 0
         for i in range(lo[b], hi[b]):
-            count += masks[b, i] != 0
+            count += masks[b, i]
         offsets[b + 1] = offsets[b] + count
     inserted = np.empty(offsets[n_cand])
     for b in range(n_cand):
         pos = offsets[b]
         for i in range(lo[b], hi[b]):
-            if masks[b, i] != 0:
+            for _ in range(masks[b, i]):
                 inserted[pos] = u[i + 1]
                 pos += 1
     return starts, stops, inserted, offsets
@@ -745,7 +764,7 @@ def bind_closed(u, q, t, p, cuts):
 
 
 @njit(cache=True)
-def _closed_candidate(interior, start, stop, inserted, breaks):
+def _closed_candidate(interior, start, stop, inserted, breaks, max_mult):
     """Fill ``breaks`` with 0 and the incumbent's interior knots whose ``start:stop`` are
     replaced by ``inserted``; return the reason the batch evaluator would give for malformed
     knots (out of range before coincident), only the inserted knots being checked. Knots out
@@ -767,13 +786,21 @@ def _closed_candidate(interior, start, stop, inserted, breaks):
     for i in range(max(start + 1, 2), min(tail + 1, breaks.size)):
         if breaks[i] < breaks[i - 1]:  # out of order: the batch evaluator sorts the knots
             breaks[1:] = np.sort(breaks[1:])
-            for j in range(2, breaks.size):
-                if breaks[j] <= breaks[j - 1]:
-                    return COINCIDENT_KNOTS
-            return UNSORTED
-        if breaks[i] == breaks[i - 1]:
+            return _runs_verdict(breaks, 2, breaks.size, max_mult, UNSORTED)
+    return _runs_verdict(breaks, max(start - max_mult, 2), min(tail + max_mult + 1, breaks.size),
+                         max_mult, FEASIBLE)
+
+
+@njit(cache=True)
+def _runs_verdict(breaks, lo, hi, max_mult, verdict):
+    """``COINCIDENT_KNOTS`` if sorted breakpoints ``breaks[lo - 1:hi]`` repeat one more than
+    ``max_mult`` times (``breaks[0] = 0`` is no interior knot), else ``verdict``."""
+    run = 1
+    for i in range(lo, hi):
+        run = run + 1 if breaks[i] == breaks[i - 1] else 1
+        if run > max_mult:
             return COINCIDENT_KNOTS
-    return FEASIBLE
+    return verdict
 
 
 @njit(cache=True)
@@ -794,8 +821,9 @@ def _changed_block(interior, knots, lo, hi):
 @njit(cache=True)
 def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st, S_far, S_col,
                           S_sse, final_st, final_far, inverse, gram_norm, base_sse,
-                          base_max_dev, knots, offsets, starts, stops, max_window_rows,
-                          want_max_dev, sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
+                          base_max_dev, max_mult, knots, offsets, starts, stops,
+                          max_window_rows, want_max_dev, sse_out, max_dev_out, n_ctrl_out,
+                          reason_out, path_out):
     """:func:`evaluate_moves` of a periodic incumbent: candidates merged from a frame's cached
     states; the full fit decides where no frame holds the change, the change spans more than
     ``max_window_rows`` rows, or the certificate fails."""
@@ -847,7 +875,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             max_dev_out[b] = np.inf
         path_out[b] = PATH_CHECKS
         br = breaks[:m2]
-        code = _closed_candidate(interior, start, stop, inserted, br)
+        code = _closed_candidate(interior, start, stop, inserted, br, max_mult)
         local = code == FEASIBLE
         if code == UNSORTED:
             code = FEASIBLE

@@ -233,14 +233,15 @@ class Curve(ABC):
         """:meth:`fit` of 1-D interior knots and a multiplicity checked."""
 
     def move_evaluator(self, interior_knots: np.ndarray,
-                       previous: MoveEvaluator | None = None) -> MoveEvaluator | None:
+                       previous: MoveEvaluator | None = None, *, max_multiplicity: int = 1
+                       ) -> MoveEvaluator | None:
         """A :class:`~metaknot.bspline.moves.MoveEvaluator` bound to these knots (``previous``
         moved to them if given; a :class:`~metaknot.bspline.moves.PeriodicMoveEvaluator` on
-        closed curves), or None if the knots cannot be fitted (moves are then fitted in
-        full)."""
+        closed curves; knots repeated at most ``max_multiplicity`` times), or None if the
+        knots cannot be fitted (moves are then fitted in full)."""
         return bound_to(previous, self.params, self.points,
                         np.ascontiguousarray(interior_knots, dtype=np.float64), self.degree,
-                        closed=self.closed)
+                        closed=self.closed, max_multiplicity=max_multiplicity)
 
     @abstractmethod
     def spread_knots(self, count: int) -> np.ndarray:

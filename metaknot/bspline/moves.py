@@ -51,7 +51,7 @@ from .. import audit
 from ..validate import is_integer
 from . import _kernel, _moves
 from .fit import BatchFit, Infeasibility, _prepare
-from .knots import _offsets, _periodic_knots
+from .knots import _offsets, _periodic_knots, _repeated_beyond, check_multiplicity
 
 __all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "PeriodicMoveEvaluator",
            "bit_flips", "bound_to"]
@@ -75,15 +75,15 @@ def _as_int64(values: ArrayLike, name: str) -> np.ndarray:
 
 
 def bound_to(evaluator: MoveEvaluator | None, u: ArrayLike, points: ArrayLike,
-             interior_knots: np.ndarray, degree: int, *, closed: bool = False
-             ) -> MoveEvaluator | None:
+             interior_knots: np.ndarray, degree: int, *, closed: bool = False,
+             max_multiplicity: int = 1) -> MoveEvaluator | None:
     """``evaluator`` moved to ``interior_knots`` (a new one if it is None: a
     :class:`PeriodicMoveEvaluator` if ``closed``), or None if those knots cannot be fitted
     (their candidates must then be fitted in full)."""
     try:
         if evaluator is None:
             kind = PeriodicMoveEvaluator if closed else MoveEvaluator
-            return kind(u, points, interior_knots, degree)
+            return kind(u, points, interior_knots, degree, max_multiplicity=max_multiplicity)
         evaluator.rebind(interior_knots)
         return evaluator
     except ValueError:
@@ -124,6 +124,10 @@ class MoveEvaluator:
         feasible fit).
     degree
         Spline degree, 1..5.
+    max_multiplicity
+        How often an interior knot may repeat, 1 (distinct knots, the default) to the degree:
+        the incumbent and the candidates as the batched evaluator takes them with that
+        ``max_multiplicity`` (a move may then raise or lower a knot's multiplicity).
     max_window_rows
         Largest number of data rows a change may span for the delta path; wider changes are
         fitted in full (default: N, so every change qualifies: a change spanning most rows
@@ -136,9 +140,11 @@ class MoveEvaluator:
     """
 
     def __init__(self, u: ArrayLike, points: ArrayLike, interior_knots: ArrayLike,
-                 degree: int = 3, *, max_window_rows: int | None = None) -> None:
+                 degree: int = 3, *, max_multiplicity: int = 1,
+                 max_window_rows: int | None = None) -> None:
         self.u, self.q = self._prepare(u, points, degree)
         self.degree = int(degree)
+        self.max_multiplicity = check_multiplicity(max_multiplicity, self.degree)
         m = self.u.size
         if max_window_rows is not None and (not is_integer(max_window_rows)
                                             or max_window_rows < 0):
@@ -164,7 +170,7 @@ class MoveEvaluator:
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
         audit.add_fits(1)
-        code, t, _ = _kernel.fit_one(u, q, interior, p, 1)
+        code, t, _ = _kernel.fit_one(u, q, interior, p, self.max_multiplicity)
         if code != _kernel.FEASIBLE:
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()
@@ -230,8 +236,9 @@ class MoveEvaluator:
             self.u, self.q, self.degree, self.t, self._iv, self.n, self.spans, self.basis,
             self.row_start, self.match, self._F, self._Fsse, self._Fcol, self._G, self._Gsse,
             self._Gcol, self._st_f, self._st_m, self._col_before, self._col_from, self.sse,
-            self._inverse_left, self._inverse_right, self._gram_norm, knots, offsets, starts,
-            stops, self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
+            self._inverse_left, self._inverse_right, self._gram_norm, self.max_multiplicity,
+            knots, offsets, starts, stops, self.max_window_rows, max_deviation, sse, max_dev,
+            n_ctrl, reason, path)
 
     def evaluate_replacements(self, starts: ArrayLike, stops: ArrayLike, inserted: ArrayLike,
                               offsets: ArrayLike, *, max_deviation: bool = False
@@ -326,9 +333,9 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-        t = _periodic_knots(interior, p)
-        if (np.diff(interior) <= 0).any():  # the replacements index them as given
-            raise ValueError("the incumbent cannot be fitted: "
+        t = _periodic_knots(interior, p, self.max_multiplicity)
+        if (np.diff(interior) < 0).any() or _repeated_beyond(interior, self.max_multiplicity):
+            raise ValueError("the incumbent cannot be fitted: "  # (indexed as given: sorted)
                              f"{Infeasibility(_kernel.COINCIDENT_KNOTS).message}")
         m = interior.size + 1
         audit.add_fits(1)
@@ -356,5 +363,5 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         _moves.evaluate_closed_moves(
             self.u, self.q, self.degree, self.interior, self.spans, self.basis,
             self.row_start, self._cuts, *self._states, self._inverse, self._gram_norm,
-            self.sse, self._max_dev, knots, offsets, starts, stops, self.max_window_rows,
-            max_deviation, sse, max_dev, n_ctrl, reason, path)
+            self.sse, self._max_dev, self.max_multiplicity, knots, offsets, starts, stops,
+            self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
