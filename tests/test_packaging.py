@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -112,11 +113,21 @@ def test_editable_install_does_not_leak_other_folders(tmp_path):
 # --------------------------------------------------------------------------------------------
 
 
-def _copy_source(dest: Path) -> Path:
-    """A copy of the source tree, so that building leaves the working tree untouched."""
+def _copy_source(dest: Path, compiled: bool = False) -> Path:
+    """A copy of the source tree, so that building leaves the working tree untouched.
+
+    Parameters
+    ----------
+    dest
+        The copy's folder (made).
+    compiled
+        Keep the compiled kernels numba cached beside the sources (``__pycache__``): the copy
+        keeps the files' times, so numba loads them instead of compiling anew (a minute).
+    """
+    caches = () if compiled else ("__pycache__", "*.nbi", "*.nbc")
     ignore = shutil.ignore_patterns(".venv", ".git", "build", "dist", "*.egg-info",
-                                    "__pycache__", ".ruff_cache", ".pytest_cache",
-                                    ".hypothesis", "outputs", "multirun", "*.nbi", "*.nbc")
+                                    ".ruff_cache", ".pytest_cache", ".hypothesis", "outputs",
+                                    "multirun", *caches)
     shutil.copytree(REPO, dest, ignore=ignore)
     return dest
 
@@ -209,3 +220,61 @@ def test_wheel_imports_without_the_repo(wheel, tmp_path):
     assert "random_search" in out["optimizers"]
     # installed from a wheel, Hydra's own plugin scan finds the study sweeper
     assert "StudySweeper" in out["sweepers"]
+
+
+# --------------------------------------------------------------------------------------------
+# the README's example, from the folder that holds a clone named metaknot
+# --------------------------------------------------------------------------------------------
+
+
+def readme_example() -> str:
+    """The README's Python example: its first ``python`` code block, as written."""
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"^```python\n(.*?)^```", text, re.S | re.M)
+    assert blocks, "the README has no Python example"
+    return blocks[0]
+
+
+def _venv_with_dependencies(venv: Path) -> Path:
+    """A new venv without metaknot that sees this environment's packages (numpy, setuptools,
+    ...) through a path entry; the editable install of this checkout there is not active (its
+    ``.pth`` files are read only in site folders). Returns the venv's Python."""
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True,
+                   timeout=120, capture_output=True)
+    python = venv / "bin" / "python"
+    site = subprocess.run([str(python), "-c", "import sysconfig; "
+                           "print(sysconfig.get_paths()['purelib'])"], check=True, timeout=60,
+                          capture_output=True, text=True).stdout.strip()
+    (Path(site) / "dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    return python
+
+
+@pytest.mark.slow
+def test_readme_example_runs_from_the_folder_that_holds_the_clone(tmp_path):
+    """A clone named ``metaknot``, installed with ``pip install -e``, and the README's example
+    run as a script from the clone's parent folder: that folder is the first entry of
+    ``sys.path`` and holds ``metaknot/`` without ``__init__.py``, which Python's path finder
+    takes for a namespace package unless it finds a regular ``metaknot`` on the path (it was
+    imported as an empty namespace: ``module 'metaknot' has no attribute 'minimize'``)."""
+    example = readme_example()
+    # in this process first: the kernels it compiles are cached in the checkout, and copied
+    exec(compile(example, "README.md", "exec"), {"__name__": "readme_example"})
+    clone = _copy_source(tmp_path / "metaknot", compiled=True)
+    assert not (clone / "__init__.py").exists()
+    python = _venv_with_dependencies(tmp_path / "venv")
+    env = _clean_env()
+    done = subprocess.run(
+        [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
+         "--no-index", "--no-build-isolation", "-q", "-e", str(clone)],
+        capture_output=True, text=True, timeout=300, env=env)
+    assert done.returncode == 0, done.stdout + done.stderr
+    script = tmp_path / "example.py"
+    script.write_text(example + "\nimport metaknot\nprint(metaknot.__file__)\n")
+    ran = subprocess.run([str(python), script.name], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=600, env=env)
+    assert ran.returncode == 0, ran.stderr[-3000:]
+    assert Path(ran.stdout.strip().splitlines()[-1]) == clone / "metaknot" / "__init__.py"
+    # the same from a Python started in that folder ('' first on the path)
+    ran = subprocess.run([str(python), "-c", "import metaknot; print(metaknot.minimize)"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
+    assert ran.returncode == 0 and "function minimize" in ran.stdout, ran.stderr[-3000:]
