@@ -45,7 +45,8 @@ TEMPLATE = Path(__file__).resolve().with_name("editable_path_entry.py")
 PLACEHOLDER = "PACKAGES: dict[str, str] = {}"
 
 
-def build_editable(wheel_directory: str, config_settings: dict | None = None,
+def build_editable(wheel_directory: str,
+                   config_settings: dict[str, str | list[str]] | None = None,
                    metadata_directory: str | None = None) -> str:
     """setuptools' editable wheel, with the path entry of the top-level packages added.
 
@@ -59,7 +60,7 @@ def build_editable(wheel_directory: str, config_settings: dict | None = None,
     str
         The wheel's file name in ``wheel_directory``.
     """
-    name = _setuptools.build_editable(wheel_directory, config_settings, metadata_directory)
+    name = str(_setuptools.build_editable(wheel_directory, config_settings, metadata_directory))
     add_path_entry(Path(wheel_directory) / name, top_level_packages(Path.cwd()))
     return name
 
