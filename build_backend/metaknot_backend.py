@@ -23,6 +23,7 @@ import hashlib
 import os
 import re
 import tomllib
+import warnings
 import zipfile
 from pathlib import Path
 
@@ -60,7 +61,13 @@ def build_editable(wheel_directory: str,
     str
         The wheel's file name in ``wheel_directory``.
     """
-    name = str(_setuptools.build_editable(wheel_directory, config_settings, metadata_directory))
+    with warnings.catch_warnings():
+        # setuptools' notice that a folder named like the package in the working directory
+        # may be imported instead: the path entry added below is what keeps it from that
+        warnings.filterwarnings("ignore", message=r"Editable installation\.",
+                                category=UserWarning)
+        name = str(_setuptools.build_editable(wheel_directory, config_settings,
+                                              metadata_directory))
     add_path_entry(Path(wheel_directory) / name, top_level_packages(Path.cwd()))
     return name
 

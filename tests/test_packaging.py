@@ -384,6 +384,9 @@ def test_readme_example_runs_from_the_folder_that_holds_the_clone(tmp_path):
          "--no-index", "--no-build-isolation", "-q", "-e", str(clone)],
         capture_output=True, text=True, timeout=300, env=env)
     assert done.returncode == 0, done.stdout + done.stderr
+    # nor does it warn: not of packages missing from `packages` (the configuration's folders),
+    # nor that a folder named like the package in the working directory may be imported
+    assert [line for line in (done.stdout + done.stderr).splitlines() if "Warning" in line] == []
     script = tmp_path / "example.py"
     script.write_text(example + "\nimport metaknot\nprint(metaknot.__file__)\n")
     ran = subprocess.run([str(python), script.name], cwd=tmp_path, capture_output=True,
