@@ -212,6 +212,7 @@ def _method(label: str) -> str | None:
     return name if name in TWELVE else None
 
 
+@pytest.mark.slow  # a whole report with its figures: about 11 s
 def test_every_figure_of_a_report_draws_a_method_in_its_one_style(study, tmp_path, monkeypatch):
     """Lines, markers, legend entries, the fitted curve's colour and the critical-difference
     diagram's labels; and no legend on the axes."""
