@@ -1,8 +1,9 @@
 """An optimizer shipped by another package is usable by name, with no change to metaknot.
 
-The optimizer is the complete example of ``docs/adding-an-optimizer.md``: the test builds a
-throwaway package from it, installs it with pip into a temporary folder and runs it, by name,
-in a fresh interpreter.
+The package is the one ``docs/adding-an-optimizer.md`` shows: its complete example as the
+module, its ``pyproject.toml`` as written there. The test builds the package from these two
+texts, installs it with pip into a temporary folder and runs it, by name, in a fresh
+interpreter.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import re
 import subprocess
 import sys
 import textwrap
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -22,6 +24,7 @@ pytestmark = pytest.mark.xdist_group("plugin_package")
 
 ROOT = Path(__file__).resolve().parents[1]
 GUIDE = ROOT / "docs" / "adding-an-optimizer.md"
+ENTRY_POINTS = '[project.entry-points."metaknot.optimizers"]'
 
 
 def guide_module() -> str:
@@ -31,27 +34,42 @@ def guide_module() -> str:
     return blocks[0]
 
 
+def guide_pyproject() -> str:
+    """The guide's ``pyproject.toml`` of the package: its TOML block declaring the entry
+    point."""
+    blocks = re.findall(r"^```toml\n(.*?)^```", GUIDE.read_text(), flags=re.S | re.M)
+    found = [block for block in blocks if ENTRY_POINTS in block]
+    assert len(found) == 1, "the guide shows no pyproject.toml with the entry point"
+    return found[0]
+
+
+def plugin_module() -> str:
+    """The module the entry point ``hill_climber`` of the guide's ``pyproject.toml`` names."""
+    config = tomllib.loads(guide_pyproject())
+    return config["project"]["entry-points"]["metaknot.optimizers"]["hill_climber"].split(":")[0]
+
+
+def test_the_guide_shows_a_whole_pyproject() -> None:
+    """Build system, project and package, not only the entry point's lines."""
+    config = tomllib.loads(guide_pyproject())
+    assert config["build-system"]["build-backend"] == "setuptools.build_meta"
+    assert {"name", "version", "dependencies"} <= set(config["project"])
+    assert "metaknot" in config["project"]["dependencies"]
+    package, module = plugin_module().split(".")
+    assert config["tool"]["setuptools"]["packages"] == [package]
+    # the page's drawing of the package's files names the same package and module
+    layout = GUIDE.read_text().split(ENTRY_POINTS)[0].rsplit("```text\n", 1)[1].split("```")[0]
+    assert f"{package}/" in layout and f"{module}.py" in layout and "pyproject.toml" in layout
+
+
 @pytest.fixture(scope="session")  # kept if other modules run in between
 def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     src = tmp_path_factory.mktemp("plugin_src")
-    (src / "mk_plugin_demo").mkdir()
-    (src / "mk_plugin_demo" / "__init__.py").write_text("")
-    (src / "mk_plugin_demo" / "hill_climber.py").write_text(guide_module())
-    (src / "pyproject.toml").write_text(textwrap.dedent("""
-        [build-system]
-        requires = ["setuptools>=77"]
-        build-backend = "setuptools.build_meta"
-
-        [project]
-        name = "mk-plugin-demo"
-        version = "0.0.1"
-
-        [project.entry-points."metaknot.optimizers"]
-        hill_climber = "mk_plugin_demo.hill_climber:HillClimber"
-
-        [tool.setuptools]
-        packages = ["mk_plugin_demo"]
-    """))
+    package, module = plugin_module().split(".")
+    (src / package).mkdir()
+    (src / package / "__init__.py").write_text("")
+    (src / package / f"{module}.py").write_text(guide_module())
+    (src / "pyproject.toml").write_text(guide_pyproject())
     target = tmp_path_factory.mktemp("plugin_site")
     done = subprocess.run(
         [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-index",
@@ -91,7 +109,7 @@ def test_installed_plugin_runs_by_name(installed: Path) -> None:
     """), installed)
     report = json.loads(out.strip().splitlines()[-1])
     assert report["listed"]
-    assert report["module"] == "mk_plugin_demo.hill_climber"
+    assert report["module"] == plugin_module()
     assert report["evaluations"] == 300
     assert report["best"][0] == report["best"][1]  # same seed, same run
     assert report["best"][0] <= report["random_best"]  # climbing beats blind sampling here

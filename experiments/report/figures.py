@@ -1,4 +1,4 @@
-"""The report's figures (matplotlib / seaborn), each a function returning a ``Figure``.
+"""The report's figures (matplotlib), each a function returning a ``Figure``.
 
 Convergence and fixed-target views read the stored trace (its log-spaced checkpoints are shared
 by all runs, so no interpolation is needed); fitted curves are the splines the records store
@@ -9,6 +9,7 @@ rebuilt problem), never re-optimised.
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from typing import Any
 
 import matplotlib
@@ -17,35 +18,75 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
-import seaborn as sns
 
 from .data import Comparison
 from .tables import FriedmanResult
 
 __all__ = ["budget_figure", "cd_diagram", "convergence_figure", "ecdf_figure",
-           "fitted_curves_figure", "front_figure", "palette", "profile_figure",
+           "fitted_curves_figure", "front_figure", "method_styles", "palette", "profile_figure",
            "rebuild_problem", "run_curve", "run_fit", "styles", "suite_ecdf_figure",
            "target_hits"]
 
 TARGETS = 10
+#: Okabe and Ito's colour-blind-safe palette (Wong, "Points of view: Color blindness", Nature
+#: Methods 8, 441, 2011), in the order methods take it: any first few colours stay apart for
+#: normal vision and with protanopia or deuteranopia (CIEDE2000 differences of at least 21 and
+#: 11 between any two); yellow and black, the weakest beside the others, come last
+COLOURS = ("#0072B2", "#E69F00", "#56B4E9", "#009E73", "#D55E00", "#CC79A7", "#F0E442",
+           "#000000")
+#: one marker per method up to twelve: a colour comes back at the ninth method, with another
+#: marker and line style
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">", "p", "h")
 LINESTYLES = ("-", "--", "-.", ":")
-MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 
 
-def palette(comparison: Comparison) -> dict[str, Any]:
-    """One colour per method, the same in every figure (seaborn's colour-blind-safe palette,
-    the critical-difference diagram included)."""
-    colours = sns.color_palette("colorblind", max(len(comparison.methods), 3))
-    return dict(zip(comparison.methods, colours, strict=False))
+def method_styles(methods: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """Colour, marker and line style of each method, by its place in ``methods``: the one
+    definition every figure of a report draws with.
+
+    Parameters
+    ----------
+    methods
+        The methods, in the report's order.
+
+    Returns
+    -------
+    dict of str to dict
+        Method -> ``{"color", "marker", "linestyle"}`` (keyword arguments of ``plot``). The
+        first eight methods get eight colours; up to twelve methods, every method has a marker
+        of its own, and two methods of the same colour differ in line style too.
+    """
+    looks = {}
+    for k, method in enumerate(methods):
+        # past the colours, the line styles shift by one: the k-th and the (k+8)-th differ
+        rounds = k // len(COLOURS)
+        looks[method] = {"color": COLOURS[k % len(COLOURS)], "marker": MARKERS[k % len(MARKERS)],
+                         "linestyle": LINESTYLES[(k + rounds) % len(LINESTYLES)]}
+    return looks
 
 
 def styles(comparison: Comparison) -> dict[str, dict[str, Any]]:
-    """Colour, line style and marker per method: two methods whose lines coincide stay
-    apart (the line styles and markers differ even where the colours repeat)."""
-    colours = palette(comparison)
-    return {method: {"color": colours[method], "linestyle": LINESTYLES[k % len(LINESTYLES)],
-                     "marker": MARKERS[k % len(MARKERS)]}
-            for k, method in enumerate(comparison.methods)}
+    """Colour, marker and line style per method of ``comparison`` (:func:`method_styles`):
+    two methods whose lines coincide stay apart by their line styles and markers."""
+    return method_styles(comparison.methods)
+
+
+def palette(comparison: Comparison) -> dict[str, Any]:
+    """One colour per method, the same in every figure (:func:`method_styles`; the
+    critical-difference diagram included)."""
+    return {method: look["color"] for method, look in styles(comparison).items()}
+
+
+def _legend(fig: plt.Figure, fontsize: float = 8, **kwargs: Any) -> None:
+    """The figure's legend outside its axes, to their right: the labelled artists of every
+    axes, each label once, in the order they were drawn (the methods' order)."""
+    handles: dict[str, Any] = {}
+    for ax in fig.axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(label, handle)
+    if handles:
+        fig.legend(list(handles.values()), list(handles), loc="outside right upper",
+                   fontsize=fontsize, **kwargs)
 
 
 def _markevery(k: int, x: Any, y: Any, n: int = 6) -> tuple[float, float] | None:
@@ -98,7 +139,7 @@ def convergence_figure(comparison: Comparison, instance: str) -> plt.Figure:
         ax.set_yscale("log")
         ax.set_xlabel("evaluations")
         ax.set_title(title)
-    axes[0].legend(fontsize=8)
+    _legend(fig)
     fig.suptitle(f"{instance}: convergence (median, IQR band)")
     return fig
 
@@ -150,7 +191,7 @@ def ecdf_figure(comparison: Comparison, instances: list[str], title: str) -> plt
         ax.set_xlabel("evaluations")
         ax.set_title(label)
     axes[0].set_ylabel("fraction of (run, target) pairs reached")
-    axes[0].legend(fontsize=8)
+    _legend(fig)
     fig.suptitle(title)
     return fig
 
@@ -193,7 +234,7 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
     method at its largest budget; 3-D data are drawn in 3-D."""
     runs = _largest_budget(comparison, instance)
     methods = [m for m in comparison.methods if (runs.method == m).any()]
-    colours = palette(comparison)
+    colours = palette(comparison)  # the fit in its method's colour
     dim = int(runs["dim"].iloc[0]) if "dim" in runs else 2
     columns = min(len(methods), 3)
     rows = -(-len(methods) // columns)
@@ -227,8 +268,7 @@ def fitted_curves_figure(comparison: Comparison, instance: str) -> plt.Figure:
         ax.set_title(f"{method}: {fit.n_control_points} control points, RMSE {fit.rmse:.2e}\n"
                      f"(median run, seed {int(run['seed'])}, {int(run['budget']):,} evals)",
                      fontsize=9)
-        if k == 0:
-            ax.legend(fontsize=7, loc="best")
+    _legend(fig, fontsize=7)  # data, fit (in each method's colour), knots
     fig.suptitle(f"{instance}: fitted curves")
     return fig
 
@@ -248,9 +288,8 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
     """Control points against RMSE, one dot per run, with FITPACK's front as a line: a dot
     below the line beats FITPACK at that number of control points."""
     runs = comparison.runs[comparison.runs.instance == instance]
-    colours = palette(comparison)
     look = styles(comparison)
-    fig, ax = plt.subplots(figsize=(6, 4), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(7.5, 4), constrained_layout=True)
     front = fitpack_front(run_curve(runs.sort_values("seed").iloc[0]))
     ax.plot(front.n_control_points, front.rmse, "-", color="0.3", lw=1.2, marker=".",
             label="FITPACK front")
@@ -266,9 +305,9 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
             ax.step(median_front["n_control_points"], median_front["rmse"], where="post", lw=1.2,
                     label=f"{method} (median-hypervolume run's front)", **look[method])
         else:
-            ax.scatter(part.n_control_points, part.rmse, s=14, alpha=0.6,
-                       color=colours[method], marker=look[method]["marker"], label=method,
-                       edgecolors="none")
+            ax.plot(part.n_control_points, part.rmse, linestyle="none", ms=4, alpha=0.6,
+                    mec="none", color=look[method]["color"], marker=look[method]["marker"],
+                    label=method)
     if has_fronts:
         members = pd.concat([pd.DataFrame(json.loads(v)) for v in runs["front"]
                              if isinstance(v, str)])
@@ -286,7 +325,7 @@ def front_figure(comparison: Comparison, instance: str) -> plt.Figure:
     ax.set_ylabel("RMSE")
     ax.set_title(f"{instance}: control points against error (FITPACK's data: seed "
                  f"{int(runs.seed.min())})", fontsize=10)
-    ax.legend(fontsize=8)
+    _legend(fig)
     return fig
 
 
@@ -311,7 +350,7 @@ def budget_figure(comparison: Comparison, instance: str) -> plt.Figure:
             ax.set_yscale("log")
         ax.set_xlabel("budget (evaluations)")
         ax.set_title(title)
-    axes[0].legend(fontsize=8)
+    _legend(fig)
     fig.suptitle(f"{instance}: outcome against budget (median, IQR band)")
     return fig
 
@@ -374,7 +413,7 @@ def suite_ecdf_figure(comparison: Comparison, suite: Any, hits: pd.DataFrame) ->
         ax.set_title(f"{scope} ({problems} problems)", fontsize=9)
         ax.set_xlabel("evaluations")
     axes[0].set_ylabel("fraction of (run, target) pairs")
-    axes[0].legend(fontsize=7)
+    _legend(fig, fontsize=7)
     return fig
 
 
@@ -399,5 +438,5 @@ def profile_figure(comparison: Comparison, suite: Any) -> plt.Figure:
         ax.set_title(f"{scope} ({len(medians) - left_out} problems)", fontsize=9)
         ax.set_xlabel("τ (ratio to the best median)")
     axes[0].set_ylabel("share of problems within τ")
-    axes[0].legend(fontsize=7)
+    _legend(fig, fontsize=7)
     return fig
