@@ -12,12 +12,23 @@ last lines are
     fit_cp_ratio_vs_fitpack: <geometric mean over cases of metaknot's / FITPACK's control points>
     fit_seconds_max: <slowest metaknot fit, seconds>
 
-Run: ``python benchmarks/bench_fit.py``.
+then, for a large file (``--large``, default one million points of a noisy epitrochoid outline,
+0 to skip), ``metaknot fit``'s default in a fresh process on one core: its time, its peak
+resident memory beside the size of the points themselves, and its answer beside FITPACK's:
+
+    fit_large_seconds: <s>
+    fit_large_peak_over_points: <peak resident memory / bytes of the points array>
+
+Run: ``python benchmarks/bench_fit.py [--large 1000000]``.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
 import os
+import subprocess
+import sys
 
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
@@ -48,7 +59,51 @@ def cases() -> list[tuple[str, np.ndarray, bool, bool | None]]:
     return out
 
 
+#: The large case, in a fresh process: the points made there, then the default fit of them.
+LARGE = """
+import json, sys, time
+import numpy as np
+import metaknot as mk
+
+def memory(field):  # bytes; VmHWM is this process's peak
+    with open("/proc/self/status") as status:
+        return 1024 * int(next(line.split()[1] for line in status if line.startswith(field)))
+
+n = int(sys.argv[1])
+t = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+points = np.column_stack((6 * np.cos(t) - 4 * np.cos(6 * t), 6 * np.sin(t) - 4 * np.sin(6 * t)))
+points += np.random.default_rng(0).normal(0.0, 1e-3, points.shape)
+mk.fit(points[:: max(1, n // 500)], 1e-3, relative=True)  # compile outside the timing
+before = memory("VmRSS:")
+start = time.perf_counter()
+result = mk.fit(points, 1e-3, relative=True)
+print(json.dumps({"seconds": time.perf_counter() - start, "added": memory("VmHWM:") - before,
+                  "array": points.nbytes, "cp": result.n_control_points,
+                  "fitpack": result.fitpack["n_control_points"], "method": result.method,
+                  "stages": result.stages}))
+"""
+
+
+def large(n: int) -> None:
+    """``metaknot fit``'s default on ``n`` points, in a fresh process on one core."""
+    done = subprocess.run([sys.executable, "-c", LARGE, str(n)], capture_output=True,
+                          text=True, check=True, env={**os.environ, "NUMBA_NUM_THREADS": "1"})
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    print(f"\nnoisy epitrochoid outline of {n:,} points, tolerance 1e-3 of the diagonal:")
+    for stage in found["stages"]:
+        print(f"  {stage}")
+    print(f"  {found['cp']} control points by {found['method']} (FITPACK: {found['fitpack']})"
+          f" in {found['seconds']:.1f} s; peak memory added {found['added'] / 2**20:.0f} MB, "
+          f"the points {found['array'] / 2**20:.0f} MB")
+    print(f"fit_large_seconds: {found['seconds']:.1f}")
+    print(f"fit_large_peak_over_points: {found['added'] / found['array']:.2f}")
+
+
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--large", type=int, default=1_000_000,
+                        help="points of the large case (0: skip it)")
+    args = parser.parse_args()
     mk.fit(get_curve("archimedean", n_points=40).points, 1e-2, relative=True)  # compile
     ring = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     mk.fit(np.column_stack((np.cos(ring), np.sin(ring))), 1e-2, relative=True, closed=True)
@@ -66,6 +121,8 @@ def main() -> None:
               f"{seconds:>7.2f}  {result.method}{', periodic' if result.closed else ''}")
     print(f"fit_cp_ratio_vs_fitpack: {np.exp(np.mean(np.log(ratios))):.3f}")
     print(f"fit_seconds_max: {slowest:.2f}")
+    if args.large:
+        large(args.large)
 
 
 if __name__ == "__main__":

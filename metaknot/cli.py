@@ -134,6 +134,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ValueError, FileExistsError) as exc:
         print(f"metaknot: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C: one line, the exit code of a shell's SIGINT
+        print(f"metaknot {argv[0] if argv else ''}: interrupted".replace("  ", " "),
+              file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

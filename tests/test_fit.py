@@ -627,3 +627,74 @@ def test_fit_on_small_odd_point_sets_answers_within_or_refuses(shape, n, degree,
     distance = np.linalg.norm(result.spline(result.params) - result.points, axis=1)
     error = distance.max() if metric == "max_deviation" else np.sqrt(np.mean(distance ** 2))
     assert error <= result.tolerance * (1 + 1e-9)
+
+
+def wiggly(n: int, seed: int = 0) -> np.ndarray:
+    """An open planar curve of ``n`` points with detail at several scales and some noise."""
+    t = np.linspace(0.0, 1.0, n)
+    rng = np.random.default_rng(seed)
+    return np.column_stack((t, np.sin(9 * t) + 0.2 * np.sin(40 * t) * t)) \
+        + rng.normal(0.0, 2e-4, (n, 2))
+
+
+def check_on_all_points(result, points: np.ndarray) -> None:
+    """The answer is the least-squares spline of its knots on all points (scipy), within the
+    tolerance there, and its reported error is the one on all points."""
+    u = parameterize(points, "centripetal")
+    reference = make_lsq_spline(u, points, result.knots, k=3)
+    np.testing.assert_allclose(result.control_points, reference.c, rtol=1e-8, atol=1e-10)
+    deviation = max_deviation(reference, u, points)
+    assert deviation <= result.tolerance
+    assert result.metrics["max_deviation"] == pytest.approx(deviation, rel=1e-8)
+
+
+def test_many_points_are_searched_thinned_and_checked_on_all(monkeypatch) -> None:
+    """Above THIN_ABOVE points the search runs on THIN_TO of them; the answer is fitted and
+    checked on all points, and beats FITPACK's answer fitted there too."""
+    from metaknot.apps import fit as tolerance_fit
+
+    monkeypatch.setattr(tolerance_fit, "THIN_ABOVE", 500)
+    monkeypatch.setattr(tolerance_fit, "THIN_TO", 300)
+    points = wiggly(1500)
+    seen: list[str] = []
+    result = mk.fit(points, 2e-3, relative=True, closed=False, method="removal",
+                    on_stage=seen.append)
+    assert seen == result.stages  # each stage reported as it ended, in order
+    assert any("the search runs on 300 of them" in stage for stage in result.stages)
+    assert any(stage.startswith("FITPACK on 300 of the 1,500 points") for stage in seen)
+    check_on_all_points(result, points)
+    assert result.n_control_points <= result.fitpack["n_control_points"]
+
+
+def test_a_thinned_answer_beyond_the_tolerance_on_all_points_is_searched_again(
+        monkeypatch) -> None:
+    """Too few points kept to see the detail: the first answer fails on all points, and the
+    search runs again at a tighter tolerance until one holds there."""
+    from metaknot.apps import fit as tolerance_fit
+
+    monkeypatch.setattr(tolerance_fit, "THIN_ABOVE", 500)
+    monkeypatch.setattr(tolerance_fit, "THIN_TO", 60)
+    points = wiggly(1500, seed=1)
+    result = mk.fit(points, 1e-3, relative=True, closed=False, method="removal")
+    assert any("searching again at" in stage for stage in result.stages), result.stages
+    check_on_all_points(result, points)
+
+
+def test_ctrl_c_stops_a_fit_with_one_line(tmp_path) -> None:
+    """SIGINT during a fit: exit code 130, one line on stderr, no traceback, no output
+    folder."""
+    import signal
+
+    np.savetxt(tmp_path / "big.csv", wiggly(20000), delimiter=",")
+    child = subprocess.Popen([sys.executable, "-m", "metaknot.cli", "fit", "big.csv", "--tol",
+                              "1e-3", "--relative", "--open"], cwd=tmp_path,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert child.stdout is not None
+    for line in child.stdout:  # the fit has begun (its stages are printed as they end): the
+        if "curve of 20000 points" in line:  # search takes seconds from here, not micro-
+            break  # seconds
+    child.send_signal(signal.SIGINT)
+    _, stderr = child.communicate(timeout=120)
+    assert child.returncode == 130, stderr
+    assert stderr.strip() == "metaknot fit: interrupted"
+    assert not (tmp_path / "big.csv-fit").exists()

@@ -168,9 +168,8 @@ def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path,
     result = fit_points(points, args.tolerance, relative=args.relative, metric=args.metric,
                  function=args.function, degree=args.degree,
                  parameterization=args.parameterization, closed=args.closed,
-                 method=args.method, budget=args.budget, seed=args.seed, progress=True)
-    for stage in result.stages:
-        print(stage, flush=True)
+                 method=args.method, budget=args.budget, seed=args.seed, progress=True,
+                 on_stage=lambda line: print(line, flush=True))  # each stage as it ends
     m = result.metrics
     print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
           f"{result.fitpack['n_control_points']}), max deviation {m['max_deviation']:.4g}, "

@@ -27,6 +27,7 @@ search:
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -202,9 +203,8 @@ FIXED_COUNT_SEARCHES: tuple[tuple[str, dict[str, Any], int], ...] = (
 STALL_EVALUATIONS = 5000
 
 
-def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol: float,
-                           metric: Metric, parameterization: str, count: int,
-                           searches: tuple = FIXED_COUNT_SEARCHES, seed: int = 0,
+def _fewer_at_fixed_counts(curve: Curve, tol: float, metric: Metric, parameterization: str,
+                           count: int, searches: tuple = FIXED_COUNT_SEARCHES, seed: int = 0,
                            progress: bool = False) -> tuple[np.ndarray | None, int]:
     """Knots at data points, one fewer at a time than ``count``: each count is searched under
     ``error_bounded`` at the same tolerance by the local search (best-improvement removal,
@@ -215,7 +215,9 @@ def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol
     from metaknot.problems import KnotIndices, PointSet
     from metaknot.runner import minimize
 
-    data = PointSet(curve.points, params=explicit_params)
+    # an open curve's own parameters (a thinned copy's are those of all points); a closed
+    # problem computes its own, and the knots found are mapped back to the curve's below
+    data = PointSet(curve.points, params=None if curve.closed else curve.params)
     found, fits = None, 0
     for k in range(count - 1, 0, -1):
         problem = KnotIndices(data, n_knots=k, degree=curve.degree, closed=curve.closed,
@@ -236,7 +238,7 @@ def _fewer_at_fixed_counts(curve: Curve, explicit_params: np.ndarray | None, tol
                 break
         if within is None:
             break
-        found = np.sort(problem.params[np.asarray(within, dtype=np.int64)])
+        found = np.sort(curve.params[np.asarray(within, dtype=np.int64)])
     return found, fits
 
 
@@ -270,7 +272,8 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         params: ArrayLike | None = None, degree: int = 3,
         parameterization: str = "centripetal", closed: bool | None = None,
         method: str = "auto", budget: int = 20000, seed: int = 0,
-        progress: bool = False) -> ToleranceFit:
+        progress: bool = False, on_stage: Callable[[str], None] | None = None
+        ) -> ToleranceFit:
     """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points.
 
     Parameters
@@ -307,6 +310,17 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         a quarter) and the seed of both.
     progress
         Show a progress bar over each search's evaluations.
+    on_stage
+        Called with each stage's line as the stage ends (``metaknot fit`` prints them: one
+        line per stage, on a terminal or not); the lines are also in the result's ``stages``.
+
+    Notes
+    -----
+    On more than :data:`THIN_ABOVE` points the search (FITPACK's answer, the starts, knot
+    removal and the fixed-count search) runs on :data:`THIN_TO` of them, evenly spaced in
+    index (the ends kept), and each answer's knots are fitted by least squares on all points
+    and checked there; an answer beyond the tolerance on all points makes the search run
+    again at a tighter tolerance (at most :data:`THIN_ATTEMPTS` times, then on all points).
 
     Returns
     -------
@@ -356,27 +370,75 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
                          "to function data or explicit parameters")
     curve = make_curve(q, degree=p, parameterization=parameterization, closed=closed,
                        params=params)
-    search = _Search(curve, tol_abs, metric)
     distance = curve.interpolation_residuals()
     floor = float(distance.max() if metric == "max_deviation" else
                   np.sqrt(np.mean(distance**2)))
     if tol_abs < floor:
         raise ValueError(f"the tolerance {tol_abs:.3g} is below what interpolation reaches "
                          f"({floor:.3g}); raise it")
-    stages = [f"{curve.kind} curve of {curve.n_points} points{why}"]
+    stages: list[str] = []
+
+    def note(line: str) -> None:
+        stages.append(line)
+        if on_stage is not None:
+            on_stage(line)
+
+    note(f"{curve.kind} curve of {curve.n_points} points{why}")
+    if method in LITERATURE:
+        reference = fitpack.fewest_within(curve.params, curve.points, p, tol_abs, metric,
+                                          closed=curve.closed)
+        note(_fitpack_line(reference))
+        return _literature_fit(curve, method, tol_abs, metric, reference, note, stages, start)
+    options = _SearchOptions(method, budget, seed, progress, parameterization)
+    if curve.n_points <= THIN_ABOVE:
+        best, method_name, reference = _search(curve, params, tol_abs, metric, options, note)
+        return _checked_answer(curve, best, method_name, tol_abs, metric, reference, note,
+                               stages, start)
+    return _thinned_search(curve, params, tol_abs, metric, options, note, stages, start)
+
+
+#: ``fit`` searches on a thinned copy of more points than this (see :func:`fit`'s notes).
+THIN_ABOVE = 4000
+#: The points the thinned copy keeps.
+THIN_TO = 2000
+#: Searches on the thinned copy, each at a tighter tolerance, before one on all points.
+THIN_ATTEMPTS = 4
+
+
+@dataclass(frozen=True)
+class _SearchOptions:
+    """The settings of :func:`fit` that :func:`_search` passes on."""
+
+    method: str
+    budget: int
+    seed: int
+    progress: bool
+    parameterization: str
+
+
+def _fitpack_line(reference: dict, of: str = "") -> str:
+    return (f"FITPACK{of}: {reference['n_control_points']} control points (s = "
+            f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
+
+
+def _search(curve: Curve, params: np.ndarray | None, tol_abs: float, metric: Metric,
+            options: _SearchOptions, note: Callable[[str], None], of: str = ""
+            ) -> tuple[np.ndarray | None, str, dict]:
+    """FITPACK's answer, then metaknot's search from it and the other starts: returns the
+    knots found (None: none beat FITPACK's answer within the tolerance), the method that found
+    them and FITPACK's answer (``of`` names the points in the stage lines)."""
+    p, method = curve.degree, options.method
+    search = _Search(curve, tol_abs, metric)
     reference = fitpack.fewest_within(curve.params, curve.points, p, tol_abs, metric,
                                       closed=curve.closed)
-    stages.append(f"FITPACK: {reference['n_control_points']} control points (s = "
-                  f"{reference['s']:.3g}) in {reference['seconds']:.2f} s")
-    if method in LITERATURE:
-        return _literature_fit(curve, method, tol_abs, metric, reference, stages, start)
+    note(_fitpack_line(reference, of))
     t_fp = reference["spline"].t
     starts = [np.asarray(t_fp[p + 1 : len(t_fp) - p - 1])]
     averaging = search.fewest_averaging(len(starts[0]) + 1)
     if averaging is not None:
         starts.append(averaging)
     if method != "fitpack":
-        starts += _literature_starts(curve, tol_abs, metric, stages)
+        starts += _literature_starts(curve, tol_abs, metric, note)
     best = None
     for knots in starts if method != "fitpack" else []:
         (err,) = search.errors([knots])
@@ -385,27 +447,88 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         reduced = search.remove(knots)
         if best is None or len(reduced) < len(best):
             best = reduced
-    stages.append(f"knot removal: {search.evaluations:,} fits")
+    if method != "fitpack":
+        note(f"knot removal{of}: {search.evaluations:,} fits")
     method_name = "knot removal"
     if best is not None and method == "auto":
         searches: tuple[tuple[str, dict[str, Any], int], ...] = (
-            (FIXED_COUNT_SEARCHES[0][0], {}, max(1, budget // 4)),
-            (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], budget))
-        fewer, fits = _fewer_at_fixed_counts(curve, params, tol_abs, metric, parameterization,
-                                             len(best), searches, seed, progress)
-        stages.append(f"search at fixed counts: {fits:,} fits, "
-                      f"{len(best) - (len(fewer) if fewer is not None else len(best))} "
-                      "knots fewer")
+            (FIXED_COUNT_SEARCHES[0][0], {}, max(1, options.budget // 4)),
+            (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], options.budget))
+        fewer, fits = _fewer_at_fixed_counts(curve, tol_abs, metric,
+                                             options.parameterization, len(best), searches,
+                                             options.seed, options.progress)
+        note(f"search at fixed counts{of}: {fits:,} fits, "
+             f"{len(best) - (len(fewer) if fewer is not None else len(best))} knots fewer")
         if fewer is not None:  # and knot removal once more from there
             best, method_name = search.remove(fewer), "knot removal + fixed-count search"
     if best is not None and \
-            len(best) + curve.extra_control_points < reference["n_control_points"]:
-        (err,) = search.errors([best])  # the answer checked by a full fit, whatever found it
+            len(best) + curve.extra_control_points >= reference["n_control_points"]:
+        best = None
+    return best, method_name, reference
+
+
+def _checked_answer(curve: Curve, best: np.ndarray | None, method_name: str, tol_abs: float,
+                    metric: Metric, reference: dict, note: Callable[[str], None],
+                    stages: list[str], start: float) -> ToleranceFit:
+    """The search's answer checked by a full fit, or FITPACK's answer."""
+    if best is not None:
+        (err,) = curve.errors([best], metric)  # the answer checked by a full fit
         if err <= tol_abs:
-            return _result(curve, best, method_name, tol_abs, metric, reference, stages, start)
-        stages.append(f"{method_name}: its answer fails the check by a full fit ({err:.3g} > "
-                      f"{tol_abs:.3g}); FITPACK's answer kept")
+            return _result(curve, best, method_name, tol_abs, metric, reference, stages,
+                           start)
+        note(f"{method_name}: its answer fails the check by a full fit ({err:.3g} > "
+             f"{tol_abs:.3g}); FITPACK's answer kept")
     return _result(curve, None, "fitpack", tol_abs, metric, reference, stages, start)
+
+
+def _thinned(curve: Curve, size: int) -> Curve:
+    """``size`` of the curve's points, evenly spaced in index (the ends kept), with their
+    parameters."""
+    index = np.unique(np.linspace(0, curve.n_points - 1, size).round().astype(np.int64))
+    return type(curve)._checked(curve.params[index], curve.points[index], curve.degree)
+
+
+def _thinned_search(curve: Curve, params: np.ndarray | None, tol_abs: float, metric: Metric,
+                    options: _SearchOptions, note: Callable[[str], None], stages: list[str],
+                    start: float) -> ToleranceFit:
+    """:func:`_search` on a thinned copy of ``curve``, its answers (the search's and
+    FITPACK's) fitted on all points and checked there; tighter each time neither holds."""
+    thin = _thinned(curve, THIN_TO)
+    of = f" on {thin.n_points:,} of the {curve.n_points:,} points"
+    note(f"{curve.n_points:,} points: the search runs on {thin.n_points:,} of them, evenly "
+         "spaced; each answer is fitted on all points and checked there")
+    sub_params = None if params is None else thin.params
+    target = tol_abs
+    for _ in range(THIN_ATTEMPTS):
+        best, method_name, found = _search(thin, sub_params, target, metric, options, note, of)
+        t_fp = found["spline"].t
+        p = curve.degree
+        candidates = ([best] if best is not None else []) + [t_fp[p + 1 : len(t_fp) - p - 1]]
+        errors = curve.errors([np.asarray(c, dtype=np.float64) for c in candidates], metric)
+        fp_knots, fp_error = candidates[-1], float(errors[-1])
+        if fp_error <= tol_abs:  # FITPACK's knots, least squares on all points: the reference
+            reference = _on_all_points(curve, fp_knots, found)
+            if best is not None and errors[0] <= tol_abs:
+                return _result(curve, best, method_name, tol_abs, metric, reference, stages,
+                               start)
+            return _result(curve, None, "fitpack", tol_abs, metric, reference, stages, start)
+        worst = float(np.max(errors[np.isfinite(errors)], initial=fp_error))
+        target *= min(0.9, tol_abs / worst) if np.isfinite(worst) else 0.5
+        note(f"beyond the tolerance on all points ({metric} {worst:.4g} > {tol_abs:.4g}): "
+             f"searching again at {target:.4g}")
+    note("the thinned search found no answer within the tolerance on all points: searching "
+         "on all points")
+    best, method_name, reference = _search(curve, params, tol_abs, metric, options, note)
+    return _checked_answer(curve, best, method_name, tol_abs, metric, reference, note, stages,
+                           start)
+
+
+def _on_all_points(curve: Curve, knots: np.ndarray, found: dict) -> dict:
+    """FITPACK's answer on a thinned copy as the reference on all points: its knots fitted
+    by least squares on all of them."""
+    solution = curve.fit(knots)
+    return {**found, "spline": solution.spline,
+            **{k: solution.metrics[k] for k in ("n_control_points", "max_deviation", "rmse")}}
 
 
 def _result(curve: Curve, knots: np.ndarray | None, method: str, tol: float, metric: Metric,
@@ -431,20 +554,21 @@ LITERATURE_STARTS = ("bisection", "lyche_morken")
 
 
 def _literature_starts(curve: Curve, tol: float, metric: Metric,
-                       stages: list[str]) -> list[np.ndarray]:
+                       note: Callable[[str], None]) -> list[np.ndarray]:
     """The knots of the :data:`LITERATURE_STARTS` methods that are within the tolerance."""
     from metaknot.algorithms.literature import METHODS
 
     found = [METHODS[name](curve.params, curve.points, tol, degree=curve.degree,
                            closed=curve.closed, metric=metric) for name in LITERATURE_STARTS]
-    stages.append("literature starts: " + ", ".join(
+    note("literature starts: " + ", ".join(
         f"{name} {r.knots.size + curve.extra_control_points if r.within else '-'}"
         for name, r in zip(LITERATURE_STARTS, found, strict=True)) + " control points")
     return [r.knots for r in found if r.within]
 
 
 def _literature_fit(curve: Curve, method: str, tol: float, metric: Metric, reference: dict,
-                    stages: list[str], start: float) -> ToleranceFit:
+                    note: Callable[[str], None], stages: list[str], start: float
+                    ) -> ToleranceFit:
     """``fit(method=<a literature method>)``: that method's knots, least-squares fitted."""
     from metaknot.algorithms.literature import METHODS
 
@@ -452,5 +576,5 @@ def _literature_fit(curve: Curve, method: str, tol: float, metric: Metric, refer
                             closed=curve.closed, metric=metric)
     if not found.within:
         raise ValueError(f"method {method!r} does not reach the tolerance: {found.reason}")
-    stages.append(f"{method}: {found.knots.size} knots, {found.fits:,} fits")
+    note(f"{method}: {found.knots.size} knots, {found.fits:,} fits")
     return _result(curve, found.knots, method, tol, metric, reference, stages, start)
