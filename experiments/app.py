@@ -31,6 +31,7 @@ from .spec import (
     ENCODINGS,
     ConfigError,
     RunSpec,
+    check_writable,
     not_a_setting,
     objective_defaults,
     optimizer_defaults,
@@ -427,6 +428,7 @@ def _check_single_run(overrides: list[str]) -> str | None:
         if reason:
             raise ConfigError(reason)
         Store(spec.study_dir).check_format()  # a study to migrate takes no new record
+        check_writable(spec.study_dir)  # Hydra's run folder and the record go there
     except (ConfigError, StoreError) as exc:
         return str(exc)
     return None

@@ -17,6 +17,7 @@ import inspect
 import json
 import os
 import re
+import tempfile
 import types
 import typing
 from collections.abc import Mapping
@@ -433,6 +434,21 @@ def check_study(cfg: Mapping[str, Any]) -> tuple[str, str]:
         raise ConfigError(f"results_dir: {results_dir} cannot be used: "
                           f"{os.strerror(exc.errno) if exc.errno else exc}") from None
     return study, results_dir
+
+
+def check_writable(folder: Path) -> None:
+    """Raise a :class:`ConfigError` naming ``folder`` unless a file can be written there (in
+    its nearest existing parent if it does not exist yet): a read-only results folder is found
+    before any run is computed, not after each one."""
+    existing = folder
+    while not existing.exists() and existing.parent != existing:
+        existing = existing.parent
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"results_dir: cannot write into {existing} "
+                          f"({exc.strerror or exc}); nothing was run") from None
 
 
 def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:

@@ -32,7 +32,7 @@ from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
-from .spec import ConfigError, RunSpec, run_spec
+from .spec import ConfigError, RunSpec, check_writable, run_spec
 from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, StoreError, default_study_note
 
 __all__ = ["expand", "plan", "summary", "sweep"]
@@ -259,6 +259,9 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
             reasons = "; ".join(f"{reason} ({count} job{'s' * (count > 1)})"
                                 for reason, count in sorted(the_plan.incompatible.items()))
             raise ConfigError(f"no job of the sweep can run: {reasons}")
+        if the_plan.to_run:  # nothing is computed that could not be stored
+            for folder in (study_dir, sweep_dir):
+                check_writable(folder)
         print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
         if not the_plan.to_run:
             return []

@@ -787,3 +787,17 @@ def test_a_results_dir_that_cannot_be_used_is_one_line_before_anything_runs(tmp_
                              str(loop / "default")], capture_output=True, text=True)
     assert report.returncode != 0
     assert "Too many levels of symbolic links" in report.stderr.strip().splitlines()[-1]
+
+
+def test_a_results_dir_that_cannot_be_written_is_one_line_before_any_run(tmp_path):
+    """A results folder nothing can be written into (sysfs refuses new files even to root:
+    the same refusal as a read-only file system's): one line naming it, exit status 2, and no
+    run computed (before, a single run ended in Hydra's traceback and a sweep computed every
+    run and then could not store it)."""
+    folder = "/sys/kernel/metaknot-results"
+    for sweep in ((), ("-m",)):
+        done = metaknot(*sweep, f"results_dir={folder}", "budget=5", cwd=tmp_path)
+        assert done.returncode == 2, done.stderr
+        (line,) = done.stderr.strip().splitlines()
+        assert line == ("metaknot run: error: results_dir: cannot write into /sys/kernel "
+                        "(Permission denied); nothing was run")
