@@ -15,7 +15,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["Interrupted", "child_processes", "interrupt_on_signals", "leave_ctrl_c_to_the_leader"]
+__all__ = ["Interrupted", "child_processes", "interrupt_on_signals", "interruptible",
+           "leave_ctrl_c_to_the_leader", "raise_pending"]
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -34,7 +35,13 @@ class Interrupted(KeyboardInterrupt):
     stored, total
         The planned runs that have a complete record, and all planned runs (``None`` until
         the code that planned them fills them in).
+    line
+        The line to print, where the code that stopped says it itself (``metaknot tune``:
+        the trials the study holds); ``None`` otherwise.
     """
+
+    #: Set in a process once a signal has been turned into this exception.
+    raised = False
 
     def __init__(self, signum: int, workers: list[int]) -> None:
         super().__init__(signal.Signals(signum).name)
@@ -42,6 +49,7 @@ class Interrupted(KeyboardInterrupt):
         self.workers = workers
         self.stored: int | None = None
         self.total: int | None = None
+        self.line: str | None = None
 
     @property
     def exit_code(self) -> int:
@@ -57,8 +65,12 @@ class Interrupted(KeyboardInterrupt):
 
 
 @contextmanager
-def interrupt_on_signals() -> Iterator[None]:
+def interrupt_on_signals(*, anywhere: bool = True) -> Iterator[None]:
     """Inside the block, SIGINT and SIGTERM raise :class:`Interrupted` in the main thread.
+
+    With ``anywhere=False`` the exception is raised only inside :func:`interruptible` blocks
+    (at once) or when the next one begins: code that must not be cut short in the middle (a
+    storage's file lock, Optuna's bookkeeping of a trial) runs outside them.
 
     The workers are not killed here: joblib kills its own on the way out (killing them from
     outside can leave its result pipe half written and the leader waiting on it for ever),
@@ -67,14 +79,48 @@ def interrupt_on_signals() -> Iterator[None]:
     def handler(signum: int, frame: object) -> None:
         for sig in SIGNALS:  # a second signal during the clean-up: stop at once
             signal.signal(sig, lambda s, f: os._exit(128 + s))
-        raise Interrupted(signum, child_processes())
+        Interrupted.raised = True
+        _STATE.pending = Interrupted(signum, child_processes())
+        if anywhere or _STATE.depth:
+            raise_pending()
 
     previous = {sig: signal.signal(sig, handler) for sig in SIGNALS}
     try:
         yield
     finally:
+        _STATE.pending = None
         for sig, action in previous.items():
             signal.signal(sig, action)
+
+
+class _State:
+    """The interrupt a signal left for the next safe point, and how deep in
+    :func:`interruptible` blocks the main thread is."""
+
+    pending: Interrupted | None = None
+    depth = 0
+
+
+_STATE = _State()
+
+
+def raise_pending() -> None:
+    """Raise the :class:`Interrupted` a signal left (a safe point); nothing if none did."""
+    stop, _STATE.pending = _STATE.pending, None
+    if stop is not None:
+        raise stop
+
+
+@contextmanager
+def interruptible() -> Iterator[None]:
+    """A block a signal may cut short at once (see :func:`interrupt_on_signals`); an interrupt
+    left before it begins is raised on entry."""
+    raise_pending()
+    _STATE.depth += 1
+    try:
+        yield
+    finally:
+        _STATE.depth -= 1
 
 
 def leave_ctrl_c_to_the_leader() -> None:

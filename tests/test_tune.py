@@ -494,3 +494,40 @@ def test_two_commands_creating_a_sqlite_study_at_once_retry_instead_of_failing()
     other = OperationalError("SELECT 1", {}, sqlite3.OperationalError("unable to open database"))
     assert not _schema_race(other)
     assert not _schema_race(RuntimeError("table studies already exists"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("how", ["SIGTERM to the command", "Ctrl-C to its process group"])
+def test_a_stopped_tune_stops_its_workers_fails_their_trials_in_one_line(tmp_path, how):
+    """SIGTERM to ``metaknot tune workers=2`` (its spawned worker held inside a trial) or
+    Ctrl-C to the terminal's process group: the spawned worker is stopped, no trial is left
+    RUNNING (the held one FAIL), trials.csv is written, one line on stderr, exit 128 + the
+    signal. Before, SIGTERM orphaned the worker and left the parent's trial RUNNING; Ctrl-C
+    printed 99 lines of tracebacks and no trials.csv."""
+    sig = signal.SIGTERM if how.startswith("SIGTERM") else signal.SIGINT
+    command = [sys.executable, "-m", "metaknot.cli", "tune", f"results_dir={tmp_path}", *SMALL,
+               "n_trials=40", "workers=2", "evaluate=false", "pruner=none"]
+    parent = subprocess.Popen(command, env={**os.environ, HOLD_WORKER_ENV: "1"},
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              start_new_session=True)
+    try:
+        held = wait_until_held(tmp_path / "tune-dolphin", 1, parent)
+        if sig == signal.SIGINT:
+            os.killpg(parent.pid, sig)
+        else:
+            os.kill(parent.pid, sig)
+        _, stderr = parent.communicate(timeout=120)
+    finally:
+        if parent.poll() is None:
+            os.killpg(parent.pid, signal.SIGKILL)
+    assert parent.returncode == 128 + sig, stderr
+    (line,) = stderr.strip().splitlines()
+    assert re.fullmatch(rf"tune tune-dolphin: added \d+ trials? \(.*\d+ fail.*\); the study "
+                        rf"holds \d+; interrupted \({signal.Signals(sig).name}\): its running "
+                        r"trials marked FAIL; run the same command to resume", line), line
+    with pytest.raises(ProcessLookupError):
+        os.kill(held["pid"], 0)  # the spawned worker has ended
+    trials = stored_trials(spec_of(tmp_path, "workers=2"))
+    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
+    assert [t.state for t in trials if t.number == held["trial"]] == [TrialState.FAIL]
+    assert (tmp_path / "tune-dolphin" / "trials.csv").exists()

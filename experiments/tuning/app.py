@@ -10,10 +10,12 @@ Re-running the same command resumes the study (it stops once ``n_trials`` trials
 
 from __future__ import annotations
 
+import signal
 import sys
 from typing import Any
 
 from ..app import CONFIG_DIR, launch
+from ..interrupt import Interrupted, interrupt_on_signals
 from ..spec import ConfigError, not_a_setting
 from .spec import TuneSpec, tune_spec
 
@@ -29,6 +31,7 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     """
     from . import outputs
     from .runner import (
+        fail_running_trials,
         fail_trials_of_dead_workers,
         open_storage,
         open_study,
@@ -45,7 +48,16 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
           f"{storage_description(spec)}", flush=True)
     references(spec, study)
     before = len(study.get_trials(deepcopy=False))
-    spawned = run_workers(spec, progress=progress)
+    try:
+        spawned = run_workers(spec, progress=progress)
+    except Interrupted as stop:  # the workers are stopped: fail what they left running
+        ours = {worker_name(), *(worker_name(pid) for pid in stop.workers)}
+        fail_running_trials(study, ours)
+        outputs.write_trials(spec, study)
+        stop.line = (f"{trials_added(spec, study, before, ours)}; interrupted "
+                     f"({signal.Signals(stop.signum).name}): its running trials marked FAIL; "
+                     "run the same command to resume")
+        raise
     for line in fail_trials_of_dead_workers(study, spawned):
         print(line, flush=True)
     ours = {worker_name(), *(worker_name(pid) for _, pid, _ in spawned)}
@@ -118,9 +130,14 @@ def main(argv: list[str] | None = None) -> int:
             print(f"metaknot tune: error: {' '.join(lines[:2])}", file=sys.stderr)
             return 2
         try:
-            tune(spec)
+            with interrupt_on_signals(anywhere=False):  # not inside a storage's lock
+                tune(spec)
         except ConfigError as exc:
             print(f"metaknot tune: error: {exc}", file=sys.stderr)
             return 2
+        except Interrupted as stop:  # one line: what the study holds, how to resume
+            print(stop.line or f"tune {spec.study}: interrupted; run the same command to "
+                  "resume", file=sys.stderr, flush=True)
+            return stop.exit_code
         return 0
     return launch(task, "tuning", args)

@@ -16,6 +16,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from ..interrupt import Interrupted, interrupt_on_signals, interruptible, raise_pending
 from ..spec import ConfigError, run_spec
 from .spec import Instance, TuneSpec
 
@@ -222,12 +223,16 @@ def trial_objective(spec: TuneSpec, reference: dict[str, float]) -> Callable[[An
     def objective(trial: Any) -> float:
         trial.set_user_attr("worker", worker_name())
         params, encoding = spec.trial_setting(spec.space.suggest(trial))
+        # a signal stops the runs at once (the trial fails); Optuna's storage calls between
+        # them are not cut short (a journal's file lock), the signal waits for the next runs
         if os.environ.get(HOLD_WORKER_ENV) == str(spec.worker_index):
-            _hold(spec, trial)
+            with interruptible():
+                _hold(spec, trial)
         ratios = []
         for step, instance in enumerate(spec.train):
-            values = evaluate_setting(spec, instance, spec.train_seeds, params=params,
-                                      encoding=encoding)
+            with interruptible():
+                values = evaluate_setting(spec, instance, spec.train_seeds, params=params,
+                                          encoding=encoding)
             ratio = float(np.median(values)) / reference[instance.key]
             trial.set_user_attr(f"ratio:{instance.key}", ratio)
             trial.set_user_attr(f"best_f:{instance.key}", values)
@@ -271,6 +276,7 @@ class _StopWhenDone:
         self.n_trials = n_trials
 
     def __call__(self, study: Any, trial: Any) -> None:
+        raise_pending()  # a signal during Optuna's bookkeeping of the trial: stop here
         if not _wants_trials(study, self.n_trials):
             study.stop()
 
@@ -287,6 +293,7 @@ def work(spec: TuneSpec, worker_index: int = 0, progress: bool = False,
     if spec.workers > 1:
         numba.set_num_threads(1)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    _quiet_when_interrupted()
     storage = open_storage(spec)
     study = open_study(spec, storage, worker_index)
     objective = trial_objective(spec, references(spec, study))
@@ -307,6 +314,24 @@ def work(spec: TuneSpec, worker_index: int = 0, progress: bool = False,
             break
     for callback in callbacks[1:]:
         callback.close()
+
+
+def _quiet_when_interrupted() -> None:
+    """Drop Optuna's report of a trial that failed because the worker was interrupted (a
+    traceback, "Trial N failed with value None"): the command's one line says so."""
+    import logging
+
+    from ..interrupt import Interrupted
+
+    def keep(record: logging.LogRecord) -> bool:
+        interrupted = record.exc_info is not None and isinstance(record.exc_info[1],
+                                                                  KeyboardInterrupt)
+        return not interrupted and "Interrupted(" not in record.getMessage() \
+            and not (Interrupted.raised and "failed with value None" in record.getMessage())
+
+    for handler in logging.getLogger("optuna").handlers:
+        if not any(getattr(f, "__name__", "") == "keep" for f in handler.filters):
+            handler.addFilter(keep)
 
 
 def wait_for_running_trials(spec: TuneSpec, study: Any, storage: Any) -> None:
@@ -347,7 +372,8 @@ def wait_for_running_trials(spec: TuneSpec, study: Any, storage: Any) -> None:
                     and waited > spec.grace_period + spec.heartbeat_interval:
                 storage.record_heartbeat(trial._trial_id)  # the storage knows trials by id
                 given_a_heartbeat.add(trial.number)
-        time.sleep(spec.heartbeat_interval)
+        with interruptible():
+            time.sleep(spec.heartbeat_interval)
     states = {t.number: t.state for t in study.get_trials(deepcopy=False)}
     failed = [n for n in sorted(first_seen) if states[n] == TrialState.FAIL]
     if failed:
@@ -364,11 +390,22 @@ def _trials(numbers: list[int]) -> str:
     return ("trial " if len(numbers) == 1 else "trials ") + ", ".join(map(str, numbers))
 
 
+def fail_running_trials(study: Any, workers: set[str]) -> list[int]:
+    """Mark FAIL the trials of ``workers`` (their :func:`worker_name`) still RUNNING (the
+    workers were stopped); returns their numbers."""
+    from optuna.trial import TrialState
+
+    left = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
+            if t.user_attrs.get("worker") in workers]
+    for number in left:
+        study.tell(number, state=TrialState.FAIL, skip_if_finished=True)
+    return left
+
+
 def fail_trials_of_dead_workers(study: Any, workers: list[tuple[int, int, int]]) -> list[str]:
     """For each spawned worker ``(index, pid, exit code)`` that ended abnormally, mark FAIL
     the trials it left RUNNING (on a journal storage, which has no heartbeat, nothing else
     would), and say what happened: one line per such worker."""
-    from optuna.trial import TrialState
 
     lines = []
     for index, pid, code in workers:
@@ -379,10 +416,7 @@ def fail_trials_of_dead_workers(study: Any, workers: list[tuple[int, int, int]])
                 f"ended with exit code {code}"
         except ValueError:
             how = f"was killed by signal {-code}"
-        left = [t.number for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
-                if t.user_attrs.get("worker") == worker_name(pid)]
-        for number in left:
-            study.tell(number, state=TrialState.FAIL, skip_if_finished=True)
+        left = fail_running_trials(study, {worker_name(pid)})
         what = (f"{_trials(left)} it was running marked FAIL (not retried)" if left
                 else "no trial of it is still running")
         lines.append(f"tune: worker {index} (pid {pid}) {how}; {what}")
@@ -408,9 +442,17 @@ class _Progress:
 
 
 def _work_in_process(raw: dict[str, Any], worker_index: int, ready: Any) -> None:
+    """A spawned worker: Ctrl-C is the leader's to handle (it stops the workers with
+    SIGTERM); SIGTERM fails the trial running here (Optuna marks it FAIL) and ends the
+    process with exit code 143, without a traceback."""
     from .spec import tune_spec
 
-    work(tune_spec({**raw, "worker_index": worker_index}), worker_index, ready=ready)
+    try:
+        with interrupt_on_signals(anywhere=False):
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            work(tune_spec({**raw, "worker_index": worker_index}), worker_index, ready=ready)
+    except Interrupted as stop:
+        sys.exit(stop.exit_code)
 
 
 def run_workers(spec: TuneSpec, progress: bool = True) -> list[tuple[int, int, int]]:
@@ -425,11 +467,16 @@ def run_workers(spec: TuneSpec, progress: bool = True) -> list[tuple[int, int, i
                                   args=(spec.raw, spec.worker_index + i, ready), daemon=False)
         process.start()
         others.append((process, ready))
-    for process, ready in others:
-        while not ready.wait(0.1) and process.is_alive():
-            pass
     try:
+        for process, ready in others:
+            while not ready.wait(0.1) and process.is_alive():
+                raise_pending()
         work(spec, spec.worker_index, progress=progress)
+    except BaseException:  # Ctrl-C, SIGTERM, an error: stop the spawned workers too
+        for process, _ in others:
+            if process.is_alive():
+                process.terminate()
+        raise
     finally:
         for process, _ in others:
             process.join()
