@@ -489,6 +489,7 @@ def load_study(path: str | os.PathLike) -> Study:
             raise StoreError(f"{entry}: {changed}: the record was changed after its run; move "
                              "it out of the study (or delete it to run that run again)")
         rows.append(row)
+    _check_one_study([entry for entry, _ in entries], rows, store.study_dir.name)
     failures = []
     for entry in _entries(store.failed_dir):
         if not FAILED_FILE.fullmatch(entry.name):
@@ -508,6 +509,24 @@ def load_study(path: str | os.PathLike) -> Study:
         columns=["run_id", "evaluations", "best_f", "improvement", "checkpoint"])
     return Study(path=store.study_dir, name=store.study_dir.name, runs=runs, trace=trace,
                  failures=_frame(failures))
+
+
+def _check_one_study(entries: list[Path], rows: list[dict[str, Any]], folder: str) -> None:
+    """Raise :class:`StoreError` naming a record of another study than the others (copied
+    from another study's folder: a report would pair it with runs it was not paired with).
+    The study is the folder's name if a record names it, else what most records name (a
+    study folder renamed as a whole loads as it is)."""
+    from collections import Counter
+
+    named = Counter(row.get("study") for row in rows)
+    if len(named) < 2:
+        return
+    study = folder if folder in named else named.most_common(1)[0][0]
+    entry, row = next((e, r) for e, r in zip(entries, rows, strict=True)
+                      if r.get("study") != study)
+    raise StoreError(f"{entry}: the record of a run of study {row.get('study')!r}, not of "
+                     f"{study!r} as {named[study]} other record(s) here; move it out of the "
+                     "study")
 
 
 def _changed_after_the_run(row: Mapping[str, Any]) -> str | None:

@@ -969,3 +969,23 @@ def test_a_record_edited_after_its_run_is_named_on_load(tmp_path, edited):
     with pytest.raises(StoreError, match=rf"{RUN_A}\.parquet: its best value .*changed after "
                                          "its run"):
         load_study(store.study_dir)
+
+
+def test_a_record_copied_from_another_study_is_named_on_load(tmp_path):
+    """A record of study 'b' copied into study 'a' (a report called the design paired with an
+    unpaired seed) is refused by name; a study folder renamed as a whole still loads."""
+    import shutil
+
+    first, second = Store(tmp_path / "a"), Store(tmp_path / "b")
+    trace = {"evaluations": np.array([1]), "best_f": np.array([2.0])}
+    first.write({**_record(RUN_A, seed=1, best_f=2.0), "study": "a"}, best_x=np.array([1]),
+                trace=trace)
+    copied = second.write({**_record(RUN_B, seed=1, best_f=2.0), "study": "b"},
+                          best_x=np.array([1]), trace=trace)
+    shutil.copy(copied, first.runs_dir / copied.name)
+    with pytest.raises(StoreError, match=rf"{RUN_B}\.parquet: the record of a run of study "
+                                         r"'b', not of 'a' as 1 other record\(s\) here"):
+        load_study(first.study_dir)
+    (first.runs_dir / copied.name).unlink()
+    (tmp_path / "a").rename(tmp_path / "renamed")
+    assert len(load_study(tmp_path / "renamed").runs) == 1
