@@ -106,8 +106,9 @@ def test_a_bad_value_in_a_sweep_fails_before_any_run(tmp_path):
                     "budget=100", f"results_dir={tmp_path}", cwd=tmp_path)
     assert done.returncode == 2
     (line,) = done.stderr.strip().splitlines()
-    assert line.startswith("metaknot run: error: optimizer.population: expected int, got 'abc' "
-                           "(in the job optimizer=ga optimizer.population=abc seed=0"), line
+    assert line.startswith("metaknot run: error: optimizer.population: expected an integer, "
+                           "got 'abc' (in the job optimizer=ga optimizer.population=abc "
+                           "seed=0"), line
     assert not (tmp_path / "default" / "runs").exists()
 
 
