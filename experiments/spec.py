@@ -673,32 +673,3 @@ def fitpack_count(data, factor: float, common: Mapping[str, Any]) -> int:
     knots = fitpack.interior_knots(u, data.points, common["degree"], data.n_points * factor)
     return max(1, int(knots.size))
 
-
-# the former checks of the tuning and preset modules, until they read the schema too
-def _int(key: str, value: Any, *, low: int | None = None, high: int | None = None,
-         optional: bool = False) -> Any:
-    return check_value(key, value, Setting((int, NULL) if optional else (int,), low=low,
-                                           high=high))
-
-
-def _float(key: str, value: Any, *, low: float | None = None, high: float | None = None,
-           optional: bool = False) -> Any:
-    return check_value(key, value, Setting((float, NULL) if optional else (float,), low=low,
-                                           high=high))
-
-
-def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
-    return check_value(key, value, Setting(values=choices))
-
-
-def _bool(key: str, value: Any) -> bool:
-    return check_value(key, value, Setting((bool,)))
-
-
-def _section(cfg: Mapping[str, Any], key: str) -> dict[str, Any]:
-    return dict(check_value(key, cfg.get(key), SECTION))
-
-
-def check_study(cfg: Mapping[str, Any]) -> tuple[str, str]:
-    checked = check_section("", {k: cfg.get(k) for k in STUDY}, STUDY)
-    return checked["study"], checked["results_dir"]
