@@ -118,11 +118,11 @@ def check_value(key: str, value: Any, setting: Setting,
     if out is _REFUSED or (setting.test is not None and not setting.test(out)):
         if not setting.kinds and not setting.expect:
             raise ConfigError(f"{key}: must be one of {', '.join(map(str, setting.values))}; "
-                              f"got {value!r}")
+                              f"got {short(repr(value))}")
         names = [repr(v) for v in setting.values]
         names += [NAMES.get(kind, kind.__name__) for kind in setting.kinds]
         raise ConfigError(f"{key}: {setting.expect or 'expected ' + ' or '.join(names)}, "
-                          f"got {value!r}")
+                          f"got {short(repr(value))}")
     if isinstance(out, float) and not setting.annotated and not np.isfinite(out):
         raise ConfigError(f"{key}: must be finite, got {out!r}")
     if is_real(out):
@@ -133,6 +133,11 @@ def check_value(key: str, value: Any, setting: Setting,
         if high is not None and out > high:
             raise ConfigError(f"{key}: must be <= {high}, got {out!r}")
     return out
+
+
+def short(text: str) -> str:
+    """``text`` shortened to about 80 characters (user data in messages)."""
+    return text if len(text) <= 80 else text[:77] + "..."
 
 
 def _converted(value: Any, setting: Setting) -> Any:
