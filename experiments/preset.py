@@ -20,7 +20,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from .spec import NULL, ConfigError, Setting, check_section, check_value, run_spec, short
+from .spec import NULL, ConfigError, Setting, check_section, check_value, naming, run_spec, short
 
 __all__ = ["check_preset", "expand_preset", "load_preset", "preset_overrides"]
 
@@ -71,7 +71,7 @@ def check_preset(data: Any, where: str) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise ConfigError(f"{where}: a preset is a mapping of optimizer, encoding, objective "
                           f"and label; got {short(repr(data))}")
-    try:
+    with naming(where, ConfigError):
         _refuse_directives(data, "")
         preset = check_section("", data, PRESET)
         for section in SECTIONS:
@@ -81,8 +81,6 @@ def check_preset(data: Any, where: str) -> dict[str, Any]:
         # only known setting names reach the overrides
         run_spec({"study": "preset", "results_dir": ".", "problem": {"curve": "epitrochoid"},
                   **preset, "budget": 1, "seed": 0}, check_build=False)
-    except ConfigError as exc:
-        raise ConfigError(f"{where}: {exc}") from None
     return data
 
 

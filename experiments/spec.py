@@ -19,8 +19,9 @@ import os
 import re
 import types
 import typing
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from collections.abc import Set as AbstractSet
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,17 @@ FITPACK_COUNT = re.compile(r"^fitpack:(.+)$")
 
 class ConfigError(ValueError, CompactHydraException):
     """A configuration value that cannot work; the message names the key, in one line."""
+
+
+@contextmanager
+def naming(key: str, errors: type[Exception] | tuple[type[Exception], ...] = ValueError,
+           ) -> Iterator[None]:
+    """``errors`` raised inside (a library's check of a value) as a :class:`ConfigError` that
+    names ``key``."""
+    try:
+        yield
+    except errors as exc:
+        raise ConfigError(f"{key}: {exc}") from None
 
 
 # --------------------------------------------------------------------------------------------
@@ -196,10 +208,8 @@ def _unknown(key: str, given: Mapping[str, Any], known: AbstractSet[str]) -> Non
 def _optimizer_class(name: str) -> Any:  # a registered optimizer class
     from metaknot.registry import _lookup
 
-    try:
+    with naming("optimizer._name_"):
         return _lookup("optimizer", name)
-    except ValueError as exc:
-        raise ConfigError(f"optimizer._name_: {exc}") from None
 
 
 def signature_settings(cls: type[Any]) -> dict[str, Setting]:
@@ -364,54 +374,18 @@ class RunSpec:
 
         problem = self.config["problem"]
         data = _build_data(self.config, self.noise_seed() if noise else None)
-        try:
+        with naming("problem"):
             return make_curve(data.points, degree=problem["degree"],
                               parameterization=problem["parameterization"],
                               closed=problem.get("closed", False), params=data.params)
-        except ValueError as exc:
-            raise ConfigError(f"problem: {exc}") from None
 
     def build_optimizer(self):
         """The optimizer of this run, with its hyperparameters."""
         from metaknot.registry import get_optimizer
 
         params = {k: v for k, v in self.config["optimizer"].items() if k != "_name_"}
-        try:
+        with naming(f"optimizer ({self.optimizer})", (ValueError, TypeError)):
             return get_optimizer(self.optimizer, **params)
-        except (ValueError, TypeError) as exc:
-            raise ConfigError(f"optimizer ({self.optimizer}): {exc}") from None
-
-
-def _suite_instance(problem: Mapping[str, Any]) -> Any:
-    """The suite instance ``problem.instance`` names (``None`` if it names none)."""
-    name = problem.get("instance")
-    if name is None:
-        return None
-    if problem.get("points") is not None or problem.get("curve") is not None:
-        raise ConfigError("problem.instance: a suite instance replaces problem.curve and "
-                          "problem.points; leave those null (problem=suite does)")
-    from metaknot.suite import get_instance
-
-    try:
-        return get_instance(str(name))
-    except ValueError as exc:
-        raise ConfigError(f"problem.instance: {exc}") from None
-
-
-def _suite_task(problem: Mapping[str, Any], instance: Any) -> Any:
-    """The suite task ``problem.task`` names on ``instance`` (``None`` if it names none)."""
-    name = problem.get("task")
-    if name is None:
-        return None
-    if instance is None:
-        raise ConfigError("problem.task: a suite task needs a suite instance "
-                          "(problem=suite problem.instance=ID)")
-    from metaknot.suite.tasks import get_task
-
-    try:
-        return get_task(instance, str(name))
-    except ValueError as exc:
-        raise ConfigError(f"problem.task: {exc}") from None
 
 
 def _usable_dir(path: str) -> bool:
@@ -503,8 +477,15 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
 
     top = check_section("", plain_config(cfg), RUN)
     problem = check_section("problem", top["problem"], PROBLEM)
-    instance = _suite_instance(problem)
+    instance = problem.get("instance")
     if instance is not None:
+        if problem["points"] is not None or problem["curve"] is not None:
+            raise ConfigError("problem.instance: a suite instance replaces problem.curve and "
+                              "problem.points; leave those null (problem=suite does)")
+        from metaknot.suite import get_instance
+
+        with naming("problem.instance"):
+            instance = get_instance(str(instance))
         problem.update(curve=None, points=None, instance=instance.id, closed=instance.closed)
     elif problem["points"] is not None:
         if not Path(problem["points"]).is_file():
@@ -529,8 +510,14 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         encoding["n_knots"] = f"fitpack:{_fitpack_factor(encoding['n_knots'])!r}"
     objective, _ = _named("objective", top["objective"], "name",
                           Setting(values=tuple(OBJECTIVES)), OBJECTIVES.__getitem__)
-    task = _suite_task(problem, instance)
-    if task is not None:  # the suite's task decides the encoding and the objective
+    if problem.get("task") is not None:  # the suite's task decides encoding and objective
+        if instance is None:
+            raise ConfigError("problem.task: a suite task needs a suite instance "
+                              "(problem=suite problem.instance=ID)")
+        from metaknot.suite.tasks import get_task
+
+        with naming("problem.task"):
+            task = get_task(instance, str(problem["task"]))
         problem["task"] = task.id
         encoding, objective = dict(task.encoding), dict(task.objective)
     optimizer, cls = _named("optimizer", top["optimizer"], "_name_", Setting(
@@ -595,10 +582,8 @@ def _check_fingerprint(points: str | None, stored: Any) -> str | None:
         return None
     from metaknot.problems import check_points_file
 
-    try:  # its kind and size from its first bytes, before the digest reads it through
-        check_points_file(points)
-    except ValueError as exc:
-        raise ConfigError(f"problem.points: {exc}") from None
+    with naming("problem.points"):  # its kind and size from its first bytes, before the
+        check_points_file(points)     # digest reads it through
     digest = _file_digest(points)
     if stored is not None and stored != digest:
         raise ConfigError(f"problem.points: {points} changed since the run was configured "
@@ -617,7 +602,7 @@ def _build_data(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | 
     from metaknot.problems import add_noise, get_curve, load_points
 
     problem = config["problem"]
-    try:
+    with naming("problem", (ValueError, TypeError)):
         if problem.get("instance") is not None:
             from metaknot.suite import get_instance
 
@@ -627,8 +612,6 @@ def _build_data(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | 
         else:
             kwargs = {} if problem["n_points"] is None else {"n_points": problem["n_points"]}
             data = get_curve(problem["curve"], **kwargs)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"problem: {exc}") from None
     data = type(data)(data.points, name=problem["name"], params=data.params)
     if problem["noise"] > 0 and noise_seed is not None:
         data = add_noise(data, problem["noise"], noise_seed)
@@ -644,14 +627,12 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
     data = _build_data(config, noise_seed)
     options = dict(config["objective"])
     name = options.pop("name")
-    try:
+    with naming(f"objective ({name})", (ValueError, TypeError)):
         objective = get_objective(name, **options)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"objective ({name}): {exc}") from None
     common = {"degree": problem["degree"], "parameterization": problem["parameterization"],
               "objective": objective, "closed": problem.get("closed", False)}
     kind = encoding["kind"]
-    try:
+    with naming(f"encoding ({kind})", (ValueError, TypeError)):
         if kind == "mask":
             return KnotSelection(data, density=encoding["density"],
                                  max_multiplicity=encoding.get("max_multiplicity", 1), **common)
@@ -665,8 +646,6 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
                                max_multiplicity=encoding.get("max_multiplicity", 1), **common)
         return FreeKnots(data, n_knots=n_knots, variable_count=encoding["variable_count"],
                          merge_spacing=encoding.get("merge_spacing"), **common)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"encoding ({kind}): {exc}") from None
 
 
 def fitpack_count(data, factor: float, common: Mapping[str, Any]) -> int:

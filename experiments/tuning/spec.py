@@ -18,6 +18,7 @@ from ..spec import (
     _optimizer_class,
     check_section,
     check_value,
+    naming,
     plain_config,
     run_spec,
     signature_settings,
@@ -179,10 +180,8 @@ def _instances(section: str, cfg: Any) -> tuple[tuple[Instance, ...], int]:
     if isinstance(items, str) and items.startswith("suite:"):  # a split of the suite
         from metaknot.suite.splits import split
 
-        try:
+        with naming(f"{section}.instances"):
             items = [{"suite": i} for i in split(items[len("suite:"):])]
-        except ValueError as exc:
-            raise ConfigError(f"{section}.instances: {exc}") from None
     check_value(f"{section}.instances", items, INSTANCE_LIST)
     curve = {"curve": Setting(values=tuple(sorted(CURVES))), "noise": Setting((float,), 0.0, 0.0)}
     out = []
@@ -190,10 +189,8 @@ def _instances(section: str, cfg: Any) -> tuple[tuple[Instance, ...], int]:
         key = f"{section}.instances[{i}]"
         if "suite" in check_value(key, item, INSTANCE):
             suite = check_section(key, item, {"suite": Setting((object,))})["suite"]
-            try:
+            with naming(f"{key}.suite"):
                 out.append(Instance(None, 0.0, get_instance(str(suite)).id))
-            except ValueError as exc:
-                raise ConfigError(f"{key}.suite: {exc}") from None
         else:
             out.append(Instance(**check_section(key, item, curve)))
     if len(set(out)) != len(out):
@@ -249,10 +246,8 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
             if instance.suite is None:
                 raise ConfigError(f"objective.task: the task of a suite instance; "
                                   f"{instance.key} is not one (give name: and its options)")
-            try:
+            with naming("objective.task"):
                 get_task(instance.suite, str(objective["task"]))
-            except ValueError as exc:
-                raise ConfigError(f"objective.task: {exc}") from None
     compare = top["compare_with"] or []
     compare = [compare] if isinstance(compare, str) else compare
     for name in compare:
