@@ -16,6 +16,7 @@ from ..spec import (
     ConfigError,
     Setting,
     _optimizer_class,
+    _unknown,
     check_section,
     check_value,
     naming,
@@ -219,10 +220,7 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     if both:
         raise ConfigError(f"tune.fixed: {', '.join(sorted(both))} also in tune.space "
                           "(fixed and searched at once)")
-    unknown = set(fixed) - names
-    if unknown:
-        raise ConfigError(f"tune.fixed.{sorted(unknown)[0]}: {optimizer!r} has no such "
-                          "hyperparameter")
+    _unknown("tune.fixed", fixed, names)
     encoding = dict(tune["encoding"] or {"kind": "mask"})
     check_value("tune.encoding.kind", encoding.get("kind"), Setting(values=("mask", "indices")))
     objective = dict(top["objective"])
