@@ -50,8 +50,8 @@ class ConfigError(ValueError, CompactHydraException):
 
 
 @contextmanager
-def naming(key: str, errors: type[Exception] | tuple[type[Exception], ...] = ValueError,
-           ) -> Iterator[None]:
+def naming(key: str,
+           errors: type[Exception] | tuple[type[Exception], ...] = ValueError) -> Iterator[None]:
     """``errors`` raised inside (a library's check of a value) as a :class:`ConfigError` that
     names ``key``."""
     try:
