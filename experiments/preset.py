@@ -16,26 +16,25 @@ Python function. See ``docs/tuning.md``.
 
 from __future__ import annotations
 
-import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from .spec import ConfigError, _unknown, run_spec
+from .spec import NULL, ConfigError, Setting, check_section, check_value, naming, run_spec, short
 
 __all__ = ["check_preset", "expand_preset", "load_preset", "preset_overrides"]
 
 #: A preset's sections and the key of each that names the config group to select.
 SECTIONS = {"optimizer": "_name_", "encoding": "kind", "objective": "name"}
-KEYS = {*SECTIONS, "label"}
-
-
-def _short(text: str) -> str:
-    """``text`` shortened to about 80 characters (user data in messages)."""
-    return text if len(text) <= 80 else text[:77] + "..."
-
-
-def _quote(value: Any) -> str:
-    return _short(repr(value))
+#: A value of a preset: what can be passed as an override unchanged.
+SCALAR = Setting((NULL, bool, int, float, str), test=lambda value: not isinstance(value, str) or (
+    value.isprintable() and not any(c in value for c in "'\"\\") and "${" not in value),
+    expect="a number, true/false, null or a string without quotes, backslashes and ${...}")
+SETTINGS = Setting((dict,), expect="a mapping of settings")
+#: What a preset holds (the settings of its sections are a run's: :data:`~.spec.RUN`).
+PRESET = {"optimizer": SETTINGS, "encoding": replace(SETTINGS, default={"kind": "mask"}),
+          "objective": replace(SETTINGS, default={"name": "paper"}),
+          "label": replace(SCALAR, default=None)}
 
 
 def load_preset(path: str | Path) -> dict[str, Any]:
@@ -71,70 +70,32 @@ def check_preset(data: Any, where: str) -> dict[str, Any]:
     """The preset ``data`` (read from ``where``), checked as :func:`load_preset` says."""
     if not isinstance(data, dict):
         raise ConfigError(f"{where}: a preset is a mapping of optimizer, encoding, objective "
-                          f"and label; got {_quote(data)}")
-    if "defaults" in data:
-        raise ConfigError(f"{where}: defaults: not allowed in a preset, which is data (Hydra "
-                          "directives and _target_ run code)")
-    _refuse_directives(data, where, "")
-    try:
-        _unknown("", data, KEYS)
-    except ConfigError as exc:
-        raise ConfigError(f"{where}: {exc}") from None
-    if "optimizer" not in data:
-        raise ConfigError(f"{where}: optimizer: missing (a preset names its optimizer)")
-    for section in SECTIONS:
-        if section in data:
-            _check_section(data[section], section, where)
-    label = data.get("label")
-    _check_scalar(label, "label", where)
-    # the settings themselves (names, known keys, types), checked where every run's are; so
-    # only known setting names reach the overrides
-    try:
+                          f"and label; got {short(repr(data))}")
+    with naming(where, ConfigError):
+        _refuse_directives(data, "")
+        preset = check_section("", data, PRESET)
+        for section in SECTIONS:
+            for key, value in preset[section].items():
+                check_value(f"{section}.{key}", value, SCALAR)
+        # the settings themselves (names, known keys, types), checked where every run's are; so
+        # only known setting names reach the overrides
         run_spec({"study": "preset", "results_dir": ".", "problem": {"curve": "epitrochoid"},
-                  "encoding": data.get("encoding", {"kind": "mask"}),
-                  "objective": data.get("objective", {"name": "paper"}),
-                  "optimizer": data["optimizer"], "budget": 1, "seed": 0,
-                  "label": label}, check_build=False)
-    except ConfigError as exc:
-        raise ConfigError(f"{where}: {exc}") from None
+                  **preset, "budget": 1, "seed": 0}, check_build=False)
     return data
 
 
-def _refuse_directives(node: dict[str, Any], where: str, prefix: str) -> None:
+def _refuse_directives(node: dict[Any, Any], prefix: str) -> None:
     """Refuse keys that make Hydra compose configs or call code, at any depth."""
     for key, value in node.items():
-        name = f"{prefix}{key}"
+        name = short(f"{prefix}{key}")
         if not isinstance(key, str):
-            raise ConfigError(f"{where}: {_short(name)}: keys are names, got {_quote(key)}")
-        if key == "_target_" or key == "hydra" or key.startswith(("hydra.", "hydra/")):
-            raise ConfigError(f"{where}: {_short(name)}: not allowed in a preset, which is "
-                              "data (Hydra directives and _target_ run code)")
+            raise ConfigError(f"{name}: keys are names, got {short(repr(key))}")
+        if key in ("_target_", "hydra") or key.startswith(("hydra.", "hydra/")) \
+                or name == "defaults":
+            raise ConfigError(f"{name}: not allowed in a preset, which is data (Hydra "
+                              "directives and _target_ run code)")
         if isinstance(value, dict):
-            _refuse_directives(value, where, f"{name}.")
-
-
-def _check_section(section: Any, name: str, where: str) -> None:
-    if not isinstance(section, dict):
-        raise ConfigError(f"{where}: {name}: a mapping of settings, got {_quote(section)}")
-    for key, value in section.items():
-        _check_scalar(value, f"{name}.{key}", where)
-
-
-def _check_scalar(value: Any, key: str, where: str) -> None:
-    """A number, a plain string, a boolean or null (anything else could not be passed as an
-    override unchanged)."""
-    if value is None or isinstance(value, bool | int):
-        return
-    if isinstance(value, float):
-        if math.isfinite(value):
-            return
-    elif isinstance(value, str):
-        if value.isprintable() and not any(c in value for c in "'\"\\") and "${" not in value:
-            return
-        raise ConfigError(f"{where}: {_short(key)}: quotes, backslashes and ${{...}} are not "
-                          f"allowed in a preset's strings; got {_quote(value)}")
-    raise ConfigError(f"{where}: {_short(key)}: a number, a string, true/false or null; got "
-                      f"{_quote(value)}")
+            _refuse_directives(value, f"{name}.")
 
 
 def preset_overrides(preset: dict[str, Any]) -> list[str]:

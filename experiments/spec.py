@@ -20,11 +20,12 @@ import re
 import tempfile
 import types
 import typing
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from collections.abc import Set as AbstractSet
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, overload
+from typing import Any
 
 import numpy as np
 from hydra.errors import CompactHydraException
@@ -40,8 +41,6 @@ ENCODINGS = {"mask": ("mask", "binary"), "indices": ("indices", "integer"),
 #: Top-level keys that define a run (the run id hashes them, normalised).
 RUN_KEYS = ("problem", "encoding", "objective", "optimizer", "budget", "seed",
             "checkpoints_per_decade")
-#: Every top-level key of a run configuration (others are refused, not ignored).
-CONFIG_KEYS = frozenset({*RUN_KEYS, "study", "label", "results_dir", "threads", "progress"})
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 STUDY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=,+-]*")  # matched in full (fullmatch)
 FITPACK_COUNT = re.compile(r"^fitpack:(.+)$")
@@ -51,55 +50,138 @@ class ConfigError(ValueError, CompactHydraException):
     """A configuration value that cannot work; the message names the key, in one line."""
 
 
+@contextmanager
+def naming(key: str,
+           errors: type[Exception] | tuple[type[Exception], ...] = ValueError) -> Iterator[None]:
+    """``errors`` raised inside (a library's check of a value) as a :class:`ConfigError` that
+    names ``key``."""
+    try:
+        yield
+    except errors as exc:
+        raise ConfigError(f"{key}: {exc}") from None
+
+
 # --------------------------------------------------------------------------------------------
-# small checks
+# the schema: every setting described once, checked by one checker
 
 
-@overload
-def _int(key: str, value: Any, *, low: int | None = ..., high: int | None = ...,
-         optional: Literal[False] = ...) -> int: ...
-@overload
-def _int(key: str, value: Any, *, low: int | None = ..., high: int | None = ...,
-         optional: bool) -> int | None: ...
-def _int(key: str, value: Any, *, low: int | None = None, high: int | None = None,
-         optional: bool = False) -> int | None:
-    if value is None and optional:
-        return None
-    if not is_integer(value):
-        raise ConfigError(f"{key}: expected an integer, got {value!r}")
-    if low is not None and value < low:
-        raise ConfigError(f"{key}: must be >= {low}, got {value!r}")
-    if high is not None and value > high:
-        raise ConfigError(f"{key}: must be <= {high}, got {value!r}")
-    return int(value)
+Bound = float | Callable[[Mapping[str, Any]], float] | None
+REQUIRED = "???"  # Hydra's mark of a value still to be given: the default of a required setting
 
 
-@overload
-def _float(key: str, value: Any, *, low: float | None = ..., high: float | None = ...,
-           optional: Literal[False] = ...) -> float: ...
-@overload
-def _float(key: str, value: Any, *, low: float | None = ..., high: float | None = ...,
-           optional: bool) -> float | None: ...
-def _float(key: str, value: Any, *, low: float | None = None, high: float | None = None,
-           optional: bool = False) -> float | None:
-    if value is None and optional:
-        return None
-    if not is_real(value):
-        raise ConfigError(f"{key}: expected a number, got {value!r}")
-    value = float(value)
-    if not np.isfinite(value):
-        raise ConfigError(f"{key}: must be finite, got {value!r}")
-    if low is not None and value < low:
-        raise ConfigError(f"{key}: must be >= {low}, got {value!r}")
-    if high is not None and value > high:
-        raise ConfigError(f"{key}: must be <= {high}, got {value!r}")
-    return value
+@dataclass(frozen=True)
+class Setting:
+    """One setting of a configuration: the values it takes and its default.
+
+    Attributes
+    ----------
+    kinds
+        The types it takes: ``int`` (an integer, not a bool), ``float`` (any real number,
+        stored as a float), ``bool``, ``str``, ``NULL`` (null), ``object`` (anything) or
+        another class (its instances).
+    default
+        Its value when it is not given (:data:`REQUIRED`: it must be given).
+    low, high
+        Bounds of a number, or functions of the settings of its section checked before it.
+    values
+        Values it takes besides its kinds (its choices, when ``kinds`` is empty).
+    test
+        A further condition on a value of its kinds (the message then says ``expect``).
+    expect
+        What it takes, in the message (default: its kinds and values).
+    annotated
+        Read from an annotation of a signature: a whole float counts as an int, and a float
+        may be infinite.
+    omit
+        Left out of the checked section at its default, so that the run ids of runs that do
+        not set it stay as they were.
+    """
+
+    kinds: tuple[type, ...] = ()
+    default: Any = REQUIRED
+    low: Bound = None
+    high: Bound = None
+    values: tuple[Any, ...] = ()
+    test: Callable[[Any], Any] | None = None
+    expect: str = ""
+    annotated: bool = False
+    omit: bool = False
 
 
-def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
-    if value not in choices:
-        raise ConfigError(f"{key}: must be one of {', '.join(choices)}; got {value!r}")
-    return str(value)
+NULL = type(None)
+NAMES = {int: "an integer", float: "a number", bool: "true or false", str: "a string",
+         NULL: "null"}
+_REFUSED = object()
+SECTION = Setting((Mapping,), expect="a group of settings")
+
+
+def check_value(key: str, value: Any, setting: Setting,
+                section: Mapping[str, Any] | None = None) -> Any:
+    """``value`` of the setting ``key`` as ``setting`` takes it (an integer of a float setting
+    as a float, ...); ``section`` holds the settings checked before it, for its bounds.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``key``, the value and what the setting takes.
+    """
+    if isinstance(value, str) and value == REQUIRED:
+        raise ConfigError(f"{key}: required, no value given")
+    out = _converted(value, setting)
+    if out is _REFUSED or (setting.test is not None and not setting.test(out)):
+        if not setting.kinds and not setting.expect:
+            raise ConfigError(f"{key}: must be one of {', '.join(map(str, setting.values))}; "
+                              f"got {short(repr(value))}")
+        names = [repr(v) for v in setting.values]
+        names += [NAMES.get(kind, kind.__name__) for kind in setting.kinds]
+        raise ConfigError(f"{key}: {setting.expect or 'expected ' + ' or '.join(names)}, "
+                          f"got {short(repr(value))}")
+    if isinstance(out, float) and not setting.annotated and not np.isfinite(out):
+        raise ConfigError(f"{key}: must be finite, got {out!r}")
+    if is_real(out):
+        low, high = (bound(section or {}) if callable(bound) else bound
+                     for bound in (setting.low, setting.high))
+        if low is not None and out < low:
+            raise ConfigError(f"{key}: must be >= {low}, got {out!r}")
+        if high is not None and out > high:
+            raise ConfigError(f"{key}: must be <= {high}, got {out!r}")
+    return out
+
+
+def short(text: str) -> str:
+    """``text`` shortened to about 80 characters (user data in messages)."""
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _converted(value: Any, setting: Setting) -> Any:
+    """``value`` as ``setting`` takes it, or ``_REFUSED``."""
+    kinds = setting.kinds
+    if any(type(value) is type(v) and value == v for v in setting.values) \
+            or type(value) in kinds or object in kinds:
+        return value
+    if int in kinds and (is_integer(value) or (setting.annotated and isinstance(value, float)
+                         and value.is_integer())):
+        return int(value)
+    if float in kinds and is_real(value):
+        return float(value)
+    if any(isinstance(value, kind) for kind in kinds if kind not in NAMES):
+        return value
+    return _REFUSED
+
+
+def check_section(key: str, given: Any, schema: Mapping[str, Setting]) -> dict[str, Any]:
+    """The section ``key`` of a configuration (``""``: the whole) checked against ``schema``:
+    no unknown settings, every value as :func:`check_value` takes it, in the order of
+    ``schema``, and the defaults of the settings not given (but those marked ``omit``)."""
+    _unknown(key, check_value(key, given, SECTION), schema.keys())
+    out: dict[str, Any] = {}
+    for name, setting in schema.items():
+        value = given.get(name, setting.default)
+        if name in given or (isinstance(value, str) and value == REQUIRED):
+            value = check_value(f"{key}.{name}" if key else name, value, setting, out)
+        if not (setting.omit and value == setting.default):
+            out[name] = value
+    return out
 
 
 def not_a_setting(args: list[str], example: str) -> str | None:
@@ -112,54 +194,58 @@ def not_a_setting(args: list[str], example: str) -> str | None:
     return None
 
 
-def _bool(key: str, value: Any) -> bool:
-    if not isinstance(value, bool):
-        raise ConfigError(f"{key}: true or false, got {value!r}")
-    return value
-
-
-def _section(cfg: Mapping[str, Any], key: str) -> dict[str, Any]:
-    value = cfg.get(key)
-    if not isinstance(value, Mapping):
-        raise ConfigError(f"{key}: missing or not a group of settings (got {value!r})")
-    return dict(value)
-
-
 def _unknown(key: str, given: Mapping[str, Any], known: AbstractSet[str]) -> None:
     extra = sorted(set(given) - known)
     if extra:
         name = f"{key}.{extra[0]}" if key else extra[0]
-        raise ConfigError(f"{name}: unknown setting (known: {', '.join(sorted(known))})")
+        known_names = ", ".join(sorted(known)) or "none"
+        raise ConfigError(f"{name}: unknown setting (known: {known_names})")
 
 
 # --------------------------------------------------------------------------------------------
-# optimizers: hyperparameters and their types from the optimizer's signature
+# optimizers and objectives: their settings from their signatures
 
 
 def _optimizer_class(name: str) -> Any:  # a registered optimizer class
     from metaknot.registry import _lookup
 
-    try:
+    with naming("optimizer._name_"):
         return _lookup("optimizer", name)
-    except ValueError as exc:
-        raise ConfigError(f"optimizer._name_: {exc}") from None
+
+
+def signature_settings(cls: type[Any]) -> dict[str, Setting]:
+    """The keyword arguments of ``cls.__init__`` as settings: the types their annotations admit
+    (anything, where that cannot be told) and their defaults."""
+    try:
+        hints = typing.get_type_hints(cls.__init__)
+    except Exception:  # unresolvable annotations of a plugin: its constructor checks the values
+        hints = {}
+    out = {}
+    for p in inspect.signature(cls.__init__).parameters.values():
+        if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            kinds, values = _admitted(hints.get(p.name, Any))
+            out[p.name] = Setting(kinds, REQUIRED if p.default is p.empty else p.default,
+                                  values=values, annotated=True)
+    return out
+
+
+def _admitted(hint: Any) -> tuple[tuple[type, ...], tuple[Any, ...]]:
+    """The types and the ``Literal`` values ``hint`` admits (``object``: it cannot be told)."""
+    origin = typing.get_origin(hint)
+    if origin is typing.Literal:
+        return (), typing.get_args(hint)
+    if origin in (typing.Union, types.UnionType):
+        parts = [_admitted(arg) for arg in typing.get_args(hint)]
+        return sum((kinds for kinds, _ in parts), ()), sum((values for _, values in parts), ())
+    return ((hint,) if isinstance(hint, type) and hint is not Any else (object,)), ()
 
 
 def signature_defaults(cls: type[Any]) -> dict[str, Any]:
     """The keyword arguments of ``cls.__init__`` with their defaults (``"???"``: required; a
     default that is not a plain value as its ``repr``): the settings of a config node."""
-    out: dict[str, Any] = {}
-    for p in inspect.signature(cls.__init__).parameters.values():
-        if p.name == "self" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-            continue
-        default = p.default
-        if default is inspect.Parameter.empty:
-            out[p.name] = "???"
-        elif default is None or isinstance(default, bool | int | float | str):
-            out[p.name] = default
-        else:
-            out[p.name] = repr(default)
-    return out
+    plain = NULL | bool | int | float | str
+    return {name: s.default if isinstance(s.default, plain) else repr(s.default)
+            for name, s in signature_settings(cls).items()}
 
 
 def optimizer_defaults(name: str) -> dict[str, Any]:
@@ -176,91 +262,14 @@ def objective_defaults(name: str) -> dict[str, Any]:
     return {"name": name, **signature_defaults(OBJECTIVES[name])}
 
 
-def _allowed_types(hint: Any) -> tuple[set[type], set[Any]] | None:
-    """Python types (and Literal values) a hint admits; ``None`` when it cannot be told."""
-    origin = typing.get_origin(hint)
-    if hint is Any:
-        return None
-    if origin is typing.Literal:
-        return set(), set(typing.get_args(hint))
-    if origin in (typing.Union, types.UnionType):
-        types_, literals = set(), set()
-        for arg in typing.get_args(hint):
-            sub = _allowed_types(arg)
-            if sub is None:
-                return None
-            types_ |= sub[0]
-            literals |= sub[1]
-        return types_, literals
-    if hint is type(None) or hint is None:
-        return {type(None)}, set()
-    if isinstance(hint, type):
-        return {hint}, set()
-    return None
-
-
-def _check_hyperparameter(key: str, value: Any, hint: Any) -> Any:
-    allowed = _allowed_types(hint)
-    if allowed is None:
-        return value
-    kinds, literals = allowed
-    if not isinstance(value, bool | float | list | dict) and any(
-            value == v for v in literals):
-        return value
-    if value is None:
-        if type(None) in kinds:
-            return None
-    elif isinstance(value, bool):
-        if bool in kinds:
-            return value
-    elif isinstance(value, int):
-        if int in kinds:
-            return value
-        if float in kinds:
-            return float(value)
-    elif isinstance(value, float):
-        if float in kinds:
-            return value
-        if int in kinds and value.is_integer():
-            return int(value)
-    elif isinstance(value, str) and str in kinds:
-        return value
-    names = sorted({"null" if k is type(None) else k.__name__ for k in kinds}
-                   | {repr(v) for v in literals})
-    raise ConfigError(f"{key}: expected {' or '.join(names)}, got {value!r}")
-
-
-def _optimizer(cfg: dict[str, Any]) -> tuple[str, dict[str, Any], type]:
-    name = cfg.pop("_name_", None)
-    if not isinstance(name, str):
-        raise ConfigError(f"optimizer._name_: the name of a registered optimizer, got {name!r}")
-    cls = _optimizer_class(name)
-    return name, _check_signature("optimizer", cls, cfg), cls
-
-
-def _check_signature(group: str, cls: type[Any], cfg: dict[str, Any]) -> dict[str, Any]:
-    """``cfg`` checked against the keyword arguments of ``cls``: no unknown keys, values of the
-    annotated types, defaults filled in."""
-    signature = inspect.signature(cls.__init__)
-    try:
-        hints = typing.get_type_hints(cls.__init__)
-    except Exception:  # unresolvable annotations of a plugin: check values by instantiation only
-        hints = {}
-    known = {p for p in signature.parameters if p != "self"}
-    _unknown(group, cfg, known)
-    params = {}
-    for pname, value in cfg.items():
-        if value == "???":
-            raise ConfigError(f"{group}.{pname}: required, no value given")
-        params[pname] = _check_hyperparameter(f"{group}.{pname}", value, hints.get(pname, Any))
-    for pname, p in signature.parameters.items():
-        if pname == "self" or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
-            continue
-        if pname not in params:
-            if p.default is inspect.Parameter.empty:
-                raise ConfigError(f"{group}.{pname}: required, no value given")
-            params[pname] = p.default
-    return params
+def _named(section: str, given: Mapping[str, Any], name_key: str, name: Setting,
+           classes: Callable[[str], type[Any]]) -> tuple[dict[str, Any], type[Any]]:
+    """A section that names its class (``optimizer._name_``, ``objective.name``), checked
+    against the class's signature: the name first, then its settings."""
+    given = dict(given)
+    chosen = check_value(f"{section}.{name_key}", given.pop(name_key, None), name)
+    cls = classes(chosen)
+    return {name_key: chosen, **check_section(section, given, signature_settings(cls))}, cls
 
 
 # --------------------------------------------------------------------------------------------
@@ -366,74 +375,86 @@ class RunSpec:
 
         problem = self.config["problem"]
         data = _build_data(self.config, self.noise_seed() if noise else None)
-        try:
+        with naming("problem"):
             return make_curve(data.points, degree=problem["degree"],
                               parameterization=problem["parameterization"],
                               closed=problem.get("closed", False), params=data.params)
-        except ValueError as exc:
-            raise ConfigError(f"problem: {exc}") from None
 
     def build_optimizer(self):
         """The optimizer of this run, with its hyperparameters."""
         from metaknot.registry import get_optimizer
 
         params = {k: v for k, v in self.config["optimizer"].items() if k != "_name_"}
-        try:
+        with naming(f"optimizer ({self.optimizer})", (ValueError, TypeError)):
             return get_optimizer(self.optimizer, **params)
-        except (ValueError, TypeError) as exc:
-            raise ConfigError(f"optimizer ({self.optimizer}): {exc}") from None
 
 
-def _suite_instance(problem: Mapping[str, Any]) -> Any:
-    """The suite instance ``problem.instance`` names (``None`` if it names none)."""
-    name = problem.get("instance")
-    if name is None:
-        return None
-    if problem.get("points") is not None or problem.get("curve") is not None:
-        raise ConfigError("problem.instance: a suite instance replaces problem.curve and "
-                          "problem.points; leave those null (problem=suite does)")
-    from metaknot.suite import get_instance
-
+def _usable_dir(path: str) -> bool:
+    """Whether ``path`` names a folder, or nothing yet (made when the first run is stored);
+    a file or a folder that cannot be used is a one-line error."""
     try:
-        return get_instance(str(name))
-    except ValueError as exc:
-        raise ConfigError(f"problem.instance: {exc}") from None
-
-
-def _suite_task(problem: Mapping[str, Any], instance: Any) -> Any:
-    """The suite task ``problem.task`` names on ``instance`` (``None`` if it names none)."""
-    name = problem.get("task")
-    if name is None:
-        return None
-    if instance is None:
-        raise ConfigError("problem.task: a suite task needs a suite instance "
-                          "(problem=suite problem.instance=ID)")
-    from metaknot.suite.tasks import get_task
-
-    try:
-        return get_task(instance, str(name))
-    except ValueError as exc:
-        raise ConfigError(f"problem.task: {exc}") from None
-
-
-def check_study(cfg: Mapping[str, Any]) -> tuple[str, str]:
-    """The configuration's ``study`` name and ``results_dir``, checked."""
-    study = cfg.get("study")
-    if not isinstance(study, str) or not STUDY_NAME.fullmatch(study):
-        raise ConfigError(f"study: a name of letters, digits and _.=,+- (no slashes), "
-                          f"got {study!r}")
-    results_dir = cfg.get("results_dir")
-    if not isinstance(results_dir, str) or not results_dir:
-        raise ConfigError(f"results_dir: a directory path, got {results_dir!r}")
-    try:
-        if not os.path.isdir(os.path.realpath(results_dir, strict=True)):
-            raise ConfigError(f"results_dir: {results_dir} is not a folder")
+        if path and not os.path.isdir(os.path.realpath(path, strict=True)):
+            raise ConfigError(f"results_dir: {path} is not a folder")
     except FileNotFoundError:
-        pass  # made when the first run is stored
+        pass
     except OSError as exc:  # a loop of symbolic links, a folder without permission, ...
-        raise ConfigError(f"results_dir: {results_dir} cannot be used: "
+        raise ConfigError(f"results_dir: {path} cannot be used: "
                           f"{os.strerror(exc.errno) if exc.errno else exc}") from None
-    return study, results_dir
+    return bool(path)
+
+
+def _n_knots(value: Any) -> bool:
+    """Whether ``value`` is a knot count: an integer, ``"max"`` or ``"fitpack:<factor>"``."""
+    return not isinstance(value, str) or value == "max" or _fitpack_factor(value) is not None
+
+
+def _fitpack_factor(text: str) -> float | None:
+    match = FITPACK_COUNT.match(text)
+    try:
+        factor = float(match.group(1)) if match else None
+    except ValueError:
+        return None
+    return factor if factor is not None and np.isfinite(factor) and factor > 0 else None
+
+
+#: Where a study is stored (a run's and a tuning study's settings).
+STUDY = {"study": Setting((str,), test=STUDY_NAME.fullmatch,
+                          expect="a name of letters, digits and _.=,+- (no slashes)"),
+         "results_dir": Setting((str,), test=_usable_dir, expect="a directory path")}
+#: The settings of a run; the run id hashes those of :data:`RUN_KEYS`, as checked.
+RUN = {**STUDY, "threads": Setting((int,), "auto", 1, values=("auto",)),
+       "progress": Setting((bool,), "auto", values=("auto",), expect="auto, true or false"),
+       "problem": SECTION, "encoding": SECTION, "objective": SECTION, "optimizer": SECTION,
+       "budget": Setting((int,), low=1), "seed": Setting((int,), low=0),
+       "checkpoints_per_decade": Setting((int,), 10, 1),
+       "label": Setting((str, NULL), None, expect="a name for reports")}
+#: Every top-level key of a run configuration (others are refused, not ignored).
+CONFIG_KEYS = frozenset(RUN)
+PROBLEM = {"name": Setting((str, NULL), None, expect="a label"),
+           "curve": Setting((object,), None),  # checked when it is used
+           "points": Setting((str, NULL), None, expect="a .csv or .npy file"),
+           "fingerprint": Setting((object,), None),
+           "degree": Setting((int,), 3, 1, 5),
+           "params_column": Setting((int, NULL), None),
+           "n_points": Setting((int, NULL), None, lambda problem: problem["degree"] + 2),
+           "noise": Setting((float,), 0.0, 0.0),
+           "noise_seed": Setting((int, NULL), None, 0),
+           "parameterization": Setting((), "centripetal", values=PARAMETERIZATIONS),
+           "closed": Setting((bool,), False, omit=True),
+           "instance": Setting((object,), None, omit=True),
+           "task": Setting((object,), None, omit=True)}
+N_KNOTS = Setting((int, str), 20, 1, test=_n_knots,
+                  expect="an integer, 'max' or 'fitpack:<factor>' with a factor > 0")
+
+
+def encoding_schema(kind: str, degree: int) -> dict[str, Setting]:
+    """The settings of the encoding ``kind`` of a spline of ``degree``."""
+    multiplicity = Setting((int,), 1, 1, degree, omit=True)
+    return {"kind": Setting(values=tuple(ENCODINGS)), **{
+        "mask": {"density": Setting((float,), 0.5, 0.0, 1.0), "max_multiplicity": multiplicity},
+        "indices": {"n_knots": N_KNOTS, "max_multiplicity": multiplicity},
+        "free": {"n_knots": N_KNOTS, "variable_count": Setting((bool,), False),
+                 "merge_spacing": Setting((float, NULL), None, 0.0, omit=True)}}[kind]}
 
 
 def check_writable(folder: Path) -> None:
@@ -468,143 +489,62 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
     ConfigError
         Naming the first key whose value cannot work.
     """
-    cfg = plain_config(cfg)
-    _unknown("", cfg, CONFIG_KEYS)
-    study, results_dir = check_study(cfg)
-    threads = cfg.get("threads", "auto")
-    if threads != "auto":
-        threads = _int("threads", threads, low=1)
-    progress = cfg.get("progress", "auto")
-    if progress not in ("auto", True, False):
-        raise ConfigError(f"progress: auto, true or false; got {progress!r}")
+    from metaknot.problems import CURVES, OBJECTIVES
 
-    problem = _section(cfg, "problem")
-    _unknown("problem", problem, {"name", "curve", "points", "params_column", "n_points",
-                                  "noise", "noise_seed", "degree", "parameterization",
-                                  "fingerprint", "closed", "instance", "task"})
-    from metaknot.problems import CURVES
-
-    points: Any  # a file name (checked below)
-    curve, points = problem.get("curve"), problem.get("points")
-    instance = _suite_instance(problem)
+    top = check_section("", plain_config(cfg), RUN)
+    problem = check_section("problem", top["problem"], PROBLEM)
+    instance = problem.get("instance")
     if instance is not None:
-        curve = points = None
-    elif points is not None:
-        if not isinstance(points, str) or points == "???":
-            raise ConfigError(f"problem.points: a .csv or .npy file, got {points!r}")
-        if not Path(points).is_file():
-            raise ConfigError(f"problem.points: file not found: {points}")
-        points = str(Path(points).resolve())
-        curve = None
-    elif curve is None:
+        if problem["points"] is not None or problem["curve"] is not None:
+            raise ConfigError("problem.instance: a suite instance replaces problem.curve and "
+                              "problem.points; leave those null (problem=suite does)")
+        from metaknot.suite import get_instance
+
+        with naming("problem.instance"):
+            instance = get_instance(str(instance))
+        problem.update(curve=None, points=None, instance=instance.id, closed=instance.closed)
+    elif problem["points"] is not None:
+        if not Path(problem["points"]).is_file():
+            raise ConfigError(f"problem.points: file not found: {problem['points']}")
+        problem.update(points=str(Path(problem["points"]).resolve()), curve=None)
+    elif problem["curve"] is None:
         raise ConfigError("problem.curve: give a seed curve or problem.points=FILE")
     else:
-        curve = _choice("problem.curve", curve, tuple(sorted(CURVES)))
-    degree = _int("problem.degree", problem.get("degree", 3), low=1, high=5)
-    name = problem.get("name")
-    if name is None:
-        name = instance.id if instance is not None else curve if curve is not None else \
-            Path(points).stem
-    elif not isinstance(name, str):
-        raise ConfigError(f"problem.name: a label, got {name!r}")
-    problem_out = {
-        "name": name,
-        "curve": curve,
-        "points": points,
-        "fingerprint": _check_fingerprint(points, problem.get("fingerprint")),
-        "params_column": _int("problem.params_column", problem.get("params_column"),
-                              optional=True),
-        "n_points": _int("problem.n_points", problem.get("n_points"), low=degree + 2,
-                         optional=True),
-        "noise": _float("problem.noise", problem.get("noise", 0.0), low=0.0),
-        "noise_seed": _int("problem.noise_seed", problem.get("noise_seed"), low=0,
-                           optional=True),
-        "degree": degree,
-        "parameterization": _choice("problem.parameterization",
-                                    problem.get("parameterization", "centripetal"),
-                                    PARAMETERIZATIONS),
-    }
-    closed = _bool("problem.closed", problem.get("closed", False))
-    if instance is not None:  # only when set, as closed: run ids of other problems stay
-        problem_out["instance"] = instance.id
-        closed = instance.closed
-    if closed:  # only when set, so the run ids of open problems stay as they were
-        problem_out["closed"] = True
+        check_value("problem.curve", problem["curve"], Setting(values=tuple(sorted(CURVES))))
+    if problem["name"] is None:
+        problem["name"] = instance.id if instance is not None else \
+            problem["curve"] or Path(problem["points"]).stem
+    problem["fingerprint"] = _check_fingerprint(problem["points"], problem["fingerprint"])
+    if not problem.get("closed"):  # only when set, so the run ids of open problems stay
+        problem.pop("closed", None)
 
-    encoding = _section(cfg, "encoding")
-    kind = _choice("encoding.kind", encoding.get("kind"), tuple(ENCODINGS))
-    if kind == "mask":
-        _unknown("encoding", encoding, {"kind", "density", "max_multiplicity"})
-        encoding_out = {"kind": kind, "density": _float("encoding.density",
-                                                        encoding.get("density", 0.5),
-                                                        low=0.0, high=1.0)}
-        multiplicity = _int("encoding.max_multiplicity", encoding.get("max_multiplicity", 1),
-                            low=1, high=degree)
-        if multiplicity > 1:  # only when set, so the run ids of other runs stay
-            encoding_out["max_multiplicity"] = multiplicity
-    else:
-        known = {"kind", "n_knots"} | ({"variable_count", "merge_spacing"} if kind == "free"
-                                       else {"max_multiplicity"})
-        _unknown("encoding", encoding, known)
-        n_knots = encoding.get("n_knots", 20)
-        if n_knots == "max":
-            pass  # the most the data allow (N - degree - 1; N - 1 closed), set when built
-        elif isinstance(n_knots, str):
-            match = FITPACK_COUNT.match(n_knots)
-            try:
-                factor = float(match.group(1)) if match else None
-            except ValueError:
-                factor = None
-            if factor is None or not np.isfinite(factor) or factor <= 0:
-                raise ConfigError(f"encoding.n_knots: an integer, 'max' or 'fitpack:<factor>' "
-                                  f"with a factor > 0, got {n_knots!r}")
-            n_knots = f"fitpack:{factor!r}"
-        else:
-            n_knots = _int("encoding.n_knots", n_knots, low=1)
-        encoding_out = {"kind": kind, "n_knots": n_knots}
-        if kind == "indices":
-            multiplicity = _int("encoding.max_multiplicity",
-                                encoding.get("max_multiplicity", 1), low=1, high=degree)
-            if multiplicity > 1:  # only when set, so the run ids of other runs stay
-                encoding_out["max_multiplicity"] = multiplicity
-        if kind == "free":
-            encoding_out["variable_count"] = _bool("encoding.variable_count",
-                                                   encoding.get("variable_count", False))
-            merge = _float("encoding.merge_spacing", encoding.get("merge_spacing"), low=0.0,
-                           optional=True)
-            if merge is not None:  # only when set, so the run ids of other runs stay
-                encoding_out["merge_spacing"] = merge
+    kind = check_value("encoding.kind", top["encoding"].get("kind"),
+                       Setting(values=tuple(ENCODINGS)))
+    encoding = check_section("encoding", top["encoding"],
+                             encoding_schema(kind, problem["degree"]))
+    if isinstance(encoding.get("n_knots"), str) and encoding["n_knots"] != "max":
+        encoding["n_knots"] = f"fitpack:{_fitpack_factor(encoding['n_knots'])!r}"
+    objective, _ = _named("objective", top["objective"], "name",
+                          Setting(values=tuple(OBJECTIVES)), OBJECTIVES.__getitem__)
+    if problem.get("task") is not None:  # the suite's task decides encoding and objective
+        if instance is None:
+            raise ConfigError("problem.task: a suite task needs a suite instance "
+                              "(problem=suite problem.instance=ID)")
+        from metaknot.suite.tasks import get_task
 
-    objective = _section(cfg, "objective")
-    from metaknot.problems import OBJECTIVES
-
-    objective_name = _choice("objective.name", objective.pop("name", None),
-                             tuple(OBJECTIVES))
-    objective_out = {"name": objective_name,
-                     **_check_signature("objective", OBJECTIVES[objective_name], objective)}
-
-    task = _suite_task(problem, instance)
-    if task is not None:  # the suite's task decides the encoding and the objective
-        problem_out["task"] = task.id
-        encoding_out, objective_out = dict(task.encoding), dict(task.objective)
-
-    optimizer_name, params, cls = _optimizer(_section(cfg, "optimizer"))
-    config = {
-        "problem": problem_out,
-        "encoding": encoding_out,
-        "objective": objective_out,
-        "optimizer": {"_name_": optimizer_name, **params},
-        "budget": _int("budget", cfg.get("budget"), low=1),
-        "seed": _int("seed", cfg.get("seed"), low=0),
-        "checkpoints_per_decade": _int("checkpoints_per_decade",
-                                       cfg.get("checkpoints_per_decade", 10), low=1),
-    }
-    label = cfg.get("label")
-    if label is not None and not isinstance(label, str):
-        raise ConfigError(f"label: a name for reports, got {label!r}")
-    spec = RunSpec(config=config, run_id=run_id(config), study=study,
-                   results_dir=Path(results_dir), threads=threads, progress=progress,
-                   label=label or optimizer_name, _optimizer_class=cls)
+        with naming("problem.task"):
+            task = get_task(instance, str(problem["task"]))
+        problem["task"] = task.id
+        encoding, objective = dict(task.encoding), dict(task.objective)
+    optimizer, cls = _named("optimizer", top["optimizer"], "_name_", Setting(
+        (str,), expect="the name of a registered optimizer"), _optimizer_class)
+    config = {"problem": problem, "encoding": encoding, "objective": objective,
+              "optimizer": optimizer,
+              **{key: top[key] for key in ("budget", "seed", "checkpoints_per_decade")}}
+    spec = RunSpec(config=config, run_id=run_id(config), study=top["study"],
+                   results_dir=Path(top["results_dir"]), threads=top["threads"],
+                   progress=top["progress"], label=top["label"] or optimizer["_name_"],
+                   _optimizer_class=cls)
     if check_build:
         spec.build_optimizer()
         spec.build_problem(noise=False)
@@ -658,10 +598,8 @@ def _check_fingerprint(points: str | None, stored: Any) -> str | None:
         return None
     from metaknot.problems import check_points_file
 
-    try:  # its kind and size from its first bytes, before the digest reads it through
-        check_points_file(points)
-    except ValueError as exc:
-        raise ConfigError(f"problem.points: {exc}") from None
+    with naming("problem.points"):  # its kind and size from its first bytes, before the
+        check_points_file(points)     # digest reads it through
     digest = _file_digest(points)
     if stored is not None and stored != digest:
         raise ConfigError(f"problem.points: {points} changed since the run was configured "
@@ -680,7 +618,7 @@ def _build_data(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | 
     from metaknot.problems import add_noise, get_curve, load_points
 
     problem = config["problem"]
-    try:
+    with naming("problem", (ValueError, TypeError)):
         if problem.get("instance") is not None:
             from metaknot.suite import get_instance
 
@@ -690,8 +628,6 @@ def _build_data(config: Mapping[str, Any], noise_seed: np.random.SeedSequence | 
         else:
             kwargs = {} if problem["n_points"] is None else {"n_points": problem["n_points"]}
             data = get_curve(problem["curve"], **kwargs)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"problem: {exc}") from None
     data = type(data)(data.points, name=problem["name"], params=data.params)
     if problem["noise"] > 0 and noise_seed is not None:
         data = add_noise(data, problem["noise"], noise_seed)
@@ -707,14 +643,12 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
     data = _build_data(config, noise_seed)
     options = dict(config["objective"])
     name = options.pop("name")
-    try:
+    with naming(f"objective ({name})", (ValueError, TypeError)):
         objective = get_objective(name, **options)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"objective ({name}): {exc}") from None
     common = {"degree": problem["degree"], "parameterization": problem["parameterization"],
               "objective": objective, "closed": problem.get("closed", False)}
     kind = encoding["kind"]
-    try:
+    with naming(f"encoding ({kind})", (ValueError, TypeError)):
         if kind == "mask":
             return KnotSelection(data, density=encoding["density"],
                                  max_multiplicity=encoding.get("max_multiplicity", 1), **common)
@@ -728,8 +662,6 @@ def _build_problem(config: Mapping[str, Any], noise_seed: np.random.SeedSequence
                                max_multiplicity=encoding.get("max_multiplicity", 1), **common)
         return FreeKnots(data, n_knots=n_knots, variable_count=encoding["variable_count"],
                          merge_spacing=encoding.get("merge_spacing"), **common)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"encoding ({kind}): {exc}") from None
 
 
 def fitpack_count(data, factor: float, common: Mapping[str, Any]) -> int:
@@ -740,3 +672,4 @@ def fitpack_count(data, factor: float, common: Mapping[str, Any]) -> int:
     u = parameterize(data.points, method, degree=common["degree"])
     knots = fitpack.interior_knots(u, data.points, common["degree"], data.n_points * factor)
     return max(1, int(knots.size))
+

@@ -100,23 +100,23 @@ def plan(sweeper: Any, arguments: list[str]) -> tuple[Plan, Path]:
     composer = _Composer(sweeper, parser)
     result = Plan()
     seen: set[str] = set()
-    checked: set[str] = set()
+    reasons: dict[str, str | None] = {}
     completed: dict[Path, set[str]] = {}
     study_dir = None
     for job in jobs:
         try:
             spec = run_spec(_compose(composer, job), check_build=False)
             key = _build_key(spec)
-            if key not in checked:  # build once per setting, the seed aside
-                if spec.compatible() is None:
+            if key not in reasons:  # checked and built once per setting, the seed aside
+                reasons[key] = spec.compatible()
+                if reasons[key] is None:
                     spec.build_optimizer()
                     spec.build_problem(noise=False)
-                checked.add(key)
+            reason = reasons[key]
         except ConfigError as exc:
             shown = " ".join(o.removeprefix("++") for o in job)  # as the command line had it
             raise ConfigError(f"{exc} (in the job {shown})") from None
         study_dir = spec.study_dir
-        reason = spec.compatible()
         if reason is not None:
             result.incompatible[reason] += 1
             continue

@@ -403,7 +403,7 @@ def test_plugin_optimizer_settings_from_its_signature(monkeypatch):
         run_spec(plain_cfg(optimizer={"_name_": "spec_probe"}))
     with pytest.raises(ConfigError, match=r"^optimizer\.steps: required"):
         run_spec(plain_cfg(optimizer=optimizer_defaults("spec_probe")))
-    with pytest.raises(ConfigError, match=r"^optimizer\.steps: expected int"):
+    with pytest.raises(ConfigError, match=r"^optimizer\.steps: expected an integer"):
         run_spec(plain_cfg(optimizer={"_name_": "spec_probe", "steps": "x"}))
     spec = run_spec(plain_cfg(optimizer={"_name_": "spec_probe", "steps": 3, "scale": 2}))
     assert spec.config["optimizer"] == {"_name_": "spec_probe", "steps": 3, "shape": (1, 2),

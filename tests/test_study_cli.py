@@ -106,8 +106,9 @@ def test_a_bad_value_in_a_sweep_fails_before_any_run(tmp_path):
                     "budget=100", f"results_dir={tmp_path}", cwd=tmp_path)
     assert done.returncode == 2
     (line,) = done.stderr.strip().splitlines()
-    assert line.startswith("metaknot run: error: optimizer.population: expected int, got 'abc' "
-                           "(in the job optimizer=ga optimizer.population=abc seed=0"), line
+    assert line.startswith("metaknot run: error: optimizer.population: expected an integer, "
+                           "got 'abc' (in the job optimizer=ga optimizer.population=abc "
+                           "seed=0"), line
     assert not (tmp_path / "default" / "runs").exists()
 
 
@@ -380,7 +381,7 @@ def test_a_preset_runs_as_its_overrides_and_the_command_line_wins(tmp_path):
     ("optimizer: {_name_: ga}\nlabel: '${oc.env:HOME}'\n", "label"),
     ("optimizer: {_name_: warp}\n", "optimizer._name_"),
     ("optimizer: {_name_: ga}\nencoding: {kind: warp}\n", "encoding.kind"),
-    ("encoding: {kind: mask}\n", "optimizer: missing"),
+    ("encoding: {kind: mask}\n", "optimizer: required"),
     ("optimizer: {_name_: ga\n", "not valid YAML"),
 ])
 def test_a_preset_is_read_as_data_and_anything_else_is_refused(tmp_path, capsys, body, key):

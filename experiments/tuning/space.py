@@ -21,7 +21,7 @@ from typing import Any
 
 from metaknot.validate import is_real
 
-from ..spec import ConfigError, _bool
+from ..spec import ConfigError, Setting, check_value
 
 __all__ = ["PROBLEM_PARAMETERS", "Parameter", "SearchSpace"]
 
@@ -100,7 +100,7 @@ def _parameter(name: str, entry: Any, earlier: dict[str, Parameter]) -> Paramete
     if not low < high:
         raise ConfigError(f"{key}: low must be below high, got low={low}, high={high} "
                           "(an empty range)")
-    log = _bool(f"{key}.log", entry.get("log", False))
+    log = check_value(f"{key}.log", entry.get("log", False), Setting((bool,), False))
     if log and low <= 0:
         raise ConfigError(f"{key}: a log scale needs low > 0, got {low}")
     step = entry.get("step")

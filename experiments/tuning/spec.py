@@ -3,23 +3,26 @@
 from __future__ import annotations
 
 import copy
-import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ..spec import (
+    NULL,
+    PARAMETERIZATIONS,
+    SECTION,
+    STUDY,
     ConfigError,
-    _bool,
-    _choice,
-    _float,
-    _int,
+    Setting,
     _optimizer_class,
-    _section,
     _unknown,
-    check_study,
+    check_section,
+    check_value,
+    naming,
+    plain_config,
     run_spec,
+    signature_settings,
 )
 from .space import SearchSpace
 
@@ -28,12 +31,34 @@ __all__ = ["TRAIN_SEED_OFFSET", "Instance", "TuneSpec", "tune_spec"]
 #: Training replicate seeds are ``TRAIN_SEED_OFFSET + i``; test seeds are ``0 .. n - 1`` with
 #: ``n <= TRAIN_SEED_OFFSET``: the two never meet.
 TRAIN_SEED_OFFSET = 1_000_000
-SAMPLERS = ("tpe", "random")
-PRUNERS = ("median", "percentile", "successive_halving", "hyperband", "none")
-KEYS = {"study", "results_dir", "tune", "n_trials", "timeout", "workers", "worker_index",
-        "storage", "seed", "sampler", "pruner", "budget", "objective", "reference",
-        "train", "test", "compare_with", "evaluate", "heartbeat_interval", "grace_period",
-        "max_retry", "degree", "parameterization"}
+SPLIT = Setting((Mapping,), expect="a mapping with instances and seeds")
+#: The settings of a tuning study (others are refused, not ignored).
+TUNE = {**STUDY, "tune": SECTION, "n_trials": Setting((int,), low=1),
+        "timeout": Setting((float, NULL), None, 0.0), "workers": Setting((int,), 1, 1),
+        "worker_index": Setting((int,), 0, 0),
+        "storage": Setting((str, NULL), None, test=lambda url: url != "", expect="null, "
+                           "journal, journal:<file> or an Optuna storage URL"),
+        "seed": Setting((int,), 0, 0),
+        "sampler": Setting((), "tpe", values=("tpe", "random")),
+        "pruner": Setting((), "median", values=("median", "percentile", "successive_halving",
+                                                "hyperband", "none")),
+        "budget": Setting((int,), low=1), "objective": SECTION,
+        "reference": Setting((str,), "averaging", expect="an optimizer's name"),
+        "train": SPLIT, "test": SPLIT,
+        "compare_with": Setting((str, list, NULL), None, expect="an optimizer's name or a list"),
+        "evaluate": Setting((bool,), True), "heartbeat_interval": Setting((int,), 10, 1),
+        "grace_period": Setting((int,), 30, 1), "max_retry": Setting((int,), 2, 0),
+        "degree": Setting((int,), 3, 1, 5),
+        "parameterization": Setting((), "centripetal", values=PARAMETERIZATIONS)}
+TUNE_SECTION = {"optimizer": Setting((str,), expect="an optimizer's name"),
+                "encoding": Setting((dict, NULL), None), "space": Setting((object,), None),
+                "fixed": Setting((dict, NULL), None,
+                                 expect="a mapping of hyperparameters to values")}
+INSTANCES = {"instances": Setting((object,)),
+             "seeds": Setting((int,), low=1, high=TRAIN_SEED_OFFSET)}
+INSTANCE_LIST = Setting((list,), test=bool, expect="suite:<split> or a non-empty list of "
+                        "{curve, noise} or {suite: ID}")
+INSTANCE = Setting((Mapping,), expect="a mapping {curve: ..., noise: ...} or {suite: ID}")
 
 
 @dataclass(frozen=True)
@@ -78,19 +103,19 @@ class TuneSpec:
     test_seeds: tuple[int, ...]
     reference: str
     compare_with: tuple[str, ...]
-    seed: int = 0
-    sampler: str = "tpe"
-    pruner: str = "median"
-    storage: str | None = None
-    workers: int = 1
-    worker_index: int = 0
-    timeout: float | None = None
-    evaluate: bool = True
-    heartbeat_interval: int = 10
-    grace_period: int = 30
-    max_retry: int = 2
-    degree: int = 3
-    parameterization: str = "centripetal"
+    seed: int  # the other settings and their defaults: TUNE
+    sampler: str
+    pruner: str
+    storage: str | None
+    workers: int
+    worker_index: int
+    timeout: float | None
+    evaluate: bool
+    heartbeat_interval: int
+    grace_period: int
+    max_retry: int
+    degree: int
+    parameterization: str
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property
@@ -149,43 +174,29 @@ class TuneSpec:
 
 def _instances(section: str, cfg: Any) -> tuple[tuple[Instance, ...], int]:
     from metaknot.problems import CURVES
+    from metaknot.suite import get_instance
 
-    if not isinstance(cfg, Mapping):
-        raise ConfigError(f"{section}: a mapping with instances and seeds")
-    _unknown(section, cfg, {"instances", "seeds"})
-    items = cfg.get("instances")
+    checked = check_section(section, cfg, INSTANCES)
+    items = checked["instances"]
     if isinstance(items, str) and items.startswith("suite:"):  # a split of the suite
         from metaknot.suite.splits import split
 
-        try:
+        with naming(f"{section}.instances"):
             items = [{"suite": i} for i in split(items[len("suite:"):])]
-        except ValueError as exc:
-            raise ConfigError(f"{section}.instances: {exc}") from None
-    if not isinstance(items, list) or not items:
-        raise ConfigError(f"{section}.instances: suite:<split> or a non-empty list of "
-                          "{curve, noise} or {suite: ID}")
+    check_value(f"{section}.instances", items, INSTANCE_LIST)
+    curve = {"curve": Setting(values=tuple(sorted(CURVES))), "noise": Setting((float,), 0.0, 0.0)}
     out = []
     for i, item in enumerate(items):
         key = f"{section}.instances[{i}]"
-        if not isinstance(item, Mapping):
-            raise ConfigError(f"{key}: a mapping {{curve: ..., noise: ...}} or {{suite: ID}}, "
-                              f"got {item!r}")
-        if "suite" in item:
-            _unknown(key, item, {"suite"})
-            from metaknot.suite import get_instance
-
-            try:
-                out.append(Instance(None, 0.0, get_instance(str(item["suite"])).id))
-            except ValueError as exc:
-                raise ConfigError(f"{key}.suite: {exc}") from None
-            continue
-        _unknown(key, item, {"curve", "noise"})
-        curve = _choice(f"{key}.curve", item.get("curve"), tuple(sorted(CURVES)))
-        out.append(Instance(curve, _float(f"{key}.noise", item.get("noise", 0.0), low=0.0)))
+        if "suite" in check_value(key, item, INSTANCE):
+            suite = check_section(key, item, {"suite": Setting((object,))})["suite"]
+            with naming(f"{key}.suite"):
+                out.append(Instance(None, 0.0, get_instance(str(suite)).id))
+        else:
+            out.append(Instance(**check_section(key, item, curve)))
     if len(set(out)) != len(out):
         raise ConfigError(f"{section}.instances: an instance is listed twice")
-    return tuple(out), _int(f"{section}.seeds", cfg.get("seeds"), low=1,
-                            high=TRAIN_SEED_OFFSET)
+    return tuple(out), checked["seeds"]
 
 
 def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
@@ -198,36 +209,23 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
         a parameter the optimizer does not have, overlapping training and test instances,
         ``n_trials < 1``, ...
     """
-    from ..spec import plain_config
-
     raw = plain_config(cfg)
-    _unknown("", raw, KEYS)
-    study, results_dir = check_study(raw)
-    tune = raw["tune"] = _section(raw, "tune")
-    _unknown("tune", tune, {"optimizer", "encoding", "fixed", "space"})
-    optimizer = tune.get("optimizer")
-    if not isinstance(optimizer, str):
-        raise ConfigError(f"tune.optimizer: an optimizer's name, got {optimizer!r}")
-    cls = _optimizer_class(optimizer)
-    names = {p for p in inspect.signature(cls.__init__).parameters if p != "self"}
-    space = SearchSpace(tune.get("space"), names, optimizer)
-    fixed = tune.get("fixed") or {}
-    if not isinstance(fixed, Mapping):
-        raise ConfigError("tune.fixed: a mapping of hyperparameters to values")
+    top = check_section("", raw, TUNE)
+    tune = check_section("tune", top["tune"], TUNE_SECTION)
+    optimizer = tune["optimizer"]
+    names = set(signature_settings(_optimizer_class(optimizer)))
+    space = SearchSpace(tune["space"], names, optimizer)
+    fixed = tune["fixed"] or {}
     both = set(fixed) & set(space.names())
     if both:
         raise ConfigError(f"tune.fixed: {', '.join(sorted(both))} also in tune.space "
                           "(fixed and searched at once)")
-    unknown = set(fixed) - names
-    if unknown:
-        raise ConfigError(f"tune.fixed.{sorted(unknown)[0]}: {optimizer!r} has no such "
-                          "hyperparameter")
-    encoding = dict(tune.get("encoding") or {"kind": "mask"})
-    if encoding.get("kind") not in ("mask", "indices"):
-        raise ConfigError(f"tune.encoding.kind: mask or indices, got {encoding.get('kind')!r}")
-    objective = _section(raw, "objective")
-    train, n_train = _instances("train", raw.get("train"))
-    test, n_test = _instances("test", raw.get("test"))
+    _unknown("tune.fixed", fixed, names)
+    encoding = dict(tune["encoding"] or {"kind": "mask"})
+    check_value("tune.encoding.kind", encoding.get("kind"), Setting(values=("mask", "indices")))
+    objective = dict(top["objective"])
+    train, n_train = _instances("train", top["train"])
+    test, n_test = _instances("test", top["test"])
     overlap = set(train) & set(test)
     if overlap:
         raise ConfigError(f"test.instances: {sorted(i.key for i in overlap)[0]} is also a "
@@ -239,49 +237,27 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
         raise ConfigError(f"test.instances: {leaked[0]} is a training instance with other "
                           "noise; judge on instances the tuner never saw (suite:test)")
     if "task" in objective:
-        _unknown("objective", objective, {"task"})
+        check_section("objective", objective, {"task": Setting((object,))})
         from metaknot.suite.tasks import get_task
 
         for instance in (*train, *test):
             if instance.suite is None:
                 raise ConfigError(f"objective.task: the task of a suite instance; "
                                   f"{instance.key} is not one (give name: and its options)")
-            try:
+            with naming("objective.task"):
                 get_task(instance.suite, str(objective["task"]))
-            except ValueError as exc:
-                raise ConfigError(f"objective.task: {exc}") from None
-    compare = raw.get("compare_with") or []
-    if isinstance(compare, str):
-        compare = [compare]
+    compare = top["compare_with"] or []
+    compare = [compare] if isinstance(compare, str) else compare
     for name in compare:
         _optimizer_class(name)
-    sampler = _choice("sampler", raw.get("sampler", "tpe"), SAMPLERS)
-    pruner = _choice("pruner", raw.get("pruner", "median"), PRUNERS)
-    storage = raw.get("storage")
-    if storage is not None and (not isinstance(storage, str) or not storage):
-        raise ConfigError(f"storage: null, journal, journal:<file> or an Optuna storage URL, "
-                          f"got {storage!r}")
-    timeout = _float("timeout", raw.get("timeout"), low=0.0, optional=True)
-    evaluate = _bool("evaluate", raw.get("evaluate", True))
-    spec = TuneSpec(
-        study=study, results_dir=Path(results_dir), optimizer=optimizer, space=space,
-        fixed=dict(fixed), encoding=encoding, objective=objective,
-        budget=_int("budget", raw.get("budget"), low=1),
-        n_trials=_int("n_trials", raw.get("n_trials"), low=1),
-        train=train, train_seeds=tuple(TRAIN_SEED_OFFSET + i for i in range(n_train)),
-        test=test, test_seeds=tuple(range(n_test)),
-        reference=_optimizer_class(raw.get("reference", "averaging")).name,
-        compare_with=tuple(compare), seed=_int("seed", raw.get("seed", 0), low=0),
-        sampler=sampler, pruner=pruner, storage=storage,
-        workers=_int("workers", raw.get("workers", 1), low=1),
-        worker_index=_int("worker_index", raw.get("worker_index", 0), low=0),
-        timeout=timeout, evaluate=evaluate,
-        heartbeat_interval=_int("heartbeat_interval", raw.get("heartbeat_interval", 10), low=1),
-        grace_period=_int("grace_period", raw.get("grace_period", 30), low=1),
-        max_retry=_int("max_retry", raw.get("max_retry", 2), low=0),
-        degree=_int("degree", raw.get("degree", 3), low=1, high=5),
-        parameterization=raw.get("parameterization", "centripetal"), raw=raw,
-    )
+    settings = {key: top[key] for key in TUNE if key in TuneSpec.__dataclass_fields__}
+    spec = TuneSpec(**{**settings, "results_dir": Path(top["results_dir"]),
+                       "optimizer": optimizer, "space": space, "fixed": dict(fixed),
+                       "encoding": encoding, "objective": objective, "train": train,
+                       "train_seeds": tuple(TRAIN_SEED_OFFSET + i for i in range(n_train)),
+                       "test": test, "test_seeds": tuple(range(n_test)),
+                       "reference": _optimizer_class(top["reference"]).name,
+                       "compare_with": tuple(compare), "raw": raw})
     if spec.grace_period <= spec.heartbeat_interval:
         raise ConfigError(f"grace_period: longer than heartbeat_interval "
                           f"({spec.heartbeat_interval} s), got {spec.grace_period}")
