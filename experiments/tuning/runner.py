@@ -321,17 +321,18 @@ def _quiet_when_interrupted() -> None:
     traceback, "Trial N failed with value None"): the command's one line says so."""
     import logging
 
-    from ..interrupt import Interrupted
-
-    def keep(record: logging.LogRecord) -> bool:
-        interrupted = record.exc_info is not None and isinstance(record.exc_info[1],
-                                                                  KeyboardInterrupt)
-        return not interrupted and "Interrupted(" not in record.getMessage() \
-            and not (Interrupted.raised and "failed with value None" in record.getMessage())
-
     for handler in logging.getLogger("optuna").handlers:
-        if not any(getattr(f, "__name__", "") == "keep" for f in handler.filters):
-            handler.addFilter(keep)
+        if _not_an_interrupt not in handler.filters:
+            handler.addFilter(_not_an_interrupt)
+
+
+def _not_an_interrupt(record: Any) -> bool:
+    """False for Optuna's log records about a trial an interrupt failed."""
+    message = record.getMessage()
+    return not ((record.exc_info is not None
+                 and isinstance(record.exc_info[1], KeyboardInterrupt))
+                or "Interrupted(" in message
+                or (Interrupted.raised and "failed with value None" in message))
 
 
 def wait_for_running_trials(spec: TuneSpec, study: Any, storage: Any) -> None:

@@ -656,21 +656,27 @@ def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis:
                          spans: np.ndarray) -> float:
     """Largest distance of a data point to the periodic spline with coefficients ``coef``
     (``m`` of them), from the basis values and spans :func:`fit_closed` kept."""
-    n, d = q.shape
     worst = 0.0
-    for i in range(n):
-        j = spans[i]
-        dist2 = 0.0
-        for c in range(d):
-            s = 0.0
-            for k in range(p + 1):
-                ci = j + k
-                if ci >= m:
-                    ci -= m
-                s += basis[i, k] * coef[ci, c]
-            dist2 += (q[i, c] - s) ** 2
-        worst = max(worst, dist2)
+    for i in range(q.shape[0]):
+        worst = max(worst, periodic_distance2(q, i, basis[i], spans[i], coef, m, p))
     return np.sqrt(worst)
+
+
+@njit(cache=True, inline='always')
+def periodic_distance2(q, i, h, first, coef, m, p):
+    """Squared distance of point ``q[i]`` to a periodic spline of ``m`` coefficients ``coef``
+    at a parameter whose basis values ``h`` start at coefficient ``first`` (mod ``m``)."""
+    dist2 = 0.0
+    for c in range(q.shape[1]):
+        s = 0.0
+        for k in range(p + 1):
+            ci = first + k
+            if ci >= m:
+                ci -= m
+            s += h[k] * coef[ci, c]
+        diff = q[i, c] - s
+        dist2 += diff * diff
+    return dist2
 
 
 @njit(cache=True)

@@ -55,6 +55,7 @@ from ._kernel import (
     deviation_from_basis,
     extended_knots,
     fit_closed,
+    periodic_distance2,
     rotate_dense,
 )
 from ._moves_rows import EMPTY, FASTMATH, absorb, sweep, window
@@ -260,12 +261,9 @@ def _order_verdict(t2, lo, hi, p, max_mult):
     for i in range(lo, hi):
         if t2[i] < t2[i - 1]:
             return COINCIDENT_KNOTS
-    run = 1  # copies so far, interior knots only (the clamped ends repeat p + 1 times)
-    for i in range(max(lo - max_mult - 1, p + 2), min(hi + max_mult + 1, t2.size - p - 1)):
-        run = run + 1 if t2[i] == t2[i - 1] else 1
-        if run > max_mult:
-            return COINCIDENT_KNOTS
-    return FEASIBLE
+    # runs of interior knots only (the clamped ends repeat p + 1 times)
+    return _runs_verdict(t2, max(lo - max_mult - 1, p + 2),
+                         min(hi + max_mult + 1, t2.size - p - 1), max_mult, FEASIBLE)
 
 
 @njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
@@ -792,12 +790,13 @@ def _closed_candidate(interior, start, stop, inserted, breaks, max_mult):
 
 
 @njit(cache=True)
-def _runs_verdict(breaks, lo, hi, max_mult, verdict):
-    """``COINCIDENT_KNOTS`` if sorted breakpoints ``breaks[lo - 1:hi]`` repeat one more than
-    ``max_mult`` times (``breaks[0] = 0`` is no interior knot), else ``verdict``."""
+def _runs_verdict(knots, lo, hi, max_mult, verdict):
+    """``COINCIDENT_KNOTS`` if sorted knots ``knots[lo - 1:hi]`` repeat one more than
+    ``max_mult`` times, else ``verdict`` (open and closed move checks; a caller keeps the range
+    to interior knots)."""
     run = 1
     for i in range(lo, hi):
-        run = run + 1 if breaks[i] == breaks[i - 1] else 1
+        run = run + 1 if knots[i] == knots[i - 1] else 1
         if run > max_mult:
             return COINCIDENT_KNOTS
     return verdict
@@ -1073,7 +1072,7 @@ def _closed_max_deviation(q, p, spans, basis, window_basis, window_span, s, m, m
     """Largest distance of a data point to a merged periodic candidate with the coefficients
     ``coef`` (counted from the candidate's cut): every row's value from its basis (the window's
     for rows in the window, the incumbent's elsewhere)."""
-    n, d = q.shape
+    n = q.shape[0]
     delta = m2 - m
     worst = 0.0
     for r in range(n):
@@ -1090,15 +1089,5 @@ def _closed_max_deviation(q, p, spans, basis, window_basis, window_span, s, m, m
             if k >= KR:
                 k += delta
             h = basis[r]
-        dist2 = 0.0
-        for c in range(d):
-            acc = 0.0
-            for i in range(p + 1):
-                fc = k + i
-                if fc >= m2:
-                    fc -= m2
-                acc += h[i] * coef[fc, c]
-            diff = q[r, c] - acc
-            dist2 += diff * diff
-        worst = max(worst, dist2)
+        worst = max(worst, periodic_distance2(q, r, h, k, coef, m2, p))
     return math.sqrt(worst)
