@@ -38,7 +38,7 @@ __all__ = ["Partition", "TaskEnded", "check", "launch", "partitions", "workers"]
 COMMAND_TIMEOUT = 60.0
 #: Seconds between two questions to ``sacct`` (and ``squeue``) while tasks have no result.
 STATE_INTERVAL = 10.0
-#: Seconds to wait for the result files of tasks SLURM says have ended (a network file
+#: Seconds to wait for the result files of tasks SLURM says have completed (a network file
 #: system shows new files late).
 RESULT_GRACE = 15.0
 #: Tasks named one by one in the leader's summary; more are counted.
@@ -279,9 +279,9 @@ def _wait(jobs: list[Any]) -> dict[str, str]:
         missing = gone
     deadline = time.monotonic() + RESULT_GRACE
     while time.monotonic() < deadline and any(
-            job.job_id not in vanished and not job.paths.result_pickle.exists()
+            _state(job) == "COMPLETED" and not job.paths.result_pickle.exists()
             for job in jobs):
-        time.sleep(1.0)
+        time.sleep(1.0)  # completed, its result not seen yet (a network file system)
     return vanished
 
 
