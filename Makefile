@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test typecheck docs chromium postgres lint bench seed-paper clean
+.PHONY: demo test typecheck docs chromium postgres slurm lint bench seed-paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -35,6 +35,9 @@ postgres:  ## the PostgreSQL server the distributed-tuning test starts on 127.0.
 	@ls /usr/lib/postgresql/*/bin/initdb >/dev/null 2>&1 || { apt-get update -q && \
 	  apt-get install -y -q --no-install-recommends postgresql; } || \
 	  { echo "install Debian's postgresql (apt-get install postgresql) for the tuning test"; exit 1; }
+
+slurm:  ## a one-node SLURM cluster on 127.0.0.1 for the SLURM test (Debian's slurm and MariaDB for sacct); stop it with .ci/slurm stop
+	@.ci/slurm start
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

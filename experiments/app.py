@@ -56,14 +56,17 @@ CONFIG_DIR = Path(__file__).resolve().parent / "conf"
 
 
 def register_hydra_plugins() -> None:
-    """Make the study sweeper known to Hydra (its plugin scan misses editable installs) and
-    register every optimizer's config (:func:`register_signature_configs`)."""
+    """Make the study sweeper and the SLURM launcher known to Hydra (its plugin scan misses
+    editable installs) and register every optimizer's config
+    (:func:`register_signature_configs`)."""
     from hydra.core.plugins import Plugins
 
     plugins = Plugins.instance()  # the plugin scan first: it may import the sweeper module
+    from hydra_plugins.metaknot_study_sweeper.slurm_launcher import SlurmLauncher
     from hydra_plugins.metaknot_study_sweeper.study_sweeper import StudySweeper
 
     plugins.register(StudySweeper)
+    plugins.register(SlurmLauncher)
     register_signature_configs()
 
 

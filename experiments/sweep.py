@@ -22,7 +22,7 @@ import os
 import sys
 import threading
 from collections import Counter
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, cast
 
@@ -31,6 +31,7 @@ from hydra.errors import HydraException
 from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
+from . import slurm
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
 from .spec import ConfigError, RunSpec, check_writable, run_spec
 from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, StoreError, default_study_note
@@ -262,6 +263,8 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
         if the_plan.to_run:  # nothing is computed that could not be stored
             for folder in (study_dir, sweep_dir):
                 check_writable(folder)
+            if _is_slurm(sweeper.config):  # nor submitted that the cluster cannot take
+                slurm.check(OmegaConf.select(sweeper.config, "hydra.launcher"))
         print(the_plan.describe(study_dir), file=sys.stderr, flush=True)
         if not the_plan.to_run:
             return []
@@ -277,8 +280,12 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
         raise
     outcomes: list[dict[str, Any]] = []
     crashes: Counter[str] = Counter()
+    ended: list[str] = []
     for results in returns:
         for r in results:
+            if isinstance(r._return_value, slurm.TaskEnded):  # a task without a result
+                ended.append(str(r._return_value))
+                continue
             try:
                 outcome = r.return_value
             except Exception as exc:  # a job that crashed outside the run (a launcher error)
@@ -286,17 +293,19 @@ def sweep(sweeper: Any, arguments: list[str]) -> list[Any]:
                 continue
             outcomes.extend(outcome if isinstance(outcome, list) else [outcome])
     stored, total = _stored(the_plan)
-    lines = summary(study_dir, outcomes, crashes, stored, total)
+    lines = summary(study_dir, outcomes, crashes, stored, total, ended)
     print("\n".join(lines), file=sys.stderr, flush=True)
-    if len(lines) > 1:  # runs that could not be stored, or jobs that crashed
+    if len(lines) > 1:  # runs that could not be stored, jobs that crashed, tasks lost
         raise SystemExit(1)
     return returns
 
 
 def summary(study_dir: Path, outcomes: list[dict[str, Any]], crashes: Counter[str],
-            stored: int, total: int) -> list[str]:
+            stored: int, total: int, ended: Sequence[str] = ()) -> list[str]:
     """The sweep's last words: what its runs did and how many of the planned runs are stored,
-    then one line per kind of run that could not be stored and per kind of crashed job."""
+    then one line per kind of run that could not be stored, per kind of crashed job and per
+    SLURM task that ended without a result (``ended``, the first
+    :data:`~.slurm.SHOWN_TASKS` of them, and then their count)."""
     statuses = Counter(o["status"] for o in outcomes)
     order = sorted(statuses, key=lambda status: (status not in COMPLETE_STATUSES,
                                                  status in ("not_run", "not_stored"), status))
@@ -319,6 +328,10 @@ def summary(study_dir: Path, outcomes: list[dict[str, Any]], crashes: Counter[st
                          f"are kept in {kept}: move them into "
                          f"{study_dir / Path(kept).name}/ once there is space")
     lines += [f"  {n} job(s) ended with an error: {error}" for error, n in sorted(crashes.items())]
+    lines += [f"  {line}" for line in ended[: slurm.SHOWN_TASKS]]
+    if len(ended) > slurm.SHOWN_TASKS:
+        lines.append(f"  ... and {len(ended) - slurm.SHOWN_TASKS} more tasks without a result "
+                     "(their logs are in the sweep's .submitit/ folder)")
     if len(lines) > 1:
         lines.append("  run the same command to compute the missing runs once the cause is "
                      "fixed")
@@ -396,8 +409,10 @@ def _warm_joblib_workers(config: Any) -> threading.Thread | None:
     reuses them for the jobs, which then start at once instead of after a second of imports.
     Uses the launcher's own joblib settings, or joblib would start a new set."""
     launcher = OmegaConf.select(config, "hydra.launcher")
+    if launcher is None or "Joblib" not in str(launcher.get("_target_", "")):
+        return None
     workers = launcher_workers(config)
-    if launcher is None or "Joblib" not in str(launcher.get("_target_", "")) or workers < 2:
+    if workers < 2:
         return None
     from joblib import Parallel, delayed
 
@@ -420,16 +435,22 @@ def _warm_joblib_workers(config: Any) -> threading.Thread | None:
     return thread
 
 
+def _is_slurm(config: Any) -> bool:
+    """Whether the sweep goes to SLURM (``launcher=slurm``, or submitit's own launcher)."""
+    return "Slurm" in str(OmegaConf.select(config, "hydra.launcher._target_") or "")
+
+
 def launcher_workers(config: Any) -> int:
-    """How many jobs the configured launcher runs at once (1 for Hydra's basic launcher)."""
+    """How many jobs the configured launcher runs at once (1 for Hydra's basic launcher; on
+    SLURM, what :func:`~.slurm.workers` counts)."""
     launcher = OmegaConf.select(config, "hydra.launcher") or {}
     target = str(launcher.get("_target_", ""))
     cores = os.cpu_count() or 1
     if "Joblib" in target:
         n_jobs = int(launcher.get("n_jobs", -1) or -1)
         return max(1, n_jobs if n_jobs > 0 else cores + 1 + n_jobs)
-    if "Slurm" in target:
-        return max(1, int(launcher.get("array_parallelism", 256) or 256))
+    if "Slurm" in target:  # the partition's CPUs, at most array_parallelism at once
+        return slurm.workers(launcher)
     if "Local" in target:  # submitit_local: one process per job, all at once
         return max(1, cores)
     return 1
