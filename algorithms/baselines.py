@@ -3,11 +3,12 @@
 Each baseline maps a number of interior knots K to interior knots, and those to a candidate of
 the problem's encoding: ``FreeKnots`` takes the positions (NaN-padded with ``variable_count``),
 ``KnotIndices`` the nearest data indices (made distinct with ``Encoding.repair``),
-``KnotSelection`` the 0/1 mask of those data points. If the problem fixes K (``KnotIndices``,
-``FreeKnots``), one candidate is evaluated; if it leaves K free (``KnotSelection``,
-``FreeKnots(variable_count=True)``), K = 1..K_max is scanned in batches, in increasing order, and
-the evaluator keeps the best under the problem's objective (paper, bic, error_bounded alike). A
-budget smaller than the scan ends it early. No randomness is used: every seed gives the same run.
+``KnotSelection`` the mask of those data points (1 at each, on a mask of multiplicities too).
+If the problem fixes K (``KnotIndices``, ``FreeKnots``), one candidate is evaluated; if it
+leaves K free (``KnotSelection``, ``FreeKnots(variable_count=True)``), K = 1..K_max is scanned
+in batches, in increasing order, and the evaluator keeps the best under the problem's objective
+(paper, bic, error_bounded alike). A budget smaller than the scan ends it early. No randomness
+is used: every seed gives the same run.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 from metaknot.bspline import fit_spline, fitpack
 from metaknot.optimizer import Optimizer, check_param
 from metaknot.problem import Encoding
-from metaknot.problems import FreeKnotSpace, KnotSpace
+from metaknot.problems import FreeKnotSpace, KnotSpace, is_mask
 from metaknot.registry import register
 from metaknot.task import ProblemView
 
@@ -46,7 +47,7 @@ def with_count(knots: np.ndarray, k: int, lower: float, upper: float) -> np.ndar
 def knots_to_candidate(problem: KnotSpace, knots: np.ndarray) -> np.ndarray:
     """The candidate of a knot problem (or its task) for these interior knots: the positions
     (NaN-padded with ``variable_count``), or the nearest data indices (made distinct), or the
-    0/1 mask of those data points."""
+    mask of those data points (1 at each: simple knots, on a mask of multiplicities too)."""
     encoding = problem.encoding
     if encoding.kind == "continuous":
         if isinstance(problem, FreeKnotSpace) and problem.variable_count:
@@ -56,9 +57,9 @@ def knots_to_candidate(problem: KnotSpace, knots: np.ndarray) -> np.ndarray:
     last = problem.last_candidate_point
     j = np.clip(np.searchsorted(u, knots), 1, u.size - 1)
     idx = np.clip(j - (knots - u[j - 1] <= u[j] - knots), 1, last)
-    if encoding.kind == "integer":
+    if not is_mask(problem):
         return encoding.repair(idx[None, :])[0]
-    mask = np.zeros(encoding.n_var, dtype=np.int64)
+    mask = np.zeros(encoding.n_var, dtype=np.int64)  # (of multiplicities: simple knots)
     if idx.size:
         sets = Encoding.integer(idx.size, 1, last, distinct_sorted=True)
         mask[sets.repair(idx[None, :])[0] - 1] = 1
@@ -91,7 +92,7 @@ class _KnotCountBaseline(Optimizer):
         # the problems of fixed K (KnotIndices, FreeKnots) and FreeKnots have n_knots
         counted = cast(Any, problem)
         kind = problem.encoding.kind
-        self.free_count = kind == "binary" or (isinstance(problem, FreeKnotSpace)
+        self.free_count = is_mask(problem) or (isinstance(problem, FreeKnotSpace)
                                                and problem.variable_count)
         if self.free_count:
             # a mask's most knots: N - p - 1 on an open curve, N - 1 (interpolation) closed

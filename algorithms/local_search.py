@@ -2,12 +2,15 @@
 
 The simple local method any population method must beat at equal budget:
 
-1. **Start** from the averaging knots (NURBS Book eqs. 9.68-9.69): on a 0/1 mask, scanned over
+1. **Start** from the averaging knots (NURBS Book eqs. 9.68-9.69): on a mask, scanned over
    the knot count K as the ``averaging`` baseline does (the best K under the problem's
    objective); on ordered indices, at the problem's K.
 2. **Improve** step by step. The neighbours of the incumbent: every knot removed, a knot
    inserted at the middle data point of every knot span (masks only; indices keep K), and every
-   knot shifted by ``±1..max_step`` data points (onto free points). With ``pivot="first"`` (the
+   knot shifted by ``±1..max_step`` data points (onto free points); on a mask of
+   multiplicities (``KnotSelection(max_multiplicity=m)``) a removal lowers a knot's
+   multiplicity by one, a shift moves all its copies and a knot below ``m`` may be raised by
+   one (a kink, or a corner at the degree). With ``pivot="first"`` (the
    default) they are tried in a random order, ``batch_size`` at a time, and the first one
    better than the incumbent replaces it (the evaluator counts the rows up to it:
    :meth:`~metaknot.Optimizer.acceptance`); with ``pivot="best"`` the whole neighbourhood is
@@ -35,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
-from metaknot.problems import KnotSpace
+from metaknot.problems import KnotSpace, is_mask
 from metaknot.registry import register
 from metaknot.task import ProblemView
 
@@ -44,14 +47,19 @@ from .baselines import AveragingKnots
 __all__ = ["LocalSearch", "index_neighbours", "mask_neighbours"]
 
 
-def mask_neighbours(mask: np.ndarray, max_step: int = 1, *, ordered: bool = True
-                    ) -> np.ndarray:
+def mask_neighbours(mask: np.ndarray, max_step: int = 1, *, ordered: bool = True,
+                    max_multiplicity: int = 1) -> np.ndarray:
     """Distinct masks one move from ``mask``: a knot removed, a knot inserted at the middle of a
     span (between consecutive selected points, or an end), a knot shifted to a free point.
 
-    No two moves give the same mask (a removal, an insertion and a shift change the count
-    differently; shifts differ in the knot moved or its target). ``ordered``: sorted as rows
-    (the order best improvement breaks ties in); else removals, insertions, shifts."""
+    On a mask of multiplicities (``max_multiplicity`` above 1; an entry is the multiplicity of
+    the knot at that point) a removal lowers a knot's multiplicity by one, a shift moves all its
+    copies, and a knot below ``max_multiplicity`` may also be raised by one.
+
+    No two moves give the same mask (a removal, an insertion, a raise and a shift change the
+    mask differently; shifts differ in the knot moved or its target). ``ordered``: sorted as
+    rows (the order best improvement breaks ties in); else removals, insertions, shifts,
+    raises."""
     mask = np.asarray(mask, dtype=np.int64)
     n = mask.size
     on = np.flatnonzero(mask)
@@ -64,16 +72,18 @@ def mask_neighbours(mask: np.ndarray, max_step: int = 1, *, ordered: bool = True
     free = (target >= 0) & (target < n)
     free[free] = mask[target[free]] == 0
     source, target = source[free], target[free]
-    count = on.size + inserted.size + source.size
+    raised = on[mask[on] < max_multiplicity]
+    count = on.size + inserted.size + source.size + raised.size
     if count == 0:
         return np.empty((0, n), dtype=np.int64)
     moves = np.repeat(mask[None, :], count, axis=0)
     rows = np.arange(count)
-    moves[rows[: on.size], on] = 0  # removals
+    moves[rows[: on.size], on] -= 1  # removals
     moves[rows[on.size: on.size + inserted.size], inserted] = 1  # insertions
-    shifts = rows[on.size + inserted.size:]
+    shifts = rows[on.size + inserted.size: count - raised.size]
+    moves[shifts, target] = mask[source]
     moves[shifts, source] = 0
-    moves[shifts, target] = 1
+    moves[rows[count - raised.size:], raised] += 1  # raises
     return np.unique(moves, axis=0) if ordered else moves
 
 
@@ -134,6 +144,7 @@ class LocalSearch(Optimizer):
         super().setup(problem, rng)
         if not isinstance(problem, KnotSpace):
             raise ValueError(f"optimizer {self.name!r} needs a knot problem; got {problem.name!r}")
+        self._mask = is_mask(problem)
         self._start = AveragingKnots(batch_size=self.batch_size)
         self._start.setup(problem, rng)
         self.incumbent: np.ndarray | None = None
@@ -153,8 +164,9 @@ class LocalSearch(Optimizer):
 
     def _neighbours(self, x: np.ndarray) -> np.ndarray:
         encoding = self.problem.encoding
-        if encoding.kind == "binary":  # first improvement shuffles them: no order needed
-            return mask_neighbours(x, self.max_step, ordered=self.pivot == "best")
+        if self._mask:  # first improvement shuffles them: no order needed
+            return mask_neighbours(x, self.max_step, ordered=self.pivot == "best",
+                                   max_multiplicity=int(encoding.upper.max()))
         return index_neighbours(x, int(encoding.lower.min()), int(encoding.upper.max()),
                                 self.max_step)
 
@@ -163,7 +175,7 @@ class LocalSearch(Optimizer):
         x = self.best_x
         assert x is not None  # asked for after a best was found
         encoding = self.problem.encoding
-        positions = encoding.n_var if encoding.kind == "binary" else \
+        positions = encoding.n_var if self._mask else \
             int(encoding.upper.max() - encoding.lower.min()) + 1
         for _ in range(min(self.kick + self._failed_kicks, max(self.kick, positions))):
             moves = self._neighbours(x)

@@ -20,6 +20,7 @@ from .knot_problems import (
     KnotSelection,
     KnotSolution,
     KnotSpace,
+    is_mask,
 )
 from .objectives import (
     BIC,
@@ -56,6 +57,7 @@ __all__ = [
     "get_curve",
     "get_objective",
     "header_line",
+    "is_mask",
     "load_points",
     "vivaldi",
 ]

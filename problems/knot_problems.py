@@ -36,7 +36,7 @@ from .objectives import DataInfo, Objective, _metrics_kernel, get_objective
 _NO_VALUES = np.empty(0)
 
 __all__ = ["FreeKnotSpace", "FreeKnots", "KnotIndices", "KnotProblem", "KnotSelection",
-           "KnotSolution", "KnotSpace"]
+           "KnotSolution", "KnotSpace", "is_mask"]
 
 
 @runtime_checkable
@@ -95,6 +95,16 @@ class FreeKnotSpace(KnotSpace, Protocol):
     def merge_spacing(self) -> float | None: ...
 
     def pad(self, positions: ArrayLike) -> np.ndarray: ...
+
+
+def is_mask(problem: KnotSpace) -> bool:
+    """Whether ``problem``'s candidates are masks over the candidate data points
+    (:class:`KnotSelection`): 0/1, or a multiplicity ``0..max_multiplicity`` per point. Its
+    entries may be 0, where an index set's (:class:`KnotIndices`) start at 1 and free knots
+    are continuous."""
+    encoding = problem.encoding
+    return encoding.kind == "binary" or (encoding.kind == "integer"
+                                         and int(encoding.lower.min()) == 0)
 
 
 @dataclass(frozen=True, eq=False)

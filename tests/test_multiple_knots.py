@@ -5,6 +5,8 @@ bipartite matching, and the refusals of a knot repeated more often than allowed.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline, make_lsq_spline
@@ -264,10 +266,11 @@ def test_a_mask_of_multiplicities_places_a_corner():
         KnotSelection(data, max_multiplicity=4)
 
 
-def test_a_search_over_multiplicities_places_knots_at_the_corners():
-    """(1+1) on a curve with corners at 0.45 and 0.8 (201 points, noise 1e-4, BIC): with
-    multiplicities it ends with a multiple knot at a corner and a better BIC than on 0/1
-    masks, the same seed and budget."""
+@pytest.mark.parametrize("optimizer", ["one_plus_one", "local_search"])
+def test_a_search_over_multiplicities_places_knots_at_the_corners(optimizer):
+    """(1+1) and the local search on a curve with corners at 0.45 and 0.8 (201 points, noise
+    1e-4, BIC): with multiplicities each ends with a multiple knot at a corner and a better
+    BIC than on 0/1 masks, the same seed and budget."""
     import metaknot as mk
     from metaknot.problems import PointSet
 
@@ -280,10 +283,64 @@ def test_a_search_over_multiplicities_places_knots_at_the_corners():
     found = {}
     for multiplicity in (1, 3):
         problem = KnotSelection(data, max_multiplicity=multiplicity, objective="bic")
-        found[multiplicity] = mk.minimize(problem, "one_plus_one", budget=3000, seed=0)
+        found[multiplicity] = mk.minimize(problem, optimizer, budget=3000, seed=0)
     assert found[3].best_f < found[1].best_f - 20
     counts = np.asarray(found[3].best_x)
     assert counts.max() >= 2 and set(x[1:-1][counts >= 2]) & {x[90], x[160]}
+
+
+@pytest.mark.parametrize("max_multiplicity", [1, 2, 3])
+def test_local_search_moves_on_a_mask_of_multiplicities(max_multiplicity):
+    """The local search's neighbours of a mask of multiplicities are exactly: one knot's
+    multiplicity lowered by one, a simple knot inserted at the middle of an empty span, all
+    copies of a knot shifted by 1..max_step onto an empty point, one knot raised by one below
+    the largest multiplicity; each once (on 0/1 masks the moves of before)."""
+    from metaknot.algorithms.local_search import mask_neighbours
+
+    rng = np.random.default_rng(max_multiplicity)
+    for _ in range(30):
+        mask = rng.integers(0, max_multiplicity + 1, 14) * (rng.random(14) < 0.4)
+        on = np.flatnonzero(mask)
+        expected = set()
+        for i in on:
+            y = mask.copy()
+            y[i] -= 1
+            expected.add(tuple(y))
+            if mask[i] < max_multiplicity:
+                y = mask.copy()
+                y[i] += 1
+                expected.add(tuple(y))
+            for target in (i - 2, i - 1, i + 1, i + 2):
+                if 0 <= target < mask.size and mask[target] == 0:
+                    y = mask.copy()
+                    y[target], y[i] = mask[i], 0
+                    expected.add(tuple(y))
+        bounds = [-1, *on.tolist(), mask.size]
+        for left, right in itertools.pairwise(bounds):
+            if right - left >= 2:
+                y = mask.copy()
+                y[(left + right) // 2] = 1
+                expected.add(tuple(y))
+        moves = mask_neighbours(mask, 2, ordered=False, max_multiplicity=max_multiplicity)
+        assert len(moves) == len(expected) == len({tuple(row) for row in moves})
+        assert {tuple(row) for row in moves} == expected
+        ordered = mask_neighbours(mask, 2, max_multiplicity=max_multiplicity)
+        assert [tuple(row) for row in ordered] == sorted(expected)
+
+
+def test_count_baselines_scan_the_knot_count_on_a_mask_of_multiplicities():
+    """The averaging baseline on a mask of multiplicities scans K as on a 0/1 mask (simple
+    knots at the same points: the same values); it asked a fixed K of it and failed."""
+    import metaknot as mk
+    from metaknot.problems import KnotSelection, PointSet
+
+    x = np.linspace(0.0, 1.0, 41)
+    data = PointSet(np.column_stack((x, np.abs(x - 0.45))), "corner", params=x)
+    runs = {m: mk.minimize(KnotSelection(data, max_multiplicity=m, objective="bic"),
+                           "averaging", budget=200, seed=0) for m in (1, 3)}
+    assert runs[3].n_evaluations == runs[1].n_evaluations == 37  # K = 1..N - p - 1
+    assert runs[3].best_f == runs[1].best_f
+    assert np.array_equal(np.asarray(runs[3].best_x), np.asarray(runs[1].best_x))
 
 
 def test_index_sets_with_repeats_are_multiple_knots_when_allowed():
