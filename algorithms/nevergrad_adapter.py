@@ -2,7 +2,8 @@
 ``nevergrad:<variant>``, e.g. ``nevergrad:NGOpt``, ``nevergrad:DiscreteOnePlusOne``,
 ``nevergrad:CMA``). nevergrad is an optional dependency (``pip install metaknot[adapters]``).
 
-The candidate is a nevergrad ``Array``: 0/1 with integer casting for masks, integers in the
+The candidate is a nevergrad ``Array``: 0/1 with integer casting for masks (0 up to the largest
+multiplicity for masks of multiplicities, started at 0.5 as a 0/1 mask is), integers in the
 index range for ``KnotIndices`` (repaired to sorted distinct sets before evaluation, the GA's
 rule), and the unit box of a :class:`~metaknot.algorithms.knot_map.KnotMap` for free knots (span
 weights centred on the averaging knots). ``batch_size`` candidates are asked at a time
@@ -15,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
+from metaknot.problems import is_mask
 from metaknot.registry import register
 from metaknot.task import ProblemView
 
@@ -86,8 +88,13 @@ class NevergradOptimizer(Optimizer):
             self.box = KnotMap.of(free_knots(problem, "nevergrad"))
             parametrization = ng.p.Array(shape=(n,), lower=0.0, upper=1.0)
         else:
-            parametrization = ng.p.Array(shape=(n,), lower=float(encoding.lower.min()),
-                                         upper=float(encoding.upper.max()))
+            # a mask of multiplicities starts where a 0/1 mask does (0.5: between no knot and
+            # a simple one), not at the box's centre (a multiple knot at every point: too
+            # many control points, every candidate near it infeasible)
+            lower, upper = float(encoding.lower.min()), float(encoding.upper.max())
+            init = np.full(n, 0.5) if is_mask(problem) else None
+            parametrization = ng.p.Array(init=init, lower=lower, upper=upper) \
+                if init is not None else ng.p.Array(shape=(n,), lower=lower, upper=upper)
             parametrization.set_integer_casting()
         parametrization.random_state.seed(int(rng.integers(2**31)))
         budget = getattr(problem, "budget", None)

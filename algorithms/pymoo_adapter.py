@@ -8,10 +8,13 @@ pymoo searches a genotype that is decoded into the problem's candidate:
   samples bits with probability 1/2, ``NSGA2`` draws each individual's density uniformly from
   (0, 1), so its first population already spans the control-point range of a front);
 * ``GA`` and ``NSGA2`` on index sets: integers in the index range (SBX and polynomial mutation
-  with rounding), repaired to sorted distinct sets (the GA's rule);
+  with rounding), repaired to sorted distinct sets (the GA's rule); on masks of multiplicities
+  the same operators, the first population sampled as 0/1 masks are;
 * otherwise (``DE``, ``BRKGA``, and ``GA`` on free knots): random keys in ``[0, 1]^n``: a bit is
-  set where its key exceeds 1/2, an index is ``lower + floor(key (upper - lower + 1))`` (then
-  repaired), and free knots come from the unit box of a
+  set where its key exceeds 1/2 (on a mask of multiplicities, a copy more of the knot at 3/4,
+  7/8, ... up to the largest multiplicity), an index is
+  ``lower + floor(key (upper - lower + 1))`` (then repaired), and free knots come from the
+  unit box of a
   :class:`~metaknot.algorithms.knot_map.KnotMap` (span weights centred on the averaging knots).
 
 pymoo runs through its ask/tell interface with metaknot's evaluator (each population is one
@@ -27,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
+from metaknot.problems import is_mask
 from metaknot.registry import register
 from metaknot.task import ProblemView
 
@@ -131,7 +135,11 @@ class PymooOptimizer(Optimizer):
             return method(pop_size=size, sampling=sampling, crossover=TwoPointCrossover(),
                           mutation=BitflipMutation(), eliminate_duplicates=True)
         if self.genotype == "integer":
-            return method(pop_size=size, sampling=IntegerRandomSampling(),
+            # a mask of multiplicities starts from 0/1 masks (as a 0/1 mask does): uniform
+            # multiplicities put a multiple knot at most points, every candidate infeasible
+            sampling = IntegerRandomSampling() if not is_mask(self.problem) else \
+                _as_integers(_spread_sampling() if method is NSGA2 else BinaryRandomSampling())
+            return method(pop_size=size, sampling=sampling,
                           crossover=SBX(vtype=float, repair=RoundingRepair()),
                           mutation=PM(vtype=float, repair=RoundingRepair()),
                           eliminate_duplicates=True)
@@ -161,6 +169,10 @@ class PymooOptimizer(Optimizer):
             return encoding.repair(X) if encoding.distinct_sorted else X
         if encoding.kind == "binary":
             return (G > 0.5).astype(np.int64)
+        if is_mask(self.problem):  # a knot where the key exceeds 1/2, a copy more for each
+            with np.errstate(divide="ignore"):  # halving of the distance to 1 (key 1: -log 0)
+                copies = np.floor(-np.log2(np.maximum(1.0 - G, 0.0)))
+            return np.where(G > 0.5, np.minimum(copies, encoding.upper), 0).astype(np.int64)
         if encoding.kind == "integer":
             lo, hi = encoding.lower, encoding.upper
             X = np.minimum(lo + np.floor(G * (hi - lo + 1)).astype(np.int64), hi)
@@ -191,6 +203,17 @@ class PymooOptimizer(Optimizer):
         self.method.evaluator.eval(StaticProblem(self.pymoo_problem, F=values), self._pop)
         self.method.tell(infills=self._pop)
         self._pop = None
+
+
+def _as_integers(sampling):
+    """pymoo ``sampling`` with its samples as integers (0/1 masks for an integer genotype)."""
+    from pymoo.core.sampling import Sampling
+
+    class IntegerSampling(Sampling):
+        def _do(self, problem, n_samples, *args, **kwargs):
+            return np.asarray(sampling._do(problem, n_samples, *args, **kwargs), dtype=np.int64)
+
+    return IntegerSampling()
 
 
 def _spread_sampling():

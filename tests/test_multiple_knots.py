@@ -343,6 +343,26 @@ def test_count_baselines_scan_the_knot_count_on_a_mask_of_multiplicities():
     assert np.array_equal(np.asarray(runs[3].best_x), np.asarray(runs[1].best_x))
 
 
+@pytest.mark.parametrize("optimizer", ["nevergrad", "nevergrad:DiscreteOnePlusOne", "pymoo",
+                                       "pymoo:DE"])
+def test_adapters_start_a_mask_of_multiplicities_where_a_mask_starts(optimizer):
+    """nevergrad and pymoo on a mask of multiplicities (a corner, 101 points, BIC): their first
+    candidates are 0/1 masks (nevergrad's box centre and pymoo's uniform integers put a multiple
+    knot at most points: no feasible candidate in 1,000 evaluations), so they find a finite
+    BIC as on the 0/1 mask, and may place a multiple knot."""
+    import metaknot as mk
+    from metaknot.problems import KnotSelection, PointSet
+
+    x = np.linspace(0.0, 1.0, 101)
+    y = np.abs(x - 0.45) + np.random.default_rng(0).normal(0.0, 1e-4, x.size)
+    data = PointSet(np.column_stack((x, y)), "corner", params=x)
+    binary = mk.minimize(KnotSelection(data, objective="bic"), optimizer, budget=1000, seed=0)
+    counts = mk.minimize(KnotSelection(data, max_multiplicity=2, objective="bic"), optimizer,
+                         budget=1000, seed=0)
+    assert np.isfinite(counts.best_f) and counts.best_f < binary.best_f + 400
+    assert set(np.unique(np.asarray(counts.best_x))) <= {0, 1, 2}
+
+
 def test_index_sets_with_repeats_are_multiple_knots_when_allowed():
     """KnotIndices with max_multiplicity: an index repeated is a multiple knot at that data
     point, fitted as the same knots are by a mask of multiplicities; by default a repeat is
