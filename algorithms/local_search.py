@@ -87,11 +87,14 @@ def mask_neighbours(mask: np.ndarray, max_step: int = 1, *, ordered: bool = True
     return np.unique(moves, axis=0) if ordered else moves
 
 
-def index_neighbours(x: np.ndarray, lower: int, upper: int, max_step: int = 1) -> np.ndarray:
-    """Sorted index sets one shift from ``x``: a knot moved by ``±1..max_step`` to a free
-    index within ``lower..upper``."""
+def index_neighbours(x: np.ndarray, lower: int, upper: int, max_step: int = 1,
+                     max_multiplicity: int = 1) -> np.ndarray:
+    """Sorted index sets one shift from ``x``: a knot moved by ``±1..max_step`` to an index
+    within ``lower..upper`` that holds fewer than ``max_multiplicity`` knots (a free one for
+    distinct knots; else onto a knot, raising its multiplicity)."""
     x = np.asarray(x, dtype=np.int64)
-    taken = set(x.tolist())
+    values, counts = np.unique(x, return_counts=True)
+    taken = {int(v) for v, c in zip(values, counts, strict=True) if c >= max_multiplicity}
     moves = []
     for k, value in enumerate(x):
         for step in range(1, max_step + 1):
@@ -168,7 +171,7 @@ class LocalSearch(Optimizer):
             return mask_neighbours(x, self.max_step, ordered=self.pivot == "best",
                                    max_multiplicity=int(encoding.upper.max()))
         return index_neighbours(x, int(encoding.lower.min()), int(encoding.upper.max()),
-                                self.max_step)
+                                self.max_step, int(getattr(self.problem, "max_multiplicity", 1)))
 
     def _kicked_best(self) -> np.ndarray | None:
         """The best solution after ``kick`` random moves (None if it has no neighbour)."""

@@ -97,7 +97,7 @@ class FreeKnotSpace(KnotSpace, Protocol):
     def pad(self, positions: ArrayLike) -> np.ndarray: ...
 
 
-def is_mask(problem: KnotSpace) -> bool:
+def is_mask(problem: ProblemView) -> bool:
     """Whether ``problem``'s candidates are masks over the candidate data points
     (:class:`KnotSelection`): 0/1, or a multiplicity ``0..max_multiplicity`` per point. Its
     entries may be 0, where an index set's (:class:`KnotIndices`) start at 1 and free knots

@@ -328,6 +328,20 @@ def test_local_search_moves_on_a_mask_of_multiplicities(max_multiplicity):
         assert [tuple(row) for row in ordered] == sorted(expected)
 
 
+def test_index_moves_may_raise_a_multiplicity_when_allowed():
+    """Shifts of an index set onto an index that holds a knot: refused for distinct knots,
+    allowed while that index holds fewer than ``max_multiplicity`` knots."""
+    from metaknot.algorithms.local_search import index_neighbours
+
+    x = np.array([3, 4, 4, 9])
+    distinct = {tuple(row) for row in index_neighbours(np.array([3, 4, 9]), 1, 12, 1)}
+    assert distinct == {(2, 4, 9), (3, 5, 9), (3, 4, 8), (3, 4, 10)}
+    double = {tuple(row) for row in index_neighbours(x, 1, 12, 1, max_multiplicity=2)}
+    assert double == {(2, 4, 4, 9), (3, 3, 4, 9), (3, 4, 5, 9), (3, 4, 4, 8), (3, 4, 4, 10)}
+    triple = {tuple(row) for row in index_neighbours(x, 1, 12, 1, max_multiplicity=3)}
+    assert triple == double | {(4, 4, 4, 9)}
+
+
 def test_count_baselines_scan_the_knot_count_on_a_mask_of_multiplicities():
     """The averaging baseline on a mask of multiplicities scans K as on a 0/1 mask (simple
     knots at the same points: the same values); it asked a fixed K of it and failed."""

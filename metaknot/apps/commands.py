@@ -65,6 +65,10 @@ def add_fit(sub: Any) -> None:
                           "removal: knot removal only; fitpack: FITPACK's answer; or a "
                           "method from the literature: newknt, equidistribution, "
                           "dominant_points, lyche_morken, bisection, sparse_l1")
+    parser.add_argument("--corners", action="store_true",
+                        help="allow knots of multiplicity up to the degree (the curve only "
+                             "continuous there): the search also starts with a multiple knot "
+                             "at each corner it finds; the result says where they are")
     parser.add_argument("--budget", type=int, default=20000,
                      help="evaluations of the GA at each count of the fixed-count search")
     parser.add_argument("--seed", type=int, default=0, help="seed of the searches")
@@ -168,13 +172,20 @@ def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path,
     result = fit_points(points, args.tolerance, relative=args.relative, metric=args.metric,
                  function=args.function, degree=args.degree,
                  parameterization=args.parameterization, closed=args.closed,
-                 method=args.method, budget=args.budget, seed=args.seed, progress=True,
+                 method=args.method, budget=args.budget, seed=args.seed,
+                 corners=args.corners, progress=True,
                  on_stage=lambda line: print(line, flush=True))  # each stage as it ends
     m = result.metrics
     print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
           f"{result.fitpack['n_control_points']}), max deviation {m['max_deviation']:.4g}, "
           f"RMSE {m['rmse']:.4g} (tolerance {result.tolerance:.4g} on {result.metric}), "
           f"{m['seconds']:.2f} s", flush=True)
+    values, counts = result.interior_knots
+    if (counts > 1).any():
+        print("multiple knots: " + ", ".join(
+            f"{value:.6g} ({count}x)" for value, count in zip(values[counts > 1],
+                                                            counts[counts > 1], strict=True)),
+            flush=True)
     try:
         fitted = points[:, 1:] if args.function else \
             points if result.points is None else result.points

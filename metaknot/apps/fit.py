@@ -43,7 +43,7 @@ from ..bspline.moves import PATH_DELTA, MoveEvaluator
 from ..bspline.parameterize import as_points, check_coordinates
 from ..validate import check_flag, check_tolerance, is_integer
 
-__all__ = ["ToleranceFit", "fit"]
+__all__ = ["ToleranceFit", "corner_params", "fit"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,6 +89,16 @@ class ToleranceFit:
         return np.asarray(self.spline.t)
 
     @property
+    def interior_knots(self) -> tuple[np.ndarray, np.ndarray]:
+        """The distinct interior knots (an open curve's; a closed outline's breakpoints in
+        (0, 1)) and the multiplicity of each (above 1 only with ``corners``)."""
+        p = self.degree
+        lo, hi = self.parameter_range
+        t = self.knots[p + 1 : self.knots.size - p - 1]
+        values, counts = np.unique(t[(t > lo) & (t < hi)], return_counts=True)
+        return values, counts
+
+    @property
     def control_points(self) -> np.ndarray:
         """The distinct control points (a closed curve's spline repeats its first p at the
         end of ``spline.c``)."""
@@ -114,9 +124,11 @@ class _Search:
     """Knot removal with nudging, on the compiled batched evaluator of the curve."""
 
     def __init__(self, curve: Curve, tol: float, metric: Metric, nudge_grid: int = 9,
-                 nudge_window: int = 3, nudge_tries: int = 3) -> None:
+                 nudge_window: int = 3, nudge_tries: int = 3, max_multiplicity: int = 1
+                 ) -> None:
         self.curve, self.tol, self.metric = curve, tol, metric
         self.grid, self.window, self.tries = nudge_grid, nudge_window, nudge_tries
+        self.max_multiplicity = max_multiplicity
         self.evaluations = 0
         self.delta_evaluations = 0
         self._moves: MoveEvaluator | None = None
@@ -129,7 +141,7 @@ class _Search:
         self.evaluations += len(rows)
         moves = None if near is None else self._move_evaluator(near)
         if moves is None:
-            return self.curve.errors(rows, self.metric)
+            return self.curve.errors(rows, self.metric, max_multiplicity=self.max_multiplicity)
         batch, path = moves.evaluate(*stack_rows(rows),
                                      max_deviation=self.metric == "max_deviation")
         self.delta_evaluations += int(np.count_nonzero(path == PATH_DELTA))
@@ -139,7 +151,8 @@ class _Search:
         """The move evaluator bound to the knots ``near`` (None if the curve has none, or the
         knots cannot be fitted)."""
         if self._moves is None or not np.array_equal(self._moves.interior, near):
-            self._moves = self.curve.move_evaluator(near, self._moves)
+            self._moves = self.curve.move_evaluator(near, self._moves,
+                                                    max_multiplicity=self.max_multiplicity)
         return self._moves
 
     def nudge(self, knots: np.ndarray, around: int, sweeps: int = 2) -> tuple[np.ndarray, float]:
@@ -168,7 +181,9 @@ class _Search:
         """Remove knots while the fit stays within the tolerance (see the module notes)."""
         knots = np.sort(np.asarray(knots, dtype=np.float64))
         while len(knots):
-            rows = [np.delete(knots, j) for j in range(len(knots))]
+            # one copy of each knot (a multiple knot loses one copy: the same row from each)
+            first = np.flatnonzero(np.diff(knots, prepend=-np.inf) != 0)
+            rows = [np.delete(knots, j) for j in first]
             errs = self.errors(rows, near=knots)
             order = np.argsort(errs)
             if errs[order[0]] <= self.tol:
@@ -177,7 +192,7 @@ class _Search:
             for j in order[: self.tries]:
                 if not np.isfinite(errs[j]):
                     return knots  # no removal left can be fitted: nothing to nudge
-                nudged, err = self.nudge(rows[j], int(j))
+                nudged, err = self.nudge(rows[j], int(first[j]))
                 if err <= self.tol:
                     knots = nudged
                     break
@@ -196,6 +211,53 @@ class _Search:
         return rows[ok[0]] if ok.size else None
 
 
+#: A data point is a corner where the polygon through its neighbours ``CORNER_REACH`` points
+#: away on either side turns by more than this (radians) and by more than at the points near it.
+CORNER_ANGLE = 0.5
+CORNER_REACH = 2
+
+
+def corner_params(curve: Curve, angle: float = CORNER_ANGLE, reach: int = CORNER_REACH
+                  ) -> np.ndarray:
+    """Parameters of the data points where the curve appears to have a corner: the chords to
+    the points ``reach`` away turn by more than ``angle`` there, the most within ``reach``
+    points (function data as the graph, each axis scaled to [0, 1]); only points strictly
+    inside the knot range (not a closed outline's point 0, an open curve's first or last
+    ``reach``)."""
+    q, u = curve.points, curve.params
+    if q.shape[1] == 1:
+        span = np.ptp(q[:, 0]) or 1.0
+        q = np.column_stack(((u - u[0]) / (u[-1] - u[0]), q[:, 0] / span))
+    after = np.roll(q, -reach, axis=0) - q
+    before = q - np.roll(q, reach, axis=0)
+    cos = np.einsum("ij,ij->i", after, before) / np.maximum(
+        np.linalg.norm(after, axis=1) * np.linalg.norm(before, axis=1), np.finfo(float).tiny)
+    turn = np.arccos(np.clip(cos, -1.0, 1.0))
+    if not curve.closed:
+        turn[:reach] = turn[-reach:] = 0.0
+    window = np.stack([np.roll(turn, k) for k in range(-reach, reach + 1)])
+    peaks = np.flatnonzero((turn >= window.max(axis=0)) & (turn > angle))
+    # of equal maxima within reach of each other, the first
+    peaks = peaks[np.diff(peaks, prepend=-reach - 1) > reach]
+    lo, hi = curve.knot_bounds
+    at = u[peaks]
+    return at[(at > lo) & (at < hi)]
+
+
+def _with_corners(knots: np.ndarray, corners: np.ndarray, multiplicity: int) -> np.ndarray:
+    """``knots`` with a knot of ``multiplicity`` at each corner (knots already there
+    replaced)."""
+    kept = knots[~np.isin(knots, corners)]
+    return np.sort(np.concatenate((kept, np.repeat(corners, multiplicity))))
+
+
+def _largest_multiplicity(knots: np.ndarray) -> int:
+    """The most copies of one value among sorted ``knots`` (1 for none)."""
+    if knots.size == 0:
+        return 1
+    return int(np.unique(knots, return_counts=True)[1].max())
+
+
 #: The searches tried at each knot count: local search, then a GA (name, options, budget).
 FIXED_COUNT_SEARCHES: tuple[tuple[str, dict[str, Any], int], ...] = (
     ("local_search", {}, 5000), ("ga", {"population": 100}, 20000))
@@ -205,12 +267,14 @@ STALL_EVALUATIONS = 5000
 
 def _fewer_at_fixed_counts(curve: Curve, tol: float, metric: Metric, parameterization: str,
                            count: int, searches: tuple = FIXED_COUNT_SEARCHES, seed: int = 0,
-                           progress: bool = False) -> tuple[np.ndarray | None, int]:
+                           progress: bool = False, max_multiplicity: int = 1
+                           ) -> tuple[np.ndarray | None, int]:
     """Knots at data points, one fewer at a time than ``count``: each count is searched under
     ``error_bounded`` at the same tolerance by the local search (best-improvement removal,
     insertion and shifts from the averaging knots), then, if that stays beyond the tolerance,
-    by the GA (``FIXED_COUNT_SEARCHES``, seed 0). Returns the knots of the last count found
-    within the tolerance (or None) and the fits used."""
+    by the GA (``FIXED_COUNT_SEARCHES``, seed 0); an index may repeat ``max_multiplicity``
+    times (a multiple knot). Returns the knots of the last count found within the tolerance
+    (or None) and the fits used."""
     from metaknot.callbacks import StopWhenStalled
     from metaknot.problems import KnotIndices, PointSet
     from metaknot.runner import minimize
@@ -222,7 +286,8 @@ def _fewer_at_fixed_counts(curve: Curve, tol: float, metric: Metric, parameteriz
     for k in range(count - 1, 0, -1):
         problem = KnotIndices(data, n_knots=k, degree=curve.degree, closed=curve.closed,
                               parameterization=parameterization, objective="error_bounded",
-                              objective_options={"tolerance": tol, "metric": metric})
+                              objective_options={"tolerance": tol, "metric": metric},
+                              max_multiplicity=max_multiplicity)
         within = None
         for name, options, budget in searches:
             try:
@@ -271,7 +336,7 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         metric: Metric = "max_deviation", function: bool = False,
         params: ArrayLike | None = None, degree: int = 3,
         parameterization: str = "centripetal", closed: bool | None = None,
-        method: str = "auto", budget: int = 20000, seed: int = 0,
+        method: str = "auto", budget: int = 20000, seed: int = 0, corners: bool = False,
         progress: bool = False, on_stage: Callable[[str], None] | None = None
         ) -> ToleranceFit:
     """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points.
@@ -308,6 +373,12 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     budget, seed
         Evaluations of the GA at each count of the fixed-count search (the local search gets
         a quarter) and the seed of both.
+    corners
+        Allow knots of multiplicity up to the degree, where the curve is then only continuous
+        (C^0; a double knot of a cubic leaves it C^1): the search also starts from each start
+        with a knot of multiplicity ``degree`` at every corner :func:`corner_params` finds,
+        knot removal lowers multiplicities one copy at a time, and the fixed-count search may
+        repeat a knot. Off by default: the spline is then C^(degree - 1) everywhere.
     progress
         Show a progress bar over each search's evaluations.
     on_stage
@@ -345,8 +416,9 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
     if not is_integer(budget) or budget < 1:
         raise ValueError(f"budget must be a positive integer; got {budget!r}")
     check_metric(metric)
-    relative, function, progress = (check_flag(name, value) for name, value in (
-        ("relative", relative), ("function", function), ("progress", progress)))
+    relative, function, progress, corners = (check_flag(name, value) for name, value in (
+        ("relative", relative), ("function", function), ("progress", progress),
+        ("corners", corners)))
     if closed is not None:
         closed = check_flag("closed", closed)
     q, params = _check_points(points, params, p, function)
@@ -389,7 +461,8 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
                                           closed=curve.closed)
         note(_fitpack_line(reference))
         return _literature_fit(curve, method, tol_abs, metric, reference, note, stages, start)
-    options = _SearchOptions(method, budget, seed, progress, parameterization)
+    options = _SearchOptions(method, budget, seed, progress, parameterization,
+                             p if corners else 1)
     if curve.n_points <= THIN_ABOVE:
         best, method_name, reference = _search(curve, params, tol_abs, metric, options, note)
         return _checked_answer(curve, best, method_name, tol_abs, metric, reference, note,
@@ -414,6 +487,7 @@ class _SearchOptions:
     seed: int
     progress: bool
     parameterization: str
+    max_multiplicity: int = 1
 
 
 def _fitpack_line(reference: dict, of: str = "") -> str:
@@ -424,10 +498,11 @@ def _fitpack_line(reference: dict, of: str = "") -> str:
 def _search(curve: Curve, params: np.ndarray | None, tol_abs: float, metric: Metric,
             options: _SearchOptions, note: Callable[[str], None], of: str = ""
             ) -> tuple[np.ndarray | None, str, dict]:
-    """FITPACK's answer, then metaknot's search from it and the other starts: returns the
-    knots found (None: none beat FITPACK's answer within the tolerance), the method that found
-    them and FITPACK's answer (``of`` names the points in the stage lines)."""
-    p, method = curve.degree, options.method
+    """FITPACK's answer, then metaknot's search from it and the other starts (and, with
+    corners, again from the starts with multiple knots at the corners): returns the knots
+    found (None: none beat FITPACK's answer within the tolerance), the method that found them
+    and FITPACK's answer (``of`` names the points in the stage lines)."""
+    p, method, multiplicity = curve.degree, options.method, options.max_multiplicity
     search = _Search(curve, tol_abs, metric)
     reference = fitpack.fewest_within(curve.params, curve.points, p, tol_abs, metric,
                                       closed=curve.closed)
@@ -437,34 +512,56 @@ def _search(curve: Curve, params: np.ndarray | None, tol_abs: float, metric: Met
     averaging = search.fewest_averaging(len(starts[0]) + 1)
     if averaging is not None:
         starts.append(averaging)
+    best, method_name = None, "knot removal"
     if method != "fitpack":
         starts += _literature_starts(curve, tol_abs, metric, note)
+        best, method_name = _reduce(search, starts, options, note, of)
+    if multiplicity > 1 and method != "fitpack":
+        corners = corner_params(curve)
+        note(f"corners{of}: {corners.size} found" + (
+            f"; the search again from each start with a knot of multiplicity {multiplicity} "
+            "at each" if corners.size else ""))
+        if corners.size:
+            found, how = _reduce(_Search(curve, tol_abs, metric, max_multiplicity=multiplicity),
+                                 [_with_corners(knots, corners, multiplicity)
+                                  for knots in starts], options, note, of + " with corners")
+            if found is not None and (best is None or len(found) < len(best)):
+                best, method_name = found, how + " with corners"
+    if best is not None and \
+            len(best) + curve.extra_control_points >= reference["n_control_points"]:
+        best = None
+    return best, method_name, reference
+
+
+def _reduce(search: _Search, starts: list[np.ndarray], options: _SearchOptions,
+            note: Callable[[str], None], of: str) -> tuple[np.ndarray | None, str]:
+    """Knot removal from each start within the tolerance, then (``method="auto"``) the
+    fixed-count search below the fewest found and removal once more: the fewest knots found
+    (None if no start is within the tolerance) and the method that found them."""
+    curve, tol_abs = search.curve, search.tol
     best = None
-    for knots in starts if method != "fitpack" else []:
+    for knots in starts:
         (err,) = search.errors([knots])
         if err > tol_abs:
             continue
         reduced = search.remove(knots)
         if best is None or len(reduced) < len(best):
             best = reduced
-    if method != "fitpack":
-        note(f"knot removal{of}: {search.evaluations:,} fits")
+    note(f"knot removal{of}: {search.evaluations:,} fits")
     method_name = "knot removal"
-    if best is not None and method == "auto":
+    if best is not None and options.method == "auto":
         searches: tuple[tuple[str, dict[str, Any], int], ...] = (
             (FIXED_COUNT_SEARCHES[0][0], {}, max(1, options.budget // 4)),
             (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], options.budget))
-        fewer, fits = _fewer_at_fixed_counts(curve, tol_abs, metric,
+        fewer, fits = _fewer_at_fixed_counts(curve, tol_abs, search.metric,
                                              options.parameterization, len(best), searches,
-                                             options.seed, options.progress)
+                                             options.seed, options.progress,
+                                             search.max_multiplicity)
         note(f"search at fixed counts{of}: {fits:,} fits, "
              f"{len(best) - (len(fewer) if fewer is not None else len(best))} knots fewer")
         if fewer is not None:  # and knot removal once more from there
             best, method_name = search.remove(fewer), "knot removal + fixed-count search"
-    if best is not None and \
-            len(best) + curve.extra_control_points >= reference["n_control_points"]:
-        best = None
-    return best, method_name, reference
+    return best, method_name
 
 
 def _checked_answer(curve: Curve, best: np.ndarray | None, method_name: str, tol_abs: float,
@@ -472,7 +569,8 @@ def _checked_answer(curve: Curve, best: np.ndarray | None, method_name: str, tol
                     stages: list[str], start: float) -> ToleranceFit:
     """The search's answer checked by a full fit, or FITPACK's answer."""
     if best is not None:
-        (err,) = curve.errors([best], metric)  # the answer checked by a full fit
+        (err,) = curve.errors([best], metric,  # the answer checked by a full fit
+                              max_multiplicity=_largest_multiplicity(best))
         if err <= tol_abs:
             return _result(curve, best, method_name, tol_abs, metric, reference, stages,
                            start)
@@ -504,7 +602,8 @@ def _thinned_search(curve: Curve, params: np.ndarray | None, tol_abs: float, met
         t_fp = found["spline"].t
         p = curve.degree
         candidates = ([best] if best is not None else []) + [t_fp[p + 1 : len(t_fp) - p - 1]]
-        errors = curve.errors([np.asarray(c, dtype=np.float64) for c in candidates], metric)
+        errors = curve.errors([np.asarray(c, dtype=np.float64) for c in candidates], metric,
+                              max_multiplicity=max(map(_largest_multiplicity, candidates)))
         fp_knots, fp_error = candidates[-1], float(errors[-1])
         if fp_error <= tol_abs:  # FITPACK's knots, least squares on all points: the reference
             reference = _on_all_points(curve, fp_knots, found)
@@ -537,7 +636,7 @@ def _result(curve: Curve, knots: np.ndarray | None, method: str, tol: float, met
     if knots is None:
         spline, found = reference["spline"], reference
     else:
-        solution = curve.fit(knots)
+        solution = curve.fit(knots, max_multiplicity=_largest_multiplicity(knots))
         spline, found = solution.spline, solution.metrics
     metrics = {k: found[k] for k in ("n_control_points", "max_deviation", "rmse")}
     metrics["seconds"] = time.perf_counter() - start

@@ -1,6 +1,7 @@
 """Files of a :class:`~metaknot.apps.fit.ToleranceFit` (``metaknot fit --out DIR``).
 
-``fit.json`` (knots, control points, degree, metrics, FITPACK's answer, the method),
+``fit.json`` (knots, the distinct interior knots and their multiplicities, control points,
+degree, metrics, FITPACK's answer, the method),
 ``knots.csv``, ``control_points.csv``, ``metrics.json``, ``fit.png`` / ``fit.svg`` (the data,
 the fitted curve and its knots) and ``fit.dxf`` (the curve as a DXF SPLINE entity, for CAD
 tools). All files are written to a temporary folder first and moved into place together, so a
@@ -36,6 +37,8 @@ def _summary(result: ToleranceFit) -> dict:
         "degree": result.degree, "closed": result.closed, "method": result.method,
         "metric": result.metric,
         "tolerance": result.tolerance, "knots": result.knots.tolist(),
+        "interior_knots": result.interior_knots[0].tolist(),
+        "multiplicities": result.interior_knots[1].tolist(),
         "control_points": result.control_points.tolist(), "metrics": result.metrics,
         "fitpack": result.fitpack, "files": list(FILES),
     }

@@ -307,11 +307,13 @@ class Curve(ABC):
         coefficients over its coefficients (the identity on an open curve; a closed one's
         first ``degree`` coefficients come again at the end)."""
 
-    def errors(self, knot_sets: list[np.ndarray] | np.ndarray, metric: Metric) -> np.ndarray:
-        """Error (``metric``) of the fit of each set of sorted interior knots; ``inf`` where
-        it cannot be fitted."""
+    def errors(self, knot_sets: list[np.ndarray] | np.ndarray, metric: Metric, *,
+               max_multiplicity: int = 1) -> np.ndarray:
+        """Error (``metric``) of the fit of each set of sorted interior knots (each knot
+        repeated at most ``max_multiplicity`` times); ``inf`` where it cannot be fitted."""
         check_metric(metric)
-        batch = self._evaluate_flat(*stack_rows(knot_sets), metric == "max_deviation")
+        batch = self._evaluate_flat(*stack_rows(knot_sets), metric == "max_deviation",
+                                    check_multiplicity(max_multiplicity, self.degree))
         return batch_errors(batch, metric, self.n_points)
 
 
