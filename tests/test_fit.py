@@ -762,3 +762,25 @@ def test_corners_on_the_command_line(tmp_path: Path) -> None:
     inner = knots[4:-4]
     np.testing.assert_array_equal(np.repeat(values, counts), inner)
     assert counts.max() == 3
+
+
+def test_polish_finds_the_control_points_of_kangs_spline() -> None:
+    """Kang et al.'s spline (15 control points, a double knot between the data parameters):
+    knot removal needs 19 at 1e-5 of the diagonal; with polish 15, within the tolerance by
+    scipy's least-squares spline on the knots found."""
+    from metaknot.suite import get_instance
+
+    data = get_instance("kang_spline").point_set()
+    points = np.column_stack((data.params, data.points))
+    plain = mk.fit(points, 1e-5, relative=True, function=True)
+    polished = mk.fit(points, 1e-5, relative=True, function=True, polish=True)
+    assert plain.n_control_points == 19 and polished.n_control_points == 15
+    assert polished.method.endswith("+ polish")
+    assert any(line.startswith("polish: ") for line in polished.stages)
+    t = np.asarray(polished.spline.t)
+    reference = make_lsq_spline(data.params, data.points[:, 0], t, k=3)
+    error = np.abs(reference(data.params) - data.points[:, 0]).max()
+    assert error <= polished.tolerance
+    assert polished.metrics["max_deviation"] == pytest.approx(error, rel=1e-6, abs=1e-12)
+    knots = polished.interior_knots[0]
+    assert not np.isin(knots, data.params).all()  # knots left the data points

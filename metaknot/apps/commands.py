@@ -69,6 +69,10 @@ def add_fit(sub: Any) -> None:
                         help="allow knots of multiplicity up to the degree (the curve only "
                              "continuous there): the search also starts with a multiple knot "
                              "at each corner it finds; the result says where they are")
+    parser.add_argument("--polish", action="store_true",
+                        help="where knot removal stops, move the knots of the most promising "
+                             "removal freely by variable projection and go on if that is "
+                             "within the tolerance (knots may leave the data points; slower)")
     parser.add_argument("--budget", type=int, default=20000,
                      help="evaluations of the GA at each count of the fixed-count search")
     parser.add_argument("--seed", type=int, default=0, help="seed of the searches")
@@ -173,7 +177,7 @@ def _fit_into(args: argparse.Namespace, points: np.ndarray, out: Path,
                  function=args.function, degree=args.degree,
                  parameterization=args.parameterization, closed=args.closed,
                  method=args.method, budget=args.budget, seed=args.seed,
-                 corners=args.corners, progress=True,
+                 corners=args.corners, polish=args.polish, progress=True,
                  on_stage=lambda line: print(line, flush=True))  # each stage as it ends
     m = result.metrics
     print(f"result: {m['n_control_points']} control points by {result.method} (FITPACK: "
