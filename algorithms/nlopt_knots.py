@@ -224,6 +224,12 @@ class NloptKnots(Optimizer):
         return self.box.unit(knots)
 
     def run(self, evaluator: Evaluator) -> None:
+        from .variable_projection import one_blas_thread
+
+        with one_blas_thread():  # the gradient's small matrices (see there)
+            self._run(evaluator)
+
+    def _run(self, evaluator: Evaluator) -> None:
         try:
             if self.problem.variable_count:
                 self._search_count(evaluator)

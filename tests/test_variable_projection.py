@@ -320,3 +320,30 @@ def test_kangs_spline_is_recovered_from_the_data_sites_nearest_its_knots():
                          optimizer_kwargs={"initial": list(start)})
     assert result.best_f <= 1e-12
     np.testing.assert_allclose(np.sort(result.best_x), KANG_KNOTS, atol=1e-9)
+
+
+@pytest.mark.parametrize("optimizer", ["varpro", "nlopt:LD_LBFGS"])
+def test_the_gradient_methods_run_blas_on_one_thread(optimizer, monkeypatch):
+    """Every residual and Jacobian of varpro and nlopt's gradient methods is computed with
+    BLAS on one thread (small matrices; a second thread waiting on a busy machine made them
+    100 times slower), and the limit ends with the run."""
+    from threadpoolctl import threadpool_info
+
+    import metaknot.algorithms.variable_projection as vp
+
+    def blas_threads() -> set[int]:
+        return {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
+
+    seen: list[set[int]] = []
+    original = vp.residual_jacobian
+
+    def recording(*args, **kwargs):
+        seen.append(blas_threads())
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(vp, "residual_jacobian", recording)  # nlopt imports it when called
+    before = blas_threads()
+    problem = FreeKnots(PointSet(CIRCLE), n_knots=4, closed=True, objective="rmse")
+    mk.minimize(problem, optimizer, budget=200, seed=0)
+    assert seen and all(threads == {1} for threads in seen)
+    assert blas_threads() == before
