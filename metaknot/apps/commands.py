@@ -69,10 +69,11 @@ def add_fit(sub: Any) -> None:
                         help="allow knots of multiplicity up to the degree (the curve only "
                              "continuous there): the search also starts with a multiple knot "
                              "at each corner it finds; the result says where they are")
-    parser.add_argument("--polish", action="store_true",
-                        help="where knot removal stops, move the knots of the most promising "
-                             "removal freely by variable projection and go on if that is "
-                             "within the tolerance (knots may leave the data points; slower)")
+    parser.add_argument("--no-polish", dest="polish", action="store_false",
+                        help="skip the last stage (the default polishes: where knot removal "
+                             "stops, the knots of the most promising removal are moved freely "
+                             "by variable projection, and removal goes on if that is within "
+                             "the tolerance)")
     parser.add_argument("--budget", type=int, default=20000,
                      help="evaluations of the GA at each count of the fixed-count search")
     parser.add_argument("--seed", type=int, default=0, help="seed of the searches")
