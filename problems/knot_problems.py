@@ -337,7 +337,7 @@ class KnotProblem(Problem):
             raise ValueError(f"decode takes one candidate, shape ({self.encoding.n_var},); got "
                              f"{X.shape}")
         row: np.ndarray = X[0]
-        value = self.evaluate_details(row[None, :])[0][0]
+        value = self._values(self._fit_batch(X))[0]  # X checked above
         value = float(value) if np.ndim(value) == 0 else value
         return KnotSolution(x=row, objective_value=value,
                             fit=self.curve.fit(self._interior_knots(row),
@@ -398,8 +398,8 @@ class KnotSelection(KnotProblem):
         return (rng.random((n, self.encoding.n_var)) < self.density).astype(np.int64)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        if self.max_multiplicity == 1:
-            return self.curve.evaluate_masks(X, max_deviation=self.objective.needs_max_deviation)
+        if self.max_multiplicity == 1:  # masks checked by the encoding
+            return self.curve._evaluate_masks(X, self.objective.needs_max_deviation)
         counts = np.asarray(X, dtype=np.int64)  # checked by the encoding: 0..max_multiplicity
         knots = np.repeat(np.tile(self.curve.candidate_params, len(counts)), counts.ravel())
         offsets = np.concatenate(([0], np.cumsum(counts.sum(axis=1))))
