@@ -220,7 +220,7 @@ class OnePlusOneEA(Optimizer):
     def _draw(self, ahead: int) -> None:
         """Draw the next steps' mutations, enough for ``ahead`` steps from :attr:`_next` on
         (:attr:`draw_steps` or :attr:`lookahead` at least), after those not yet taken."""
-        n_var, first = self.parent.size, self._next
+        n_var, first = self._encoding.n_var, self._next
         more = max(ahead - (self._counts.size - first),
                    self.draw_steps if self._binary else self.lookahead)
         counts, places, *per_gene = _flip_draws(n_var, self._rate, more, self.rng) \
