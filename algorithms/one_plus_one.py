@@ -110,16 +110,6 @@ def _step_draws(n_var: int, rate: float, max_step: int, steps: int, rng: np.rand
     return step_draws(rng, n_var, rate, max_step, steps)
 
 
-def _split_steps(draws: tuple[np.ndarray, ...], k: int
-                 ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
-    """The draws of :func:`_flip_draws` or :func:`_step_draws` of the first ``k`` steps, and
-    those of the rest."""
-    counts, places, *per_gene = draws
-    used = int(counts[:k].sum())
-    return ((counts[:k], places[:used], *(a[:k] for a in per_gene)),
-            (counts[k:], places[used:], *(a[k:] for a in per_gene)))
-
-
 def step_at_least_one(x: np.ndarray, rate: float, rows: int, max_step: int,
                       rng: np.random.Generator) -> np.ndarray:
     """``rows`` children of the integer vector ``x``: each gene moves with probability
@@ -171,14 +161,32 @@ class OnePlusOneEA(Optimizer):
     #: with one step per call: same draws, children, values and trace.
     lookahead = 64
 
+    #: Steps whose flips are drawn at a time, at least, on a 0/1 mask: a call of the compiled
+    #: draws costs about what 50 steps' draws do. The steps are taken in the order drawn, so
+    #: drawing ahead changes no child (index encodings, whose steps draw a size and sign for
+    #: every gene, draw :attr:`lookahead` steps at a time).
+    draw_steps = 1024
+
     def setup(self, problem: ProblemView, rng: np.random.Generator) -> None:
         super().setup(problem, rng)
-        n_var = problem.encoding.n_var
+        self._encoding = problem.encoding
+        self._binary = self._encoding.kind == "binary"
+        n_var = self._encoding.n_var
         self._rate = 1.0 / n_var if self.rate is None else self.rate
         self.parent: np.ndarray | None = None
         self.parent_f = np.inf
-        # the next steps' mutations, drawn in order, kept until used (see _split_steps)
-        self._draws: tuple[np.ndarray, ...] = (np.empty(0, np.int64),) * 2
+        # the next steps' mutations, drawn in order and taken in order from step _next on:
+        # how many genes each step changes, where its places begin in _places (and end),
+        # and on index encodings every gene's step size and sign draw per step
+        self._counts = np.empty(0, np.int64)
+        self._starts = np.zeros(1, np.int64)
+        self._places = np.empty(0, np.int64)
+        self._per_gene: tuple[np.ndarray, ...] = ()
+        self._next = 0
+        if self._binary and self.offspring == 1:
+            from ._mutation_kernels import flip_children  # compiled: loaded when used
+
+            self._flip_children = flip_children
         self._asked = 0  # children in the last batch asked ahead
         self._rejected = 0  # children rejected since the parent last changed
 
@@ -187,36 +195,43 @@ class OnePlusOneEA(Optimizer):
         child per step, the children of the next steps (see :attr:`lookahead`)."""
         if self.parent is None:
             return self.problem.sample(self.rng, 1)
-        encoding = self.problem.encoding
-        binary = encoding.kind == "binary"
         if self.offspring > 1:
-            if binary:
+            if self._binary:
                 return flip_at_least_one(self.parent, self._rate, self.offspring, self.rng)
             children = step_at_least_one(self.parent, self._rate, self.offspring,
                                          self.max_step, self.rng)
-            return encoding.repair(children)
-        # a task knows the evaluations left; a problem set up directly does not (the
-        # evaluator cuts the batch at the budget)
-        remaining = getattr(self.problem, "remaining", self.lookahead)
-        ahead = min(self.lookahead, max(1, self._rejected), remaining)
-        if self._draws[0].size < ahead:  # the next steps' draws, a lookahead at a time
-            more, n_var = max(ahead - self._draws[0].size, self.lookahead), self.parent.size
-            drawn = _flip_draws(n_var, self._rate, more, self.rng) if binary else \
-                _step_draws(n_var, self._rate, self.max_step, more, self.rng)
-            self._draws = drawn if not self._draws[0].size else \
-                tuple(np.concatenate(pair) for pair in zip(self._draws, drawn, strict=True))
-        (counts, places, *per_gene), _ = _split_steps(self._draws, ahead)
+            return self._encoding.repair(children)
+        # as many as were rejected in a row (the evaluator cuts a batch at the budget)
+        ahead = min(self.lookahead, max(1, self._rejected))
+        if self._counts.size - self._next < ahead:
+            self._draw(ahead)
+        first = self._next
         self._asked = ahead
-        rows = np.repeat(np.arange(ahead), counts)
+        if self._binary:
+            return self._flip_children(self.parent, self._starts, self._places, first, ahead)
+        places = self._places[self._starts[first] : self._starts[first + ahead]]
+        rows = np.repeat(np.arange(ahead), self._counts[first : first + ahead])
         parent = self.parent[None, :]
-        if binary:
-            children = np.repeat(parent, ahead, axis=0)
-            children[rows, places] ^= True
-            return children
         hit = np.zeros((ahead, parent.size), dtype=bool)
         hit[rows, places] = True
-        sizes, signs = per_gene
-        return encoding.repair(np.where(hit, parent + sizes * _SIGNS[signs], parent))
+        sizes, signs = (a[first : first + ahead] for a in self._per_gene)
+        return self._encoding.repair(np.where(hit, parent + sizes * _SIGNS[signs], parent))
+
+    def _draw(self, ahead: int) -> None:
+        """Draw the next steps' mutations, enough for ``ahead`` steps from :attr:`_next` on
+        (:attr:`draw_steps` or :attr:`lookahead` at least), after those not yet taken."""
+        n_var, first = self._encoding.n_var, self._next
+        more = max(ahead - (self._counts.size - first),
+                   self.draw_steps if self._binary else self.lookahead)
+        counts, places, *per_gene = _flip_draws(n_var, self._rate, more, self.rng) \
+            if self._binary else _step_draws(n_var, self._rate, self.max_step, more, self.rng)
+        self._counts = np.concatenate((self._counts[first:], counts))
+        self._places = np.concatenate((self._places[self._starts[first]:], places))
+        self._starts = np.concatenate(([0], np.cumsum(self._counts)))
+        self._per_gene = tuple(np.concatenate((kept[first:], new)) for kept, new in
+                               zip(self._per_gene, per_gene, strict=True)) \
+            if self._per_gene else tuple(per_gene)
+        self._next = 0
 
     def acceptance(self) -> np.ndarray | None:
         """With steps asked ahead: the parent's value for each (a child no worse is taken)."""
@@ -231,8 +246,8 @@ class OnePlusOneEA(Optimizer):
     def tell(self, X: np.ndarray, F: np.ndarray) -> None:
         """Keep the best child if it is no worse than the parent."""
         if self.parent is not None and self.offspring == 1:
-            self._draws = _split_steps(self._draws, len(F))[1]  # steps taken
-        best = int(np.argmin(F))
+            self._next += len(F)  # steps taken
+        best = int(F.argmin())
         if self.parent is None or F[best] <= self.parent_f:
             self.parent = np.array(X[best], copy=True)
             self.parent_f = float(F[best])

@@ -9,11 +9,14 @@ from numba import njit
 
 @njit(cache=True)
 def within(X: np.ndarray, low: int, high: int) -> bool:
-    """True if every entry of ``X`` lies in ``low..high`` (stops at the first that does not)."""
-    for value in X.flat:
-        if value < low or value > high:
-            return False
-    return True
+    """True if every entry of ``X`` lies in ``low..high``: one pass without a branch, which the
+    compiler vectorises (candidates are nearly always valid: stopping at the first one outside
+    saves nothing)."""
+    flat = X.ravel()
+    outside = 0
+    for i in range(flat.size):
+        outside |= (flat[i] < low) | (flat[i] > high)
+    return outside == 0
 
 
 @njit(cache=True)

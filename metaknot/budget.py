@@ -14,12 +14,12 @@ from __future__ import annotations
 import time
 import warnings
 import weakref
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from . import audit
+from .audit import fits as fits_tallied
 from .front import ParetoArchive
 from .problem import Problem
 from .progress import Progress
@@ -162,7 +162,7 @@ class Evaluator:
     @property
     def done(self) -> bool:
         """True once the budget is spent or a callback asked to stop."""
-        return self.remaining <= 0 or self._stop_requested
+        return self._n_evaluations >= self._budget or self._stop_requested
 
     def _declare_external_fits(self, n: int, charged: bool = False) -> None:
         """Record ``n`` fits an optimizer made outside the evaluator (:meth:`Task.count_fits`):
@@ -213,10 +213,10 @@ class Evaluator:
         """
         if self._pending_charge:
             self._charge()
-        if self.done:
+        remaining = self._budget - self._n_evaluations
+        if remaining <= 0 or self._stop_requested:
             raise BudgetExhausted(f"evaluation budget of {self._budget} spent")
-        problem = self._problem
-        X = problem.encoding.check(X)
+        X = self._problem.encoding.check(X)
         if accept is not None:
             accept = np.asarray(accept, dtype=np.float64)
             if accept.shape != (X.shape[0],):
@@ -224,15 +224,17 @@ class Evaluator:
                                  f"({X.shape[0]},); got {accept.shape}")
             if self._front is not None:
                 raise ValueError("accept applies to one objective; this problem has two")
-        X = X[: self.remaining]
-        if X.shape[0] == 0:
+        if X.shape[0] > remaining:
+            X = X[:remaining]
+        elif X.shape[0] == 0:
             return np.empty(0)
-        fits_before, evaluations_before = audit.fits(), self._n_evaluations
+        fits_before, evaluations_before = fits_tallied(), self._n_evaluations
         try:
             return self._score(X, near, accept)
         finally:  # the call's fits (the problem's and the callbacks') beyond its evaluations
-            self._extra_fits += max(0, audit.fits() - fits_before
-                                    - (self._n_evaluations - evaluations_before))
+            extra = fits_tallied() - fits_before - (self._n_evaluations - evaluations_before)
+            if extra > 0:
+                self._extra_fits += extra
 
     def _score(self, X: np.ndarray, near: np.ndarray | None, accept: np.ndarray | None
                ) -> np.ndarray:
@@ -242,24 +244,23 @@ class Evaluator:
             F, metrics, delta = problem.evaluate_near(X, np.asarray(near))
         else:
             (F, metrics), delta = problem.evaluate_with_metrics(X), 0
-        F = np.asarray(F)
-        if F.dtype is not _FLOAT64:  # numpy's float64 dtype is one object
-            F = self._as_values(F)
-        expected = (X.shape[0],) if self._front is None else (X.shape[0], 2)
-        if F.shape != expected:
+        if type(F) is not np.ndarray or F.dtype != _FLOAT64:
+            F = self._as_values(np.asarray(F))
+        size = X.shape[0]
+        if F.shape != ((size,) if self._front is None else (size, 2)):
             raise ValueError(
-                f"{type(problem).__name__}.evaluate returned shape {F.shape}; "
-                f"expected {expected}"
+                f"{type(problem).__name__}.evaluate returned shape {F.shape}; expected "
+                f"{(size,) if self._front is None else (size, 2)}"
             )
-        if accept is not None and F.size > 1:
-            taken = np.flatnonzero(F <= accept[: F.size])  # NaN is never taken
-            if taken.size and taken[0] + 1 < F.size:
-                kept = int(taken[0]) + 1
-                X, F = X[:kept], F[:kept]
-                metrics = {name: values[:kept] for name, values in metrics.items()}
+        if accept is not None and size > 1:
+            taken = np.flatnonzero(F <= accept[:size])  # NaN is never taken
+            if taken.size and taken[0] + 1 < size:
+                size = int(taken[0]) + 1
+                X, F = X[:size], F[:size]
+                metrics = _Head(metrics, size)
         # delta: which rows the delta path decided (an array), or how many (at most the kept)
-        self._delta_evaluations += int(np.count_nonzero(delta[: F.size])) \
-            if isinstance(delta, np.ndarray) else min(int(delta), F.size)
+        self._delta_evaluations += int(np.count_nonzero(delta[:size])) \
+            if isinstance(delta, np.ndarray) else min(int(delta), size)
         front = self._front
         if front is None:
             best = int(F.argmin())  # the first NaN, if there is one
@@ -268,7 +269,7 @@ class Evaluator:
                 F = self._warn_nan(F)
                 best = int(F.argmin())
                 value = F[best]
-            self._n_evaluations += F.size
+            self._n_evaluations += size
             if value < self._best_f:
                 self._best_f = float(value)
                 self._best_x = X[best].copy()
@@ -276,7 +277,7 @@ class Evaluator:
             return F
         if np.isnan(F).any():
             F = self._warn_nan(F)
-        self._n_evaluations += len(F)
+        self._n_evaluations += size
         scalar = front.add(X, F, metrics)
         if not len(front):
             scalar = np.full(len(F), np.inf)  # nothing feasible yet: no front, no incumbent
@@ -309,14 +310,37 @@ class Evaluator:
                       RuntimeWarning, stacklevel=4)
         return np.where(np.isnan(F), np.inf, F)
 
-    def _after_batch(self, scalar: np.ndarray, metrics: dict[str, np.ndarray]) -> None:
+    def _after_batch(self, scalar: np.ndarray, metrics: Mapping[str, np.ndarray]) -> None:
         """Report the batch's values (``scalar``) to the callbacks; a stop they ask for ends
         the run."""
+        if not self._on_batch:
+            return
         progress = Progress(self._n_evaluations, self._budget, self._best_f, scalar,
                             time.perf_counter() - self._start, metrics)
         for on_batch in self._on_batch:
             if on_batch(progress):
                 self._stop_requested = True
+
+
+class _Head(Mapping[str, np.ndarray]):
+    """The first ``size`` rows of every metric of a batch (the rows an evaluator kept of a
+    batch asked ahead), each sliced when it is read: a problem that computes its metrics on
+    first use (the knot problems) computes them only if a callback reads them."""
+
+    __slots__ = ("_metrics", "_size")
+
+    def __init__(self, metrics: Mapping[str, np.ndarray], size: int) -> None:
+        self._metrics = metrics
+        self._size = size
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self._metrics[name][: self._size]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._metrics)
+
+    def __len__(self) -> int:
+        return len(self._metrics)
 
 
 def _batch_hook(callback: Any) -> Callable[[Progress], bool | None]:

@@ -162,47 +162,56 @@ class TraceRecorder(Callback):
     def _set_grid(self, budget: int) -> None:
         self._grid = checkpoint_grid(budget, self.per_decade)
         self._grid_list = self._grid.tolist()
+        self._next_checkpoint = self._grid_list[0] if self._grid_list else np.inf
 
     def on_batch(self, progress: Progress) -> None:
         if self._grid is None:  # used without on_start (directly on an Evaluator)
             self._set_grid(progress.budget)
+        n = progress.n_evaluations
+        # no improvement (the best so far is at most every value of the batch) and no
+        # checkpoint in the batch: no row (most batches, at the cost of two comparisons)
+        if progress.best_f >= self._best_f and n < self._next_checkpoint:
+            self._n = n
+            return
         grid = self._grid
         assert grid is not None  # set just above
         F = np.asarray(progress.batch_f, dtype=np.float64)
-        first = progress.n_evaluations - F.size  # evaluations before this batch
+        first = n - F.size  # evaluations before this batch
         if F.size == 0:
             return
+        checkpoint = bisect_left(self._grid_list, n + 1)  # the next one after this batch
+        self._next_checkpoint = self._grid_list[checkpoint] \
+            if checkpoint < len(self._grid_list) else np.inf
         if F[F.argmin()] >= self._best_f:  # no improvement: rows only if a checkpoint is in it
             checkpoint = bisect_left(self._grid_list, first + 1)  # the next one
-            if checkpoint == len(self._grid_list) or \
-                    self._grid_list[checkpoint] > progress.n_evaluations:
-                self._n = progress.n_evaluations
+            if checkpoint == len(self._grid_list) or self._grid_list[checkpoint] > n:
+                self._n = n
                 return
         running = np.minimum.accumulate(np.concatenate(([self._best_f], F)))
         improved = running[1:] < running[:-1]
-        at = np.arange(F.size)
-        # index in the batch of the incumbent after each evaluation (-1: an earlier batch)
-        incumbent = np.maximum.accumulate(np.where(improved, at, -1))
         on_grid = np.zeros(F.size, dtype=bool)
-        lo, hi = np.searchsorted(grid, [first + 1, progress.n_evaluations + 1])
+        lo, hi = bisect_left(self._grid_list, first + 1), bisect_left(self._grid_list, n + 1)
         on_grid[grid[lo:hi] - first - 1] = True
         rows = np.flatnonzero(improved | on_grid)
-        for name in ordered_names(self._metrics, progress.batch_metrics):
-            values = np.asarray(progress.batch_metrics.get(name, np.full(F.size, np.nan)),
-                                dtype=np.float64)
-            previous = self._incumbent.get(name, np.nan)
-            column = np.where(incumbent[rows] >= 0, values[np.maximum(incumbent[rows], 0)],
-                              previous)
+        # index in the batch of the incumbent at each row (-1: one of an earlier batch)
+        incumbent = np.maximum.accumulate(np.where(improved, np.arange(F.size), -1))[rows]
+        earlier, at = incumbent < 0, np.maximum(incumbent, 0)
+        batch_metrics = progress.batch_metrics
+        for name in ordered_names(self._metrics, batch_metrics):
+            values = batch_metrics.get(name)
+            column = np.full(rows.size, np.nan) if values is None else \
+                np.asarray(values, dtype=np.float64)[at]
+            column[earlier] = self._incumbent.get(name, np.nan)
             if name not in self._metrics:  # first seen now: earlier rows get NaN
                 self._metrics[name] = [np.full(len(r), np.nan) for r in self._evals]
             self._metrics[name].append(column)
             if incumbent[-1] >= 0:
-                self._incumbent[name] = float(values[incumbent[-1]])
+                self._incumbent[name] = float(column[-1])
         self._evals.append(first + 1 + rows)
         self._best.append(running[1:][rows])
         self._improved.append(improved[rows])
         self._best_f = float(running[-1])
-        self._n = progress.n_evaluations
+        self._n = n
 
     def trace(self) -> Trace:
         """The trace so far; the last evaluation is always a checkpoint row."""

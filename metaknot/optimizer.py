@@ -162,7 +162,7 @@ class Optimizer(ABC):
                 F = evaluator(X, near=self.move_origin(), accept=self.acceptance())
             except BudgetExhausted:
                 return
-            self.tell(X[: F.size], F)
+            self.tell(X if F.size == len(X) else X[: F.size], F)
 
     def hyperparameters(self) -> dict[str, Any]:
         """Hyperparameters, for run records: the ``__init__`` arguments, read back from the

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
@@ -14,6 +16,7 @@ __all__ = ["Encoding", "Problem"]
 EncodingKind = Literal["binary", "integer", "continuous"]
 
 _compiled: dict[str, Any] = {}
+_INT64 = np.dtype(np.int64)
 
 
 def _kernels() -> Any:
@@ -74,12 +77,17 @@ class Encoding:
         )
 
     def __post_init__(self) -> None:
-        # scalar bounds for the common case of equal bounds on every variable (fast checks)
-        object.__setattr__(self, "_low", self.lower.min() if self.n_var else 0)
-        object.__setattr__(self, "_high", self.upper.max() if self.n_var else 0)
+        # scalar bounds for the common case of equal bounds on every variable (fast checks);
+        # whole numbers for a binary or integer encoding, whose candidates are
+        low = self.lower.min() if self.n_var else 0
+        high = self.upper.max() if self.n_var else 0
+        if self.kind != "continuous":
+            low, high = math.ceil(low), math.floor(high)
+        object.__setattr__(self, "_low", low)
+        object.__setattr__(self, "_high", high)
         object.__setattr__(self, "_uniform_bounds", bool(
-            self.n_var == 0 or ((self.lower == self._low).all()
-                                and (self.upper == self._high).all())))
+            self.n_var == 0 or ((self.lower == self.lower.min()).all()
+                                and (self.upper == self.upper.max()).all())))
 
     @property
     def dtype(self) -> type:
@@ -88,34 +96,40 @@ class Encoding:
     def check(self, X: ArrayLike) -> np.ndarray:
         """Return ``X`` as a 2-D array of this encoding, or raise a ``ValueError`` naming why."""
         X = np.asarray(X)
-        if X.ndim == 1 and X.size == self.n_var:
-            X = X[None, :]
         if X.ndim != 2 or X.shape[1] != self.n_var:
+            if X.ndim != 1 or X.size != self.n_var:
+                raise ValueError(
+                    f"candidates must have shape (B, {self.n_var}) for this {self.kind} "
+                    f"encoding; got {X.shape}"
+                )
+            X = X[None, :]
+        if X.dtype != _INT64 or self.kind == "continuous":  # int64 needs no conversion
+            X = self._as_dtype(X)
+        if self.kind != "continuous" and (
+                not _kernels().within(X, self._low, self._high) or (
+                    not self._uniform_bounds and X.size
+                    and ((X < self.lower).any() or (X > self.upper).any()))):
             raise ValueError(
-                f"candidates must have shape (B, {self.n_var}) for this {self.kind} encoding; "
-                f"got {X.shape}"
+                f"{self.kind} candidates must lie in [{self.lower.min()}, "
+                f"{self.upper.max()}]"
             )
+        return X
+
+    def _as_dtype(self, X: np.ndarray) -> np.ndarray:
+        """``X`` as this encoding's dtype, or a ``ValueError`` unless it holds real numbers
+        (whole numbers for a binary or integer encoding)."""
         if X.dtype == bool:
             X = X.astype(np.int64)
         if X.dtype.kind not in "iuf":  # real numbers (a cast would drop an imaginary part)
             raise ValueError("candidates must be real numbers; got complex values"
                              if X.dtype.kind == "c" else
                              f"candidates must be numeric; got dtype {X.dtype}")
-        if self.kind != "continuous":
-            if X.dtype.kind not in "iu" and (
-                    not np.isfinite(X).all() or not np.array_equal(X, np.round(X))):
-                raise ValueError(f"{self.kind} candidates must hold whole numbers")
-            X = X.astype(np.int64, copy=False)
-            if not _kernels().within(X, self._low, self._high) or (
-                    not self._uniform_bounds and X.size
-                    and ((X < self.lower).any() or (X > self.upper).any())):
-                raise ValueError(
-                    f"{self.kind} candidates must lie in [{self.lower.min()}, "
-                    f"{self.upper.max()}]"
-                )
-        else:
-            X = X.astype(np.float64, copy=False)
-        return X
+        if self.kind == "continuous":
+            return X.astype(np.float64, copy=False)
+        if X.dtype.kind not in "iu" and (
+                not np.isfinite(X).all() or not np.array_equal(X, np.round(X))):
+            raise ValueError(f"{self.kind} candidates must hold whole numbers")
+        return X.astype(np.int64, copy=False)
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """``n`` uniformly random candidates (sets are drawn without repetition, sorted)."""
@@ -206,10 +220,13 @@ class Problem(ABC):
     def decode(self, x: np.ndarray) -> Any:
         """The solution a single candidate stands for (for knot problems: the fitted spline)."""
 
-    def evaluate_with_metrics(self, X: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def evaluate_with_metrics(self, X: np.ndarray
+                              ) -> tuple[np.ndarray, Mapping[str, np.ndarray]]:
         """Objective values plus per-candidate metrics for the run's trace (for knot problems:
         ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``). The default has
-        no metrics; override to provide some without a second evaluation.
+        no metrics; override to provide some without a second evaluation. The metrics are a
+        mapping of names to arrays, any mapping: one that computes them when first read costs
+        nothing in the batches whose metrics no callback reads.
 
         The evaluator calls this (and :meth:`evaluate_near`) with a batch it has checked by
         :meth:`Encoding.check`: shape ``(B, n_var)``, the encoding's dtype and bounds; a problem
@@ -217,7 +234,7 @@ class Problem(ABC):
         return self.evaluate(X), {}
 
     def evaluate_near(self, X: np.ndarray, near: np.ndarray
-                      ) -> tuple[np.ndarray, dict[str, np.ndarray], int | np.ndarray]:
+                      ) -> tuple[np.ndarray, Mapping[str, np.ndarray], int | np.ndarray]:
         """:meth:`evaluate_with_metrics` for candidates made from ``near`` by local moves, plus
         which of them were decided by a cheaper path than a full evaluation: how many (an
         int), or a boolean per candidate (then an evaluator that drops the rows after an

@@ -45,6 +45,14 @@ class Progress:
     elapsed: float
     batch_metrics: Mapping[str, np.ndarray] = field(default_factory=dict)
 
+    def __init__(self, n_evaluations: int, budget: int, best_f: float, batch_f: np.ndarray,
+                 elapsed: float, batch_metrics: Mapping[str, np.ndarray] | None = None) -> None:
+        # made after every evaluated batch: the fields are set at once (the generated
+        # __init__ of a frozen dataclass sets them one by one, at twice the cost)
+        self.__dict__.update(n_evaluations=n_evaluations, budget=budget, best_f=best_f,
+                             batch_f=batch_f, elapsed=elapsed,
+                             batch_metrics={} if batch_metrics is None else batch_metrics)
+
 
 @dataclass(frozen=True, eq=False)
 class Trace:

@@ -96,6 +96,7 @@ def minimize(
         problem = get_problem(problem, **(problem_kwargs or {}))
     if isinstance(optimizer, str):
         optimizer = get_optimizer(optimizer, **(optimizer_kwargs or {}))
+    described = problem.describe()  # the problem as it is run, for the record
     recorder = TraceRecorder(checkpoints_per_decade)
     if isinstance(callbacks, Callback) or callable(callbacks):
         callbacks = (callbacks,)  # one callback, not in a sequence
@@ -113,13 +114,14 @@ def minimize(
         with clock("optimize_seconds"), contextlib.suppress(BudgetExhausted):
             optimizer.run(evaluator)
         audit.close()
-        result = _record(problem, optimizer, seed, evaluator, recorder, clock, audit)
+        result = _record(problem, described, optimizer, seed, evaluator, recorder, clock,
+                         audit)
     except Exception as exc:
         # keep what was computed: the best so far rides on the exception
         audit.close()
         if evaluator.n_evaluations:
-            result = _record(problem, optimizer, seed, evaluator, recorder, clock, audit,
-                             error=f"{type(exc).__name__}: {exc}")
+            result = _record(problem, described, optimizer, seed, evaluator, recorder, clock,
+                             audit, error=f"{type(exc).__name__}: {exc}")
             setattr(exc, "partial_result", result)  # noqa: B010 (not an attribute of the type)
             exc.add_note(f"metaknot: the run stopped after {evaluator.n_evaluations} "
                          "evaluations; the exception's `partial_result` holds the best so far")
@@ -204,9 +206,10 @@ class _Clock:
             self.seconds[name] = time.perf_counter() - begin
 
 
-def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evaluator,
-            recorder: TraceRecorder, clock: _Clock, audit: _Audit,
+def _record(problem: Problem, described: dict[str, Any], optimizer: Optimizer, seed: Any,
+            evaluator: Evaluator, recorder: TraceRecorder, clock: _Clock, audit: _Audit,
             error: str | None = None) -> RunResult:
+    """The run record: ``described`` is the problem's description taken before the run."""
     best_x = evaluator.best_x
     with clock("decode_seconds"):
         try:
@@ -237,7 +240,7 @@ def _record(problem: Problem, optimizer: Optimizer, seed: Any, evaluator: Evalua
         best_f=evaluator.best_f,
         trace=recorder.trace(),
         elapsed=time.perf_counter() - clock.start,
-        problem_info=problem.describe(),
+        problem_info=described,
         optimizer_params=optimizer.hyperparameters(),
         solution=solution,
         seed_spawn_key=spawn_key,

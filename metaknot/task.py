@@ -79,9 +79,11 @@ class _Binding:
         self.views: dict[str, Any] = {}  # read-only arrays and wrapped methods, by name
 
 
-# task -> binding; a task has no instance attributes (its ``__slots__`` holds only a weak
-# reference slot), so nothing behind it is reachable as ``task.<name>``
-_BINDINGS: weakref.WeakKeyDictionary[Task, _Binding] = weakref.WeakKeyDictionary()
+# id(task) -> binding, dropped when the task is collected; a task has no instance attributes
+# (its ``__slots__`` holds only a weak reference slot), so nothing behind it is reachable as
+# ``task.<name>``. A plain dict: it is read on every call an optimizer makes to its task (a
+# weak-key dictionary's lookup, in Python, cost more than drawing a candidate)
+_BINDINGS: dict[int, _Binding] = {}
 
 
 class Task:
@@ -98,12 +100,13 @@ class Task:
     __slots__ = ("__weakref__",)
 
     def __init__(self, problem: Problem, evaluator: BudgetOwner) -> None:
-        _BINDINGS[self] = _Binding(problem, evaluator)
+        _BINDINGS[id(self)] = _Binding(problem, evaluator)
+        weakref.finalize(self, _BINDINGS.pop, id(self), None)
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("__"):
             raise AttributeError(name)
-        binding = _BINDINGS[self]
+        binding = _BINDINGS[id(self)]
         if name.startswith(EVALUATING):
             raise AttributeError(
                 f"an optimizer cannot call problem.{name}(): candidates are evaluated only "
@@ -132,40 +135,40 @@ class Task:
         raise AttributeError(f"a task is read-only; cannot delete {name!r}")
 
     def __repr__(self) -> str:
-        return f"Task({_BINDINGS[self].problem.name!r}, budget={self.budget})"
+        return f"Task({_BINDINGS[id(self)].problem.name!r}, budget={self.budget})"
 
     @property
     def encoding(self) -> Encoding:
         """How candidates are represented."""
-        return _BINDINGS[self].problem.encoding
+        return _BINDINGS[id(self)].problem.encoding
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
         """``n`` random candidates, drawn as the problem draws them."""
-        return _BINDINGS[self].problem.sample(rng, n)
+        return _BINDINGS[id(self)].problem.sample(rng, n)
 
     def repair(self, X: np.ndarray) -> np.ndarray:
         """The nearest valid candidates (:meth:`Encoding.repair`)."""
-        return _BINDINGS[self].problem.encoding.repair(X)
+        return _BINDINGS[id(self)].problem.encoding.repair(X)
 
     @property
     def problem_type(self) -> type:
         """The class of the problem behind the task (for ``issubclass`` checks)."""
-        return type(_BINDINGS[self].problem)
+        return type(_BINDINGS[id(self)].problem)
 
     @property
     def budget(self) -> int:
         """Evaluations allowed in this run."""
-        return _BINDINGS[self].evaluator.budget
+        return _BINDINGS[id(self)].evaluator.budget
 
     @property
     def n_evaluations(self) -> int:
         """Evaluations used so far."""
-        return _BINDINGS[self].evaluator.n_evaluations
+        return _BINDINGS[id(self)].evaluator.n_evaluations
 
     @property
     def remaining(self) -> int:
         """Evaluations left."""
-        return _BINDINGS[self].evaluator.remaining
+        return _BINDINGS[id(self)].evaluator.remaining
 
     def count_fits(self, n: int = 1, *, charged: bool = False) -> None:
         """Declare ``n`` fits the optimizer made outside the evaluator.
@@ -176,7 +179,7 @@ class Task:
         ``n_evaluations`` and ``charged_fits`` from the next evaluation on (what the budget can
         take; the rest are external fits): work an optimizer does per step beyond its
         evaluations (a Jacobian), so that equal budgets mean comparable work."""
-        _BINDINGS[self].evaluator._declare_external_fits(n, charged)
+        _BINDINGS[id(self)].evaluator._declare_external_fits(n, charged)
 
 
 def _read_only(value: Any) -> Any:

@@ -14,6 +14,7 @@ code and score it with an objective chosen by name (see :mod:`metaknot.problems.
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, replace
 from typing import Any, Protocol, runtime_checkable
 
@@ -132,6 +133,53 @@ class KnotSolution:
         return self.fit.metrics
 
 
+class FitMetrics(Mapping[str, np.ndarray]):
+    """The metrics of a batch of fits a run's trace records: ``rmse``, ``n_control_points``
+    and, when the fits have it, ``max_deviation`` per candidate, NaN for an infeasible one.
+
+    Computed when one is first read (all at once): a run's trace reads them only at its
+    improvements and checkpoints, a small share of its batches.
+    """
+
+    __slots__ = ("_fit", "_n_points", "_names", "_values")
+
+    def __init__(self, fit: BatchFit, n_points: int) -> None:
+        self._fit = fit
+        self._n_points = n_points
+        self._names = _METRIC_NAMES[fit.max_deviation is not None]
+        self._values: dict[str, np.ndarray] | None = None
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        values = self._values
+        if values is None:
+            values = self._values = self._compute()
+        return values[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+    def __repr__(self) -> str:
+        return f"FitMetrics({dict(self)!r})"
+
+    def _compute(self) -> dict[str, np.ndarray]:
+        fit = self._fit
+        size, deviation = fit.sse.size, fit.max_deviation
+        values = {name: np.empty(size) for name in self._names}
+        _metrics_kernel(
+            fit.sse, fit.sse if deviation is None else deviation, fit.n_control_points,
+            fit.reason, self._n_points, values["rmse"], values["n_control_points"],
+            values.get("max_deviation", _NO_VALUES))
+        return values
+
+
+#: The metrics of a batch, without and with the maximum deviation.
+_METRIC_NAMES = {False: ("rmse", "n_control_points"),
+                 True: ("rmse", "n_control_points", "max_deviation")}
+
+
 def _as_point_set(points: PointSet | str | ArrayLike) -> PointSet:
     if isinstance(points, PointSet):
         return points
@@ -219,7 +267,7 @@ class KnotProblem(Problem):
     def evaluate(self, X: np.ndarray) -> np.ndarray:
         return self.evaluate_details(X)[0]
 
-    def evaluate_with_metrics(self, X: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def evaluate_with_metrics(self, X: np.ndarray) -> tuple[np.ndarray, Mapping[str, np.ndarray]]:
         """Objective values plus ``rmse``, ``n_control_points`` (and ``max_deviation`` when the
         objective computes it) per candidate; NaN for infeasible candidates. ``X`` is a batch
         checked by the encoding, as the evaluator passes it.
@@ -233,7 +281,7 @@ class KnotProblem(Problem):
         return self._values(fit), self._metrics(fit)
 
     def evaluate_near(self, X: np.ndarray, near: np.ndarray
-                      ) -> tuple[np.ndarray, dict[str, np.ndarray], int]:
+                      ) -> tuple[np.ndarray, Mapping[str, np.ndarray], int | np.ndarray]:
         """:meth:`evaluate_with_metrics` for candidates made from ``near`` by local moves.
 
         The candidates are scored by a :class:`MoveEvaluator` (on closed curves its periodic
@@ -281,18 +329,10 @@ class KnotProblem(Problem):
         """The objective's values of the fitted candidates."""
         return self.objective(fit, self.info)
 
-    def _metrics(self, fit: BatchFit) -> dict[str, np.ndarray]:
+    def _metrics(self, fit: BatchFit) -> FitMetrics:
         """``rmse``, ``n_control_points`` (and ``max_deviation`` when computed) per candidate;
-        NaN for an infeasible one."""
-        size, deviation = fit.sse.size, fit.max_deviation
-        metrics = {"rmse": np.empty(size), "n_control_points": np.empty(size)}
-        if deviation is not None:
-            metrics["max_deviation"] = np.empty(size)
-        _metrics_kernel(
-            fit.sse, fit.sse if deviation is None else deviation, fit.n_control_points,
-            fit.reason, self.data.n_points, metrics["rmse"], metrics["n_control_points"],
-            metrics.get("max_deviation", _NO_VALUES))
-        return metrics
+        NaN for an infeasible one (computed when first read)."""
+        return FitMetrics(fit, self.info.n_points)
 
     def decode(self, x: ArrayLike) -> KnotSolution:
         """Fit the spline for candidate ``x``.
@@ -307,7 +347,7 @@ class KnotProblem(Problem):
             raise ValueError(f"decode takes one candidate, shape ({self.encoding.n_var},); got "
                              f"{X.shape}")
         row: np.ndarray = X[0]
-        value = self.evaluate_details(row[None, :])[0][0]
+        value = self._values(self._fit_batch(X))[0]  # X checked above
         value = float(value) if np.ndim(value) == 0 else value
         return KnotSolution(x=row, objective_value=value,
                             fit=self.curve.fit(self._interior_knots(row),
@@ -368,8 +408,8 @@ class KnotSelection(KnotProblem):
         return (rng.random((n, self.encoding.n_var)) < self.density).astype(np.int64)
 
     def _fit_batch(self, X: np.ndarray) -> BatchFit:
-        if self.max_multiplicity == 1:
-            return self.curve.evaluate_masks(X, max_deviation=self.objective.needs_max_deviation)
+        if self.max_multiplicity == 1:  # masks checked by the encoding
+            return self.curve._evaluate_masks(X, self.objective.needs_max_deviation)
         counts = np.asarray(X, dtype=np.int64)  # checked by the encoding: 0..max_multiplicity
         knots = np.repeat(np.tile(self.curve.candidate_params, len(counts)), counts.ravel())
         offsets = np.concatenate(([0], np.cumsum(counts.sum(axis=1))))

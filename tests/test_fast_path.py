@@ -1,6 +1,6 @@
 """Small batches give the results of large ones, bit for bit.
 
-Batches of a few candidates are fitted on the calling thread; ``metaknot.bspline.fit.
+Batches of a few candidates are fitted on the calling thread; ``metaknot.bspline.curve.
 SERIAL_BATCH = 0`` sends every batch to the kernel's thread pool, and every registered
 optimizer must then leave the same run: best candidate, best value, trace and metrics. The
 objectives and metrics have one path for a batch of any size; their values are checked here
@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import metaknot as mk
+from metaknot.bspline import curve as curve_module
 from metaknot.bspline import fit as fit_module
 from metaknot.bspline.curve import make_curve
 from metaknot.problems import FreeKnots, KnotIndices, KnotSelection, get_curve
@@ -28,12 +29,12 @@ OUTLINE = get_curve("epitrochoid", n_points=80)
 @contextlib.contextmanager
 def general_path():
     """Every batch through the kernel's thread pool."""
-    serial = fit_module.SERIAL_BATCH
-    fit_module.SERIAL_BATCH = 0
+    serial = curve_module.SERIAL_BATCH
+    curve_module.SERIAL_BATCH = 0
     try:
         yield
     finally:
-        fit_module.SERIAL_BATCH = serial
+        curve_module.SERIAL_BATCH = serial
 
 
 def make(kind: str, closed: bool, **options) -> mk.Problem:

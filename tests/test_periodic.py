@@ -216,7 +216,7 @@ def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> Non
     (0, 1) fitted as 0.5 and refused, coincident knots refused, out of range first) gives the
     values of the same steps in numpy over random rows of every kind."""
     from metaknot.bspline import _kernel
-    from metaknot.bspline.fit import _outputs
+    from metaknot.bspline.curve import _outputs
 
     points = outline(50)
     u = closed_parameterize(points)

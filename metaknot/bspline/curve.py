@@ -35,11 +35,7 @@ from .fit import (
     Infeasibility,
     PeriodicFit,
     SplineFit,
-    _evaluate,
-    _evaluate_masks,
-    _evaluate_positions,
     _fit_clamped,
-    _outputs,
     _prepare,
     batch_errors,
     check_metric,
@@ -56,6 +52,7 @@ from .knots import (
     padded_rows,
     periodic_knot_vector,
     stack_indices,
+    stack_positions,
     stack_rows,
 )
 from .moves import MoveEvaluator, bound_to
@@ -70,6 +67,20 @@ Metric = Literal["max_deviation", "rmse"]
 CLOSING_CHORD_SPACINGS = 2.5
 #: A last point this close to the first (in typical spacings) is the first point again.
 REPEAT_SPACINGS = 0.25
+
+#: Batches of at most this many candidates (a sequential optimizer's, a CMA-ES generation, a
+#: nevergrad batch) are fitted on the calling thread: waking the kernel's thread pool costs
+#: more than it saves (on a busy machine far more). 0 sends every batch to the thread pool.
+SERIAL_BATCH = 16
+
+
+def _outputs(b: int, max_deviation: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The kernel's output arrays for ``b`` candidates (SSE, maximum deviation, control
+    points, reason); the audit's tally counts the ``b`` fits they are for."""
+    audit.add_fits(b)
+    return (np.empty(b), np.empty(b if max_deviation else 0), np.empty(b, dtype=np.int64),
+            np.empty(b, dtype=np.int8))
 
 
 @dataclass(frozen=True)
@@ -199,9 +210,18 @@ class Curve(ABC):
                        max_multiplicity: int = 1) -> BatchFit:
         """:meth:`evaluate_knots` of offsets that match the knots (not checked again)."""
 
-    @abstractmethod
     def evaluate_masks(self, masks: np.ndarray, *, max_deviation: bool = True) -> BatchFit:
-        """Fit a ``(B, len(candidate_params))`` batch of 0/1 masks over the candidate knots."""
+        """Fit a ``(B, len(candidate_params))`` batch of 0/1 masks over the candidate knots
+        (nonzero: a knot; the values of integer masks are not checked, those of others must be
+        0 or 1)."""
+        return self._evaluate_masks(
+            check_masks(masks, self.n_points, closed=self.closed, trust_integers=True),
+            max_deviation)
+
+    @abstractmethod
+    def _evaluate_masks(self, masks: np.ndarray, max_deviation: bool) -> BatchFit:
+        """:meth:`evaluate_masks` of masks already checked (2-D, one column per candidate
+        knot, booleans or integers 0 and 1: a problem's encoding has checked them)."""
 
     @abstractmethod
     def evaluate_indices(self, indices: np.ndarray, *, max_deviation: bool = True) -> BatchFit:
@@ -341,19 +361,40 @@ class OpenCurve(Curve):
         return self.n_points - self.degree - 1
 
     def _evaluate_flat(self, knots, offsets, max_deviation, max_multiplicity=1):
-        return _evaluate(self.params, self.points, knots, offsets, self.degree, max_deviation,
-                         max_multiplicity)
+        """The compiled fits of a flattened batch (a knot repeated more than
+        ``max_multiplicity`` times is infeasible): on the calling thread up to
+        :data:`SERIAL_BATCH` candidates, else on the kernel's threads."""
+        sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
+        knots = np.ascontiguousarray(knots, dtype=np.float64)
+        if sse.size <= SERIAL_BATCH:
+            _kernel.evaluate_batch_serial(self.params, self.points, self.degree,
+                                          max_multiplicity, knots, offsets, *out)
+        else:
+            _kernel.evaluate_batch(self.params, self.points, self.degree, False,
+                                   max_multiplicity, knots, offsets, *out,
+                                   8 * numba.get_num_threads())
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
-    def evaluate_masks(self, masks, *, max_deviation=True):
-        return _evaluate_masks(self.params, self.points, masks, self.degree, max_deviation)
+    def _evaluate_masks(self, masks, max_deviation):
+        if len(masks) > SERIAL_BATCH:
+            return self._evaluate_flat(*_kernel.masks_to_knots(
+                self.params, np.ascontiguousarray(masks, dtype=bool)), max_deviation)
+        sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
+        _kernel.evaluate_masks_serial(self.params, self.points, self.degree, masks, *out)
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
     def evaluate_indices(self, indices, *, max_deviation=True):
-        return _evaluate(self.params, self.points, *stack_indices(self.params, indices),
-                         self.degree, max_deviation)
+        return self._evaluate_flat(*stack_indices(self.params, indices), max_deviation)
 
     def _evaluate_positions(self, positions, max_deviation, nan_is_absent, max_multiplicity):
-        return _evaluate_positions(self.params, self.points, positions, self.degree,
-                                   max_deviation, nan_is_absent, max_multiplicity)
+        positions = as_positions(positions)
+        if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
+            return self._evaluate_flat(*stack_positions(positions, nan_is_absent=nan_is_absent),
+                                       max_deviation, max_multiplicity)
+        sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
+        _kernel.evaluate_positions_serial(self.params, self.points, self.degree,
+                                          max_multiplicity, positions, nan_is_absent, *out)
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
     def _fit(self, interior, max_multiplicity) -> SplineFit:
         return _fit_clamped(self.params, self.points, interior, self.degree, max_multiplicity)
@@ -431,11 +472,10 @@ class ClosedCurve(Curve):
         return self._evaluate_positions(padded_rows(knots, offsets), max_deviation, True,
                                         max_multiplicity)
 
-    def evaluate_masks(self, masks, *, max_deviation=True):
+    def _evaluate_masks(self, masks, max_deviation):
         """Masks over the data parameters after the first: sorted, distinct and inside (0, 1),
         they go to the compiled fit as they are."""
-        masks = np.ascontiguousarray(
-            check_masks(masks, self.n_points, closed=True, trust_integers=True), dtype=bool)
+        masks = np.ascontiguousarray(masks, dtype=bool)
         return self._fit_sorted(*_kernel.masks_to_knots(self.params, masks), max_deviation)
 
     def evaluate_indices(self, indices, *, max_deviation=True):

@@ -1,4 +1,6 @@
-"""Least-squares fits: one candidate with a full result, or a whole population in one call."""
+"""What least-squares fits give: the scores of a batch (:class:`BatchFit`, with the reasons a
+candidate cannot be fitted) and one fitted spline with its metrics (:class:`CurveFit`); and
+:func:`fit_spline`, one open fit. A :class:`~metaknot.bspline.curve.Curve` fits batches."""
 
 from __future__ import annotations
 
@@ -7,7 +9,6 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import Literal
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
@@ -15,8 +16,7 @@ from scipy.interpolate import BSpline
 from .. import audit
 from . import _kernel
 from ._codegen import MAX_DIMENSION
-from ._kernel import masks_to_knots
-from .knots import as_positions, check_masks, check_multiplicity, stack_positions
+from .knots import check_multiplicity
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
@@ -141,62 +141,6 @@ def _prepare(u: ArrayLike, points: ArrayLike, degree: int, *, closed: bool = Fal
     if np.abs(u).max() > MAX_COORDINATE:
         raise ValueError(f"parameter values above {MAX_COORDINATE:g} in magnitude; rescale them")
     return u, q
-
-
-#: Batches of at most this many candidates (a sequential optimizer's, a CMA-ES generation, a
-#: nevergrad batch) are fitted on the calling thread: waking the kernel's thread pool costs
-#: more than it saves (on a busy machine far more). 0 sends every batch to the thread pool.
-SERIAL_BATCH = 16
-
-
-def _outputs(b: int, max_deviation: bool
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The kernel's output arrays for ``b`` candidates (SSE, maximum deviation, control
-    points, reason); the audit's tally counts the ``b`` fits they are for."""
-    audit.add_fits(b)
-    return (np.empty(b), np.empty(b if max_deviation else 0), np.empty(b, dtype=np.int64),
-            np.empty(b, dtype=np.int8))
-
-
-def _evaluate(u: np.ndarray, q: np.ndarray, knots: np.ndarray, offsets: np.ndarray, p: int,
-              max_deviation: bool, max_multiplicity: int = 1) -> BatchFit:
-    """Fit a flattened batch (``u``, ``q`` as :func:`_prepare` returns them; a knot repeated
-    more than ``max_multiplicity`` times is infeasible)."""
-    sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
-    knots = np.ascontiguousarray(knots, dtype=np.float64)
-    if sse.size <= SERIAL_BATCH:
-        _kernel.evaluate_batch_serial(u, q, p, max_multiplicity, knots, offsets, *out)
-    else:
-        _kernel.evaluate_batch(u, q, p, False, max_multiplicity, knots, offsets, *out,
-                               8 * numba.get_num_threads())
-    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
-
-
-def _evaluate_masks(u: np.ndarray, q: np.ndarray, masks: np.ndarray, p: int,
-                    max_deviation: bool) -> BatchFit:
-    """Fit a ``(B, N - 2)`` batch of masks (nonzero: a knot; the values of integer masks are
-    not checked, those of others must be 0 or 1)."""
-    masks = check_masks(masks, u.size, trust_integers=True)
-    if len(masks) > SERIAL_BATCH:
-        knots, offsets = masks_to_knots(u, np.ascontiguousarray(masks, dtype=bool))
-        return _evaluate(u, q, knots, offsets, p, max_deviation)
-    sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
-    _kernel.evaluate_masks_serial(u, q, p, masks, *out)
-    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
-
-
-def _evaluate_positions(u: np.ndarray, q: np.ndarray, positions: ArrayLike, p: int,
-                        max_deviation: bool, nan_is_absent: bool,
-                        max_multiplicity: int = 1) -> BatchFit:
-    """Fit a ``(B, K)`` batch of knot positions (see
-    :meth:`~metaknot.bspline.curve.Curve.evaluate_positions`)."""
-    positions = as_positions(positions)
-    if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
-        return _evaluate(u, q, *stack_positions(positions, nan_is_absent=nan_is_absent), p,
-                         max_deviation, max_multiplicity)
-    sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
-    _kernel.evaluate_positions_serial(u, q, p, max_multiplicity, positions, nan_is_absent, *out)
-    return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
 
 @dataclass(frozen=True, eq=False)
