@@ -24,13 +24,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from omegaconf import OmegaConf
 
+from .errors import ConfigError
 from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
+from .run import ENCODINGS, RunSpec
 from .spec import (
     CONFIG_KEYS,
-    ENCODINGS,
-    ConfigError,
-    RunSpec,
     check_writable,
     not_a_setting,
     objective_defaults,
@@ -473,7 +472,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _command_line_errors() -> tuple[type[Exception], ...]:
     """Hydra's errors about a configuration (composition, override syntax, a missing choice)
-    and metaknot's (:class:`~.spec.ConfigError`): a bad command line."""
+    and metaknot's (:class:`~.errors.ConfigError`): a bad command line."""
     from hydra.errors import ConfigCompositionException, OverrideParseException
 
     return ConfigError, ConfigCompositionException, OverrideParseException

@@ -32,8 +32,10 @@ from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
 from . import slurm
+from .errors import ConfigError
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
-from .spec import ConfigError, RunSpec, check_writable, run_spec
+from .run import RunSpec
+from .spec import check_writable, run_spec
 from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, StoreError, default_study_note
 
 __all__ = ["expand", "plan", "summary", "sweep"]

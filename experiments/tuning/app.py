@@ -15,8 +15,9 @@ import sys
 from typing import Any
 
 from ..app import CONFIG_DIR, launch
+from ..errors import ConfigError
 from ..interrupt import Interrupted, interrupt_on_signals
-from ..spec import ConfigError, not_a_setting
+from ..spec import not_a_setting
 from .spec import TuneSpec, tune_spec
 
 __all__ = ["main", "tune"]

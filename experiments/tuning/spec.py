@@ -8,18 +8,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import ConfigError, naming
 from ..spec import (
     NULL,
     PARAMETERIZATIONS,
     SECTION,
     STUDY,
-    ConfigError,
     Setting,
     _optimizer_class,
     _unknown,
     check_section,
     check_value,
-    naming,
     plain_config,
     run_spec,
     signature_settings,
