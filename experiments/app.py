@@ -30,8 +30,6 @@ from .preset import expand_preset
 from .run import ENCODINGS, RunSpec
 from .spec import (
     CONFIG_KEYS,
-    check_writable,
-    not_a_setting,
     objective_defaults,
     optimizer_defaults,
     plain_config,
@@ -41,6 +39,7 @@ from .store import (
     DEFAULT_STUDY,
     Store,
     StoreError,
+    check_writable,
     default_study_note,
     read_record,
     spline_fields,
@@ -283,6 +282,16 @@ def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
     kept = Path(outcome["path"])
     return (f"computed but not stored ({outcome['error']}); its record is kept in {kept}: "
             f"move it into {spec.study_dir / kept.parent.name}/ once there is space")
+
+
+def not_a_setting(args: list[str], example: str) -> str | None:
+    """The first of ``args`` that is neither a setting (``key=value``, ``~key``) nor an option,
+    as a one-line error showing ``example``, or ``None``: a bare word (a file name, say) got
+    Hydra's "missing EQUAL at '<EOF>'"."""
+    for arg in args:
+        if "=" not in arg and not arg.startswith(("-", "~")):
+            return f"{arg!r} is not a setting: settings are key=value, e.g. {example}"
+    return None
 
 
 def check_choices(args: list[str]) -> str | None:

@@ -12,7 +12,6 @@ import hashlib
 import inspect
 import os
 import re
-import tempfile
 import types
 import typing
 from collections.abc import Callable, Mapping
@@ -152,16 +151,6 @@ def check_section(key: str, given: Any, schema: Mapping[str, Setting]) -> dict[s
         if not (setting.omit and value == setting.default):
             out[name] = value
     return out
-
-
-def not_a_setting(args: list[str], example: str) -> str | None:
-    """The first of ``args`` that is neither a setting (``key=value``, ``~key``) nor an option,
-    as a one-line error showing ``example``, or ``None``: a bare word (a file name, say) got
-    Hydra's "missing EQUAL at '<EOF>'"."""
-    for arg in args:
-        if "=" not in arg and not arg.startswith(("-", "~")):
-            return f"{arg!r} is not a setting: settings are key=value, e.g. {example}"
-    return None
 
 
 def _unknown(key: str, given: Mapping[str, Any], known: AbstractSet[str]) -> None:
@@ -312,21 +301,6 @@ def encoding_schema(kind: str, degree: int) -> dict[str, Setting]:
         "indices": {"n_knots": N_KNOTS, "max_multiplicity": multiplicity},
         "free": {"n_knots": N_KNOTS, "variable_count": Setting((bool,), False),
                  "merge_spacing": Setting((float, NULL), None, 0.0, omit=True)}}[kind]}
-
-
-def check_writable(folder: Path) -> None:
-    """Raise a :class:`~.errors.ConfigError` naming ``folder`` unless a file can be written
-    there (in its nearest existing parent if it does not exist yet): a read-only results folder
-    is found before any run is computed, not after each one."""
-    existing = folder
-    while not existing.exists() and existing.parent != existing:
-        existing = existing.parent
-    try:
-        with tempfile.TemporaryFile(dir=existing):
-            pass
-    except OSError as exc:
-        raise ConfigError(f"results_dir: cannot write into {existing} "
-                          f"({exc.strerror or exc}); nothing was run") from None
 
 
 def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:

@@ -14,10 +14,9 @@ import signal
 import sys
 from typing import Any
 
-from ..app import CONFIG_DIR, launch
+from ..app import CONFIG_DIR, launch, not_a_setting
 from ..errors import ConfigError
 from ..interrupt import Interrupted, interrupt_on_signals
-from ..spec import not_a_setting
 from .spec import TuneSpec, tune_spec
 
 __all__ = ["main", "tune"]
