@@ -10,7 +10,8 @@ from typing import Any
 from ..errors import ConfigError, naming
 from ..spec import (
     NULL,
-    PARAMETERIZATIONS,
+    PROBLEM,
+    RUN,
     SECTION,
     STUDY,
     Setting,
@@ -41,14 +42,13 @@ TUNE = {**STUDY, "tune": SECTION, "n_trials": Setting((int,), low=1),
         "sampler": Setting((), "tpe", values=("tpe", "random")),
         "pruner": Setting((), "median", values=("median", "percentile", "successive_halving",
                                                 "hyperband", "none")),
-        "budget": Setting((int,), low=1), "objective": SECTION,
+        "budget": RUN["budget"], "objective": SECTION,
         "reference": Setting((str,), "averaging", expect="an optimizer's name"),
         "train": SPLIT, "test": SPLIT,
         "compare_with": Setting((str, list, NULL), None, expect="an optimizer's name or a list"),
         "evaluate": Setting((bool,), True), "heartbeat_interval": Setting((int,), 10, 1),
         "grace_period": Setting((int,), 30, 1), "max_retry": Setting((int,), 2, 0),
-        "degree": Setting((int,), 3, 1, 5),
-        "parameterization": Setting((), "centripetal", values=PARAMETERIZATIONS)}
+        "degree": PROBLEM["degree"], "parameterization": PROBLEM["parameterization"]}
 TUNE_SECTION = {"optimizer": Setting((str,), expect="an optimizer's name"),
                 "encoding": Setting((dict, NULL), None), "space": Setting((object,), None),
                 "fixed": Setting((dict, NULL), None,
@@ -72,7 +72,7 @@ def _instances(section: str, cfg: Any) -> tuple[tuple[Instance, ...], int]:
         with naming(f"{section}.instances"):
             items = [{"suite": i} for i in split(items[len("suite:"):])]
     check_value(f"{section}.instances", items, INSTANCE_LIST)
-    curve = {"curve": Setting(values=tuple(sorted(CURVES))), "noise": Setting((float,), 0.0, 0.0)}
+    curve = {"curve": Setting(values=tuple(sorted(CURVES))), "noise": PROBLEM["noise"]}
     out = []
     for i, item in enumerate(items):
         key = f"{section}.instances[{i}]"
