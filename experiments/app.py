@@ -24,15 +24,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from omegaconf import OmegaConf
 
+from .errors import ConfigError
 from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
+from .run import ENCODINGS, RunSpec
 from .spec import (
     CONFIG_KEYS,
-    ENCODINGS,
-    ConfigError,
-    RunSpec,
-    check_writable,
-    not_a_setting,
     objective_defaults,
     optimizer_defaults,
     plain_config,
@@ -42,6 +39,7 @@ from .store import (
     DEFAULT_STUDY,
     Store,
     StoreError,
+    check_writable,
     default_study_note,
     read_record,
     spline_fields,
@@ -286,6 +284,16 @@ def _not_stored(outcome: dict[str, Any], spec: RunSpec) -> str:
             f"move it into {spec.study_dir / kept.parent.name}/ once there is space")
 
 
+def not_a_setting(args: list[str], example: str) -> str | None:
+    """The first of ``args`` that is neither a setting (``key=value``, ``~key``) nor an option,
+    as a one-line error showing ``example``, or ``None``: a bare word (a file name, say) got
+    Hydra's "missing EQUAL at '<EOF>'"."""
+    for arg in args:
+        if "=" not in arg and not arg.startswith(("-", "~")):
+            return f"{arg!r} is not a setting: settings are key=value, e.g. {example}"
+    return None
+
+
 def check_choices(args: list[str]) -> str | None:
     """The first config group choice of ``args`` (Hydra overrides, swept or not) that does not
     exist, as a one-line error with the closest names, or ``None`` if every choice exists;
@@ -473,7 +481,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _command_line_errors() -> tuple[type[Exception], ...]:
     """Hydra's errors about a configuration (composition, override syntax, a missing choice)
-    and metaknot's (:class:`~.spec.ConfigError`): a bad command line."""
+    and metaknot's (:class:`~.errors.ConfigError`): a bad command line."""
     from hydra.errors import ConfigCompositionException, OverrideParseException
 
     return ConfigError, ConfigCompositionException, OverrideParseException

@@ -4,7 +4,7 @@ Records of the earlier format (:data:`~.store.FORMER_FORMATS`) have run ids hash
 that are no longer the settings' names, and the oldest of them name the optimizer's fields as
 they were then. The current version reads neither (:func:`~.store.read_record` names this
 command). Migrating a study rewrites each such record under the current names, with the run
-id :func:`~.spec.run_id` computes for its settings, in the current format:
+id :func:`~.run.run_id` computes for its settings, in the current format:
 
 1. every record is read and checked first: its settings must give back the run id it is stored
    under (else nothing is changed and the file is named);
@@ -35,7 +35,7 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from .spec import RUN_KEYS, run_id
+from .run import RUN_KEYS, run_id
 from .store import (
     FAILED_FILE,
     FORMER_FORMATS,
@@ -115,7 +115,7 @@ def current_config(config: Mapping[str, Any]) -> dict[str, Any]:
 
 def former_run_id(config: Mapping[str, Any]) -> str:
     """The run id the earlier format gave the settings ``config`` (current names): the same
-    hash as :func:`~.spec.run_id`, over the optimizer's earlier names."""
+    hash as :func:`~.run.run_id`, over the optimizer's earlier names."""
     section = dict(config["optimizer"])
     back = {new: old for old, new in _FORMER_HYPERPARAMETERS.get(str(section.get("_name_")), {})
             .items()}

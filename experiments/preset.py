@@ -20,7 +20,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from .spec import NULL, ConfigError, Setting, check_section, check_value, naming, run_spec, short
+from .errors import ConfigError, naming, short
+from .spec import NULL, Setting, check_section, check_value, run_spec
 
 __all__ = ["check_preset", "expand_preset", "load_preset", "preset_overrides"]
 

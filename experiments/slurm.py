@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .spec import ConfigError
+from .errors import ConfigError
 
 __all__ = ["Partition", "TaskEnded", "check", "launch", "partitions", "workers"]
 

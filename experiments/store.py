@@ -28,6 +28,7 @@ import os
 import re
 import shutil
 import sys
+import tempfile
 import uuid
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
@@ -44,8 +45,8 @@ if TYPE_CHECKING:  # pandas loads only when a study is read (run workers do not 
     from metaknot.bspline import CurveFit
 
 __all__ = ["COMPLETE_STATUSES", "FORMER_FORMATS", "MIN_FREE_BYTES", "SPLINE_FIELDS",
-           "STORE_FORMAT", "Store", "StoreError", "Study", "load_study", "read_record",
-           "record_format", "spline_fields", "stored_fit"]
+           "STORE_FORMAT", "Store", "StoreError", "Study", "check_writable", "load_study",
+           "read_record", "record_format", "spline_fields", "stored_fit"]
 
 #: Written into every record file's Parquet metadata; files without it are foreign.
 STORE_FORMAT = "metaknot-run-record/2"
@@ -197,9 +198,7 @@ class Store:
     def check_space(self) -> None:
         """Raise ``OSError(ENOSPC)`` if the study's file system has less than
         :data:`MIN_FREE_BYTES` free (checked before a run starts)."""
-        existing = self.study_dir
-        while not existing.exists() and existing != existing.parent:
-            existing = existing.parent
+        existing = _nearest_existing(self.study_dir)
         free = shutil.disk_usage(existing).free
         if free < MIN_FREE_BYTES:
             raise OSError(errno.ENOSPC, f"{os.strerror(errno.ENOSPC)} ({free // 1024} KiB "
@@ -248,6 +247,28 @@ class Store:
             return target
         finally:
             tmp.unlink(missing_ok=True)
+
+
+def check_writable(folder: Path) -> None:
+    """Raise a :class:`~.errors.ConfigError` naming ``folder`` unless a file can be written
+    there (in its nearest existing parent if it does not exist yet): a read-only results folder
+    is found before any run is computed, not after each one."""
+    from .errors import ConfigError  # Hydra's exception: loaded when a run starts, not to read
+
+    existing = _nearest_existing(folder)
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"results_dir: cannot write into {existing} "
+                          f"({exc.strerror or exc}); nothing was run") from None
+
+
+def _nearest_existing(folder: Path) -> Path:
+    """``folder``, or its nearest parent that exists."""
+    while not folder.exists() and folder.parent != folder:
+        folder = folder.parent
+    return folder
 
 
 def _unique_name(run_id: str, unique: str | None = None) -> str:

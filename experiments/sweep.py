@@ -32,9 +32,18 @@ from omegaconf import OmegaConf
 from tqdm.auto import tqdm
 
 from . import slurm
+from .errors import ConfigError
 from .interrupt import Interrupted, leave_ctrl_c_to_the_leader
-from .spec import ConfigError, RunSpec, check_writable, run_spec
-from .store import COMPLETE_STATUSES, DEFAULT_STUDY, Store, StoreError, default_study_note
+from .run import RunSpec
+from .spec import run_spec
+from .store import (
+    COMPLETE_STATUSES,
+    DEFAULT_STUDY,
+    Store,
+    StoreError,
+    check_writable,
+    default_study_note,
+)
 
 __all__ = ["expand", "plan", "summary", "sweep"]
 

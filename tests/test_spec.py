@@ -30,12 +30,8 @@ import metaknot as mk
 from metaknot import registry
 from metaknot.bspline import parameterize
 from metaknot.experiments.app import CONFIG_DIR, register_hydra_plugins
-from metaknot.experiments.spec import (
-    ENCODINGS,
-    ConfigError,
-    optimizer_defaults,
-    run_spec,
-)
+from metaknot.experiments.run import ENCODINGS
+from metaknot.experiments.spec import ConfigError, optimizer_defaults, run_spec
 from metaknot.experiments.store import Store
 from metaknot.experiments.sweep import _Composer, expand, plan
 from metaknot.problems import OBJECTIVES, FreeKnots, KnotIndices, add_noise, get_curve
@@ -928,11 +924,11 @@ def test_seed_paper_study_plans_without_errors_skips_or_duplicates(tmp_path):
 @pytest.mark.parametrize("seeds", [0, [0, 1]])
 def test_a_run_builds_its_problem_once(tmp_path, monkeypatch, seeds):
     """The task validates without building; the run builds the problem and optimizer once."""
-    from metaknot.experiments import app, spec
+    from metaknot.experiments import app, run
 
     built = []
-    build = spec._build_problem
-    monkeypatch.setattr(spec, "_build_problem",
+    build = run._build_problem
+    monkeypatch.setattr(run, "_build_problem",
                         lambda *args: built.append(1) or build(*args))
     cfg = OmegaConf.to_container(compose_cfg("budget=20", "problem.n_points=40",
                                              results_dir=str(tmp_path)))

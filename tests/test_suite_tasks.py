@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from metaknot.experiments.spec import ConfigError, run_id, run_spec
+from metaknot.experiments.run import run_id
+from metaknot.experiments.spec import ConfigError, run_spec
 from metaknot.suite import base_instances, get_instance, instances
 from metaknot.suite.splits import SPLITS, config_text, split
 from metaknot.suite.tasks import fixed_k_sizes, get_task, tasks

@@ -16,7 +16,8 @@ from metaknot.algorithms import FreeKnotFront, NevergradOptimizer, NloptKnots, P
 from metaknot.bspline.fitpack import fewest_within
 from metaknot.experiments.app import check_choices
 from metaknot.experiments.preset import check_preset
-from metaknot.experiments.spec import ConfigError, run_id, run_spec
+from metaknot.experiments.run import run_id
+from metaknot.experiments.spec import ConfigError, run_spec
 
 BASE = {"study": "s", "results_dir": ".", "problem": {"curve": "archimedean"},
         "encoding": {"kind": "free"}, "objective": {"name": "paper"}, "budget": 100, "seed": 0}

@@ -2,6 +2,7 @@
 judged on held-out ones."""
 
 from .app import tune
-from .spec import TRAIN_SEED_OFFSET, Instance, TuneSpec, tune_spec
+from .spec import TRAIN_SEED_OFFSET, tune_spec
+from .study import Instance, TuneSpec
 
 __all__ = ["TRAIN_SEED_OFFSET", "Instance", "TuneSpec", "tune", "tune_spec"]

@@ -14,10 +14,11 @@ import signal
 import sys
 from typing import Any
 
-from ..app import CONFIG_DIR, launch
+from ..app import CONFIG_DIR, launch, not_a_setting
+from ..errors import ConfigError
 from ..interrupt import Interrupted, interrupt_on_signals
-from ..spec import ConfigError, not_a_setting
-from .spec import TuneSpec, tune_spec
+from .spec import tune_spec
+from .study import TuneSpec
 
 __all__ = ["main", "tune"]
 

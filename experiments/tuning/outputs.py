@@ -11,7 +11,7 @@ from typing import Any, cast
 import numpy as np
 
 from ..spec import run_spec
-from .spec import TuneSpec
+from .study import TuneSpec
 
 __all__ = ["best_setting", "evaluate_held_out", "write_best_config", "write_figures",
            "write_report", "write_trials"]

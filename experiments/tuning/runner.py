@@ -16,9 +16,10 @@ from typing import Any, cast
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..interrupt import Interrupted, interrupt_on_signals, interruptible, raise_pending
-from ..spec import ConfigError, run_spec
-from .spec import Instance, TuneSpec
+from ..spec import run_spec
+from .study import Instance, TuneSpec
 
 __all__ = ["HOLD_WORKER_ENV", "evaluate_setting", "fail_trials_of_dead_workers", "open_storage",
            "open_study", "references", "run_workers", "trial_objective",

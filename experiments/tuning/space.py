@@ -21,7 +21,8 @@ from typing import Any
 
 from metaknot.validate import is_real
 
-from ..spec import ConfigError, Setting, check_value
+from ..errors import ConfigError
+from ..spec import Setting, check_value
 
 __all__ = ["PROBLEM_PARAMETERS", "Parameter", "SearchSpace"]
 

@@ -1,32 +1,32 @@
-"""The validated configuration of a tuning study (``metaknot tune``)."""
+"""The validated configuration of a tuning study (``metaknot tune``): :func:`tune_spec` checks
+it and returns a :class:`~.study.TuneSpec`."""
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import ConfigError, naming
 from ..spec import (
     NULL,
-    PARAMETERIZATIONS,
+    PROBLEM,
+    RUN,
     SECTION,
     STUDY,
-    ConfigError,
     Setting,
     _optimizer_class,
     _unknown,
     check_section,
     check_value,
-    naming,
     plain_config,
     run_spec,
     signature_settings,
 )
 from .space import SearchSpace
+from .study import Instance, TuneSpec
 
-__all__ = ["TRAIN_SEED_OFFSET", "Instance", "TuneSpec", "tune_spec"]
+__all__ = ["TRAIN_SEED_OFFSET", "tune_spec"]
 
 #: Training replicate seeds are ``TRAIN_SEED_OFFSET + i``; test seeds are ``0 .. n - 1`` with
 #: ``n <= TRAIN_SEED_OFFSET``: the two never meet.
@@ -42,14 +42,13 @@ TUNE = {**STUDY, "tune": SECTION, "n_trials": Setting((int,), low=1),
         "sampler": Setting((), "tpe", values=("tpe", "random")),
         "pruner": Setting((), "median", values=("median", "percentile", "successive_halving",
                                                 "hyperband", "none")),
-        "budget": Setting((int,), low=1), "objective": SECTION,
+        "budget": RUN["budget"], "objective": SECTION,
         "reference": Setting((str,), "averaging", expect="an optimizer's name"),
         "train": SPLIT, "test": SPLIT,
         "compare_with": Setting((str, list, NULL), None, expect="an optimizer's name or a list"),
         "evaluate": Setting((bool,), True), "heartbeat_interval": Setting((int,), 10, 1),
         "grace_period": Setting((int,), 30, 1), "max_retry": Setting((int,), 2, 0),
-        "degree": Setting((int,), 3, 1, 5),
-        "parameterization": Setting((), "centripetal", values=PARAMETERIZATIONS)}
+        "degree": PROBLEM["degree"], "parameterization": PROBLEM["parameterization"]}
 TUNE_SECTION = {"optimizer": Setting((str,), expect="an optimizer's name"),
                 "encoding": Setting((dict, NULL), None), "space": Setting((object,), None),
                 "fixed": Setting((dict, NULL), None,
@@ -59,117 +58,6 @@ INSTANCES = {"instances": Setting((object,)),
 INSTANCE_LIST = Setting((list,), test=bool, expect="suite:<split> or a non-empty list of "
                         "{curve, noise} or {suite: ID}")
 INSTANCE = Setting((Mapping,), expect="a mapping {curve: ..., noise: ...} or {suite: ID}")
-
-
-@dataclass(frozen=True)
-class Instance:
-    """A problem instance: a seed curve with a noise level, or an instance of the benchmark
-    suite by id (``suite``, its noise part of the id)."""
-
-    curve: str | None
-    noise: float = 0.0
-    suite: str | None = None
-
-    @property
-    def key(self) -> str:
-        return self.suite if self.suite is not None else f"{self.curve}/noise={self.noise:g}"
-
-    @property
-    def base(self) -> str:
-        """The instance without its noise: held-out instances must differ in this."""
-        if self.suite is None:
-            return str(self.curve)
-        from metaknot.suite import get_instance
-
-        return get_instance(self.suite).base_id
-
-
-@dataclass(frozen=True)
-class TuneSpec:
-    """Everything a tuning study needs, validated (see :func:`tune_spec`)."""
-
-    study: str
-    results_dir: Path
-    optimizer: str
-    space: SearchSpace
-    fixed: dict[str, Any]
-    encoding: dict[str, Any]
-    objective: dict[str, Any]
-    budget: int
-    n_trials: int
-    train: tuple[Instance, ...]
-    train_seeds: tuple[int, ...]
-    test: tuple[Instance, ...]
-    test_seeds: tuple[int, ...]
-    reference: str
-    compare_with: tuple[str, ...]
-    seed: int  # the other settings and their defaults: TUNE
-    sampler: str
-    pruner: str
-    storage: str | None
-    workers: int
-    worker_index: int
-    timeout: float | None
-    evaluate: bool
-    heartbeat_interval: int
-    grace_period: int
-    max_retry: int
-    degree: int
-    parameterization: str
-    raw: dict[str, Any] = field(default_factory=dict, repr=False)
-
-    @property
-    def study_dir(self) -> Path:
-        return self.results_dir / self.study
-
-    @property
-    def test_study(self) -> str:
-        """The held-out study's name in the results store."""
-        return f"{self.study}-test"
-
-    def identity(self) -> dict[str, Any]:
-        """The settings that define the study's trials (a resumed study must match them)."""
-        keys = ("tune", "budget", "objective", "reference", "train", "degree",
-                "parameterization")
-        return copy.deepcopy({k: self.raw.get(k) for k in keys})
-
-    def run_config(self, instance: Instance, seed: int, *, optimizer: str | None = None,
-                   params: Mapping[str, Any] | None = None,
-                   encoding: Mapping[str, Any] | None = None, study: str | None = None,
-                   threads: int | str = "auto") -> dict[str, Any]:
-        """A ``metaknot run`` configuration of one run (for :func:`~..spec.run_spec`)."""
-        problem = {"curve": instance.curve, "noise": instance.noise, "degree": self.degree,
-                   "parameterization": self.parameterization}
-        objective = dict(self.objective)
-        if instance.suite is not None:
-            problem.update(curve=None, points=None, instance=instance.suite)
-            if "task" in objective:  # the objective of the instance's task
-                from metaknot.suite.tasks import get_task
-
-                objective = dict(get_task(instance.suite, objective["task"]).objective)
-        return {
-            "study": study or self.study, "results_dir": str(self.results_dir),
-            "problem": problem,
-            "encoding": dict(encoding or self.encoding),
-            "objective": objective,
-            "optimizer": {"_name_": optimizer or self.optimizer,
-                          **(self.fixed if params is None else params)},
-            "budget": self.budget, "seed": seed, "threads": threads, "progress": False,
-        }
-
-    def trial_setting(self, values: Mapping[str, Any]) -> tuple[dict[str, Any],
-                                                                dict[str, Any]]:
-        """Optimizer hyperparameters and encoding of a trial's sampled ``values``."""
-        values = dict(values)
-        encoding = dict(self.encoding)
-        kind = values.pop("encoding", None)
-        if kind is not None and kind != encoding["kind"]:
-            encoding = {"kind": kind} if kind == "indices" else {"kind": kind, "density": 0.5}
-        n_knots = values.pop("n_knots", None)
-        if encoding["kind"] == "indices":
-            encoding["n_knots"] = int(n_knots if n_knots is not None
-                                      else encoding.get("n_knots", 20))
-        return {**self.fixed, **values}, encoding
 
 
 def _instances(section: str, cfg: Any) -> tuple[tuple[Instance, ...], int]:
@@ -184,7 +72,7 @@ def _instances(section: str, cfg: Any) -> tuple[tuple[Instance, ...], int]:
         with naming(f"{section}.instances"):
             items = [{"suite": i} for i in split(items[len("suite:"):])]
     check_value(f"{section}.instances", items, INSTANCE_LIST)
-    curve = {"curve": Setting(values=tuple(sorted(CURVES))), "noise": Setting((float,), 0.0, 0.0)}
+    curve = {"curve": Setting(values=tuple(sorted(CURVES))), "noise": PROBLEM["noise"]}
     out = []
     for i, item in enumerate(items):
         key = f"{section}.instances[{i}]"
