@@ -90,10 +90,10 @@ def step_draws(rng: np.random.Generator, n_var: int, rate: float, max_step: int,
 @njit(cache=True)
 def flip_children(parent: np.ndarray, starts: np.ndarray, places: np.ndarray, first: int,
                   count: int) -> np.ndarray:
-    """``count`` children of the 0/1 vector ``parent``, one per step drawn by
+    """``count`` children (int64) of the 0/1 vector ``parent``, one per step drawn by
     :func:`flip_draws`: child ``r`` flips the bits ``places[starts[first + r]:starts[first + r +
     1]]`` (``starts``: where each step's places begin, and their end)."""
-    out = np.empty((count, parent.size), dtype=parent.dtype)
+    out = np.empty((count, parent.size), dtype=np.int64)
     for r in range(count):
         out[r] = parent
         for j in range(starts[first + r], starts[first + r + 1]):
