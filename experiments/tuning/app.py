@@ -46,7 +46,13 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     print(f"tune {spec.study}: {spec.optimizer} on {len(spec.train)} training instances x "
           f"{len(spec.train_seeds)} seeds, {spec.budget:,} evaluations per run; storage "
           f"{storage_description(spec)}", flush=True)
-    references(spec, study)
+    try:
+        references(spec, study)
+    except Interrupted as stop:  # nothing of these runs is stored
+        stop.line = (f"tune {spec.study}: interrupted ({signal.Signals(stop.signum).name}) "
+                     "while the reference method ran, before any trial; run the same command "
+                     "to resume")
+        raise
     before = len(study.get_trials(deepcopy=False))
     try:
         spawned = run_workers(spec, progress=progress)
@@ -140,4 +146,10 @@ def main(argv: list[str] | None = None) -> int:
                   "resume", file=sys.stderr, flush=True)
             return stop.exit_code
         return 0
-    return launch(task, "tuning", args)
+    try:  # a sweep (-m): its studies one after another, each stopped as a single tune is
+        with interrupt_on_signals(anywhere=False):
+            return launch(task, "tuning", args)
+    except Interrupted as stop:
+        print(stop.line or "metaknot tune: interrupted; run the same command to resume",
+              file=sys.stderr, flush=True)
+        return stop.exit_code
