@@ -607,3 +607,36 @@ def test_a_tune_stopped_while_its_reference_method_runs_stops_at_once(tmp_path, 
     study = optuna.load_study(study_name="a", storage=open_storage(spec_of(tmp_path, "study=a")))
     assert study.trials == [] and not [k for k in study.user_attrs if k.startswith("reference")]
     assert not (tmp_path / "b").exists()
+
+
+def test_a_results_dir_that_cannot_be_used_is_one_line_before_a_tune(tmp_path):
+    """As for metaknot run: a loop of symbolic links, a file, a path beyond ASCII unquoted and
+    a folder nothing can be written into (sysfs refuses new files even to root) are one line
+    naming results_dir, exit status 2, for a tune and a sweep of them. Before, Hydra's lexer
+    error (beyond ASCII), a traceback from Hydra's sweep folder (a loop under -m) and a
+    PermissionError traceback (unwritable); quoted, the path beyond ASCII works."""
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    cases = ((str(loop), "cannot be used: Too many levels of symbolic links"),
+             (str(afile), "is not a folder"),
+             (str(tmp_path / "résultats"), "a value with characters beyond ASCII is read only "
+                                           "in quotes: results_dir='"),
+             ("/sys/kernel/metaknot-results", "cannot write into /sys/kernel (Permission "
+                                              "denied); nothing was run"))
+    for value, message in cases:
+        for sweep in ((), ("-m",), ("-m", "study=a,b")):
+            done = subprocess.run([sys.executable, "-m", "metaknot.cli", "tune", *sweep,
+                                   f"results_dir={value}", *SMALL, "n_trials=1"],
+                                  capture_output=True, text=True, cwd=tmp_path, timeout=300)
+            assert done.returncode == 2, done.stderr
+            (line,) = done.stderr.strip().splitlines()
+            assert line.startswith("metaknot tune: error: results_dir: ") and message in line, \
+                (sweep, line)
+    assert not list(tmp_path.glob("*/tune-dolphin"))
+    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "tune",
+                           f"results_dir='{tmp_path / 'résultats'}'", *SMALL, "n_trials=1",
+                           "evaluate=false"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "résultats" / "tune-dolphin" / "trials.csv").exists()
