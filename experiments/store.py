@@ -505,7 +505,7 @@ def load_study(path: str | os.PathLike) -> Study:
         if row.get("run_id") != run_id:
             raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r:.40}, not "
                              f"of {run_id!r}")
-        changed = _changed_after_the_run(row)
+        changed = _changed_after_the_run(row, run_id)
         if changed is not None:
             raise StoreError(f"{entry}: {changed}: the record was changed after its run; move "
                              "it out of the study (or delete it to run that run again)")
@@ -550,9 +550,14 @@ def _check_one_study(entries: list[Path], rows: list[dict[str, Any]], folder: st
                      "study")
 
 
-def _changed_after_the_run(row: Mapping[str, Any]) -> str | None:
-    """What shows a stored run's record was edited (None: nothing does): a best value that
-    is not a number, or a finite one that is not the best of its own trace."""
+def _changed_after_the_run(row: Mapping[str, Any], run_id: str) -> str | None:
+    """What shows a stored run's record was edited (None: nothing does): settings that do not
+    give its run id ``run_id``, or a seed or budget that are not those of its settings (the
+    report pairs and groups runs by these fields); a best value that is not a number, or a
+    finite one that is not the best of its own trace."""
+    settings = _settings_changed(row, run_id)
+    if settings is not None:
+        return settings
     best = row.get("best_f")
     if best is None:
         return None
@@ -561,6 +566,28 @@ def _changed_after_the_run(row: Mapping[str, Any]) -> str | None:
     trace = [v for v in row.get(f"{TRACE_PREFIX}best_f") or () if v is not None and v == v]
     if trace and np.isfinite(best) and min(trace) != best:
         return f"its best value {best!r} is not the best of its own trace ({min(trace)!r})"
+    return None
+
+
+def _settings_changed(row: Mapping[str, Any], run_id: str) -> str | None:
+    """What shows the settings of a record (``config``, and the ``seed`` and ``budget`` fields
+    that copy them) were edited, by :func:`~.run.run_id`, the function that named the run
+    (None: nothing does; a record that stores no settings is not checked)."""
+    from .run import run_id as settings_id
+
+    text = row.get("config")
+    if text is None:
+        return None
+    try:
+        config = json.loads(text)
+        given = settings_id(config)
+    except (TypeError, ValueError, KeyError) as exc:
+        return f"its settings cannot be read ({_short(exc)})"
+    if given != run_id:
+        return f"its settings give the run id {given}, not {run_id}"
+    for name in ("seed", "budget"):
+        if name in row and row[name] != config[name]:
+            return f"its {name} {row[name]!r:.40} is not that of its settings ({config[name]!r})"
     return None
 
 

@@ -366,22 +366,25 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
     Returns
     -------
     dict
-        Counts of tasks: ``tasks`` (with a usable run), ``improved``, ``new``, ``kept``,
-        ``refused``.
+        ``tasks`` (with a usable run), of which ``improved``, ``new`` and ``kept`` (a task
+        without a stored value whose every run was refused is none of these), and
+        ``refused``: the runs refused.
 
     Notes
     -----
-    Per (instance, task) the run with the lowest ``best_f`` is taken. Its candidate is
-    evaluated again on the task's problem (:meth:`metaknot.suite.tasks.Task.problem`); if that
-    does not give the recorded value within a relative :data:`RECHECK`, the run was made on other
-    data or settings than the suite's task and is refused (named in the report). Otherwise the
-    value evaluated again is stored when it is lower than the stored one by more than a relative
-    ``1e-12``; a proven value is never replaced.
+    Per (instance, task) the runs are tried in the order of their ``best_f``, lowest first.
+    A run's candidate is evaluated again on the task's problem
+    (:meth:`metaknot.suite.tasks.Task.problem`); if that does not give the recorded value
+    within a relative :data:`RECHECK`, the run was made on other data or settings than the
+    suite's task and is refused (named in the report), and the next run is tried, as long as
+    its recorded value could still improve the stored one. The first run that passes is the
+    task's best: its value evaluated again is stored when it is lower than the stored one by
+    more than a relative :data:`IMPROVEMENT`; a proven value is never replaced.
     """
     from .tasks import get_task
 
     suite_tasks: dict[tuple[str, str], Task] = {}  # by the name a record gives (an alias too)
-    best_runs: dict[tuple[str, str], tuple[Task, Mapping[str, Any]]] = {}
+    task_runs: dict[tuple[str, str], tuple[Task, list[Mapping[str, Any]]]] = {}
     for run in runs:
         instance, task_id = run.get("suite.instance"), run.get("suite.task")
         value = run.get("best_f")
@@ -392,13 +395,12 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
         if (instance, task_id) not in suite_tasks:
             suite_tasks[instance, task_id] = get_task(instance, task_id)
         task = suite_tasks[instance, task_id]
-        key = (instance, task.id)  # ``tolerance`` stored as the task it names
-        if key not in best_runs or value < best_runs[key][1]["best_f"]:
-            best_runs[key] = (task, run)
+        # ``tolerance`` stored as the task it names
+        task_runs.setdefault((instance, task.id), (task, []))[1].append(run)
     entries = load_best_known(path)
     counts = {"tasks": 0, "improved": 0, "new": 0, "kept": 0, "refused": 0}
-    for key in sorted(best_runs):
-        task, run = best_runs[key]
+    for key in sorted(task_runs):
+        task, candidates = task_runs[key]
         if task.kind == "front" or task.kind not in KINDS_WITH_BEST:
             continue
         counts["tasks"] += 1
@@ -407,15 +409,25 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
             counts["kept"] += 1
             continue
         problem = task.problem()
-        x: np.ndarray = np.asarray(run["best_x"], dtype=problem.encoding.dtype)
-        value = float(problem.evaluate(x[None, :])[0])
-        recorded = float(run["best_f"])
-        if not abs(value - recorded) <= RECHECK * abs(recorded):
+        found: tuple[Mapping[str, Any], np.ndarray, float] | None = None
+        for run in sorted(candidates, key=lambda r: float(r["best_f"])):  # stable: ties in order
+            recorded = float(run["best_f"])
+            if old is not None and not _could_improve(recorded, old.value):
+                break  # neither can the runs after it: the stored value is kept
+            candidate: np.ndarray = np.asarray(run["best_x"], dtype=problem.encoding.dtype)
+            value = float(problem.evaluate(candidate[None, :])[0])
+            if abs(value - recorded) <= RECHECK * abs(recorded):
+                found = (run, candidate, value)
+                break
             counts["refused"] += 1
             report(f"{key[0]} {key[1]}: run {run.get('run_id')} recorded {recorded:.10g} but its "
                    f"candidate gives {value:.10g} on the suite's task (other data or settings?)"
                    ": not stored")
+        if found is None:  # every run that could improve the stored value was refused
+            if old is not None:
+                counts["kept"] += 1
             continue
+        run, x, value = found
         if old is not None and not value < old.value - IMPROVEMENT * abs(old.value):
             counts["kept"] += 1
             continue
@@ -433,3 +445,9 @@ def absorb(runs: Iterable[Mapping[str, Any]], *, path: str | Path = BEST_KNOWN_F
     if counts["improved"] or counts["new"]:
         save_best_known(entries, path)
     return counts
+
+
+def _could_improve(recorded: float, stored: float) -> bool:
+    """Whether a run that recorded ``recorded`` may, evaluated again (within a relative
+    :data:`RECHECK`), improve the ``stored`` value by more than :data:`IMPROVEMENT`."""
+    return recorded - RECHECK * abs(recorded) < stored - IMPROVEMENT * abs(stored)

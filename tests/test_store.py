@@ -13,6 +13,7 @@ import subprocess
 import sys
 import tempfile
 import textwrap
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -27,7 +28,7 @@ import metaknot.algorithms  # built-in optimizers registered before the registry
 import metaknot.experiments.store as store_module
 from metaknot import registry
 from metaknot.experiments.app import execute
-from metaknot.experiments.spec import ConfigError, run_spec
+from metaknot.experiments.spec import ConfigError, run_id, run_spec
 from metaknot.experiments.store import Store, StoreError, Study, load_study
 
 #: Record fields that are wall-clock times (differ between two runs of the same settings).
@@ -989,3 +990,70 @@ def test_a_record_copied_from_another_study_is_named_on_load(tmp_path):
     (first.runs_dir / copied.name).unlink()
     (tmp_path / "a").rename(tmp_path / "renamed")
     assert len(load_study(tmp_path / "renamed").runs) == 1
+
+
+#: A study written by this version of the store (format 2) at commit 8d4f927, by::
+#:
+#:     metaknot run -m problem=archimedean optimizer=ga,random_search seed=0,1 budget=100
+#:     metaknot run problem=suite problem.instance=titanium problem.task=fixed_k_small.free \
+#:         method=bobyqa_free budget=100
+#:     metaknot run problem=suite problem.instance=cardioid problem.task=front \
+#:         method=nsga2_mask budget=200
+#:     metaknot run problem=archimedean encoding=indices encoding.max_multiplicity=2 \
+#:         optimizer=local_search label=mine budget=100
+#:
+#: each with ``study=current-study``: open, closed and function data, mask, index (with
+#: repeats) and free encodings, a suite task, a Pareto front, a label. Its Hydra folder was
+#: left out.
+CURRENT_STUDY = Path(__file__).parent / "data" / "current-study"
+
+
+def test_a_study_written_by_this_version_loads_as_it_was_written():
+    """Every record of a stored study of the current format passes the checks on load (its
+    settings give its run id; its seed and budget are its settings')."""
+    study = load_study(CURRENT_STUDY)
+    names = {p.stem for p in (CURRENT_STUDY / "runs").glob("*.parquet")}
+    assert set(study.runs.run_id) == names and len(names) == 7
+    assert (study.runs.status == "ok").all()
+    for _, row in study.runs.iterrows():
+        config = json.loads(row["config"])
+        assert run_id(config) == row["run_id"]
+        assert (row["seed"], row["budget"]) == (config["seed"], config["budget"])
+
+
+def _edit_config(config: dict) -> dict:
+    return {**config, "seed": config["seed"] + 1}
+
+
+@pytest.mark.parametrize(("column", "edit", "message"), [
+    ("config", lambda text: json.dumps(_edit_config(json.loads(text)), sort_keys=True),
+     r"its settings give the run id [0-9a-f]{16}, not {run}"),
+    ("config", lambda text: json.dumps({**json.loads(text), "budget": 10 ** 6}),
+     r"its settings give the run id [0-9a-f]{16}, not {run}"),
+    ("config", lambda text: text[:-1], r"its settings cannot be read \(.*\)"),
+    ("seed", lambda seed: seed + 1, r"its seed 1 is not that of its settings \(0\)"),
+    ("budget", lambda budget: 10 * budget, r"its budget 1000 is not that of its settings "
+                                            r"\(100\)"),
+], ids=["seed in its settings", "budget in its settings", "settings cut short", "seed field",
+        "budget field"])
+def test_a_record_whose_settings_were_edited_is_named_on_load(tmp_path, column, edit,
+                                                              message):
+    """A record whose stored settings, or the seed or budget fields that copy them, were
+    edited after its run (a report would pair or group it as another run) is refused by name:
+    its settings must give its run id, by the function that named the run."""
+    import shutil
+
+    study_dir = tmp_path / "current-study"
+    shutil.copytree(CURRENT_STUDY, study_dir)
+    path = study_dir / "runs" / "bf351629f0a297c7.parquet"  # ga, seed 0, budget 100
+    table = pq.read_table(path)
+    index = table.schema.get_field_index(column)
+    value = edit(table.column(column)[0].as_py())
+    table = table.set_column(index, column, pa.array([value], type=table.schema.field(
+        index).type))
+    pq.write_table(table, path)
+    problem = message.replace("{run}", path.stem)
+    pattern = rf"{re.escape(str(path))}: {problem}: the record was changed after its run; " \
+              "move it out of the study"
+    with pytest.raises(StoreError, match=pattern):
+        load_study(study_dir)

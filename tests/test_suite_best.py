@@ -234,6 +234,45 @@ def test_a_study_run_is_absorbed_only_where_it_improves(tmp_path) -> None:
     assert load_best_known(path)[proven_key] == ENTRIES[proven_key]
 
 
+def test_a_refused_best_run_gives_way_to_the_next_best_genuine_one(tmp_path) -> None:
+    """The runs of a task are tried lowest first: a forged best run (its candidate does not
+    give its recorded value) is refused by name, and the genuine second-best run, which
+    improves the stored value, is stored (it was given up with the forged one). Runs that
+    cannot improve the stored value are not tried."""
+    path = tmp_path / "best.json"
+    stored = ENTRIES[("titanium", "seed")]
+    rows = sorted((_study_row("seed", name, 1) for name in ("ga", "one_plus_one")),
+                  key=lambda r: r["best_f"])
+    genuine, worse_run = rows
+    assert genuine["best_f"] < worse_run["best_f"]
+    forged = [dict(worse_run, best_f=genuine["best_f"] / factor, run_id=f"forged-{factor}")
+              for factor in (3, 2)]
+    worse = dataclasses.replace(stored, value=genuine["best_f"] * 2, method="made-up")
+    save_best_known({("titanium", "seed"): worse}, path)
+    lines: list[str] = []
+    counts = absorb([*forged, worse_run, genuine], path=path, report=lines.append)
+    assert counts == {"tasks": 1, "improved": 1, "new": 0, "kept": 0, "refused": 2}
+    entry = load_best_known(path)[("titanium", "seed")]
+    assert entry.value == pytest.approx(genuine["best_f"], rel=1e-12)
+    assert (entry.method, entry.seed) == (genuine["label"], 1)
+    assert ["forged-3" in lines[0], "forged-2" in lines[1], genuine["run_id"] in lines[2]] \
+        == [True, True, True] and len(lines) == 3
+    # without a stored value, the genuine run is new
+    assert absorb([forged[0], genuine], path=tmp_path / "new.json", report=lines.append) == {
+        "tasks": 1, "improved": 0, "new": 1, "kept": 0, "refused": 1}
+    # a stored value between the forged and the genuine run: the forged one is refused, the
+    # stored one kept, and runs recorded above it are not tried (a forged one there is not
+    # named: it could not have changed anything)
+    between = dataclasses.replace(stored, value=genuine["best_f"] * 0.9, method="made-up")
+    save_best_known({("titanium", "seed"): between}, path)
+    lines.clear()
+    above = dict(worse_run, best_f=genuine["best_f"] * 0.95, run_id="forged-above")
+    assert absorb([forged[0], genuine, above], path=path, report=lines.append) == {
+        "tasks": 1, "improved": 0, "new": 0, "kept": 1, "refused": 1}
+    assert len(lines) == 1 and "forged-3" in lines[0]
+    assert load_best_known(path)[("titanium", "seed")] == between
+
+
 def test_the_file_round_trips_and_refuses_other_formats(tmp_path) -> None:
     path = tmp_path / "best.json"
     entry = BestKnown("titanium", "seed", 1.5, [0.1, 0.2], [3.0, 7.0], "ga", 100, 0)

@@ -55,18 +55,36 @@ def stored_trials(spec):
     return optuna.load_study(study_name=spec.study, storage=open_storage(spec)).trials
 
 
-def wait_until_held(study_dir: Path, worker_index: int, process: subprocess.Popen,
+def wait_until_held(study_dir: Path, worker_index: int | str, process: subprocess.Popen,
                     timeout: float = 300) -> dict:
     """The trial and pid of the worker ``worker_index`` once it holds inside a trial
-    (``HOLD_WORKER_ENV``); fails if ``process`` (the command that runs it) ends first."""
-    marker = study_dir / f"worker-{worker_index}.held"
+    (``HOLD_WORKER_ENV``), or the pid of the command held in its reference runs
+    (``worker_index="references"``); fails if ``process`` (the command that runs it) ends
+    first."""
+    marker = study_dir / ("references.held" if worker_index == "references"
+                          else f"worker-{worker_index}.held")
     deadline = time.monotonic() + timeout
     while not marker.exists():
-        assert process.poll() is None, f"worker {worker_index} ended before it held in a " \
-                                       f"trial:\n{process.stdout.read()}"
-        assert time.monotonic() < deadline, f"worker {worker_index} never held in a trial"
+        assert process.poll() is None, f"worker {worker_index} ended before it held:\n" \
+                                       f"{process.stdout.read()}"
+        assert time.monotonic() < deadline, f"worker {worker_index} never held"
         time.sleep(0.05)
     return json.loads(marker.read_text())
+
+
+def stop(process: subprocess.Popen, sig: int) -> str:
+    """Send ``sig`` to ``process`` (SIGINT to its process group, as Ctrl-C does) and return
+    its stderr once it has ended; kills its group if it has not ended within 120 s."""
+    try:
+        if sig == signal.SIGINT:
+            os.killpg(process.pid, sig)
+        else:
+            os.kill(process.pid, sig)
+        _, stderr = process.communicate(timeout=120)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+    return stderr
 
 
 # --- search spaces ------------------------------------------------------------------------
@@ -531,3 +549,94 @@ def test_a_stopped_tune_stops_its_workers_fails_their_trials_in_one_line(tmp_pat
     assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
     assert [t.state for t in trials if t.number == held["trial"]] == [TrialState.FAIL]
     assert (tmp_path / "tune-dolphin" / "trials.csv").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("how", ["SIGTERM to the command", "Ctrl-C to its process group"])
+def test_a_stopped_tune_sweep_stops_as_a_single_tune_does(tmp_path, how):
+    """``metaknot tune -m study=a,b workers=2`` stopped while study a's spawned worker holds
+    inside a trial: as a single tune, the worker is stopped, no trial is left RUNNING (the
+    held one FAIL), trials.csv is written, one line on stderr, exit 128 + the signal; study b
+    is not started. Before, SIGTERM killed the command alone (the worker went on, both trials
+    RUNNING for ever on the journal, no trials.csv) and Ctrl-C printed a traceback."""
+    sig = signal.SIGTERM if how.startswith("SIGTERM") else signal.SIGINT
+    command = [sys.executable, "-m", "metaknot.cli", "tune", "-m", f"results_dir={tmp_path}",
+               *SMALL, "n_trials=40", "workers=2", "evaluate=false", "pruner=none",
+               "study=a,b"]
+    parent = subprocess.Popen(command, env={**os.environ, HOLD_WORKER_ENV: "1"},
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              start_new_session=True)
+    held = wait_until_held(tmp_path / "a", 1, parent)
+    stderr = stop(parent, sig)
+    assert parent.returncode == 128 + sig, stderr
+    (line,) = stderr.strip().splitlines()
+    assert re.fullmatch(rf"tune a: added \d+ trials? \(.*\d+ fail.*\); the study holds \d+; "
+                        rf"interrupted \({signal.Signals(sig).name}\): its running trials "
+                        r"marked FAIL; run the same command to resume", line), line
+    with pytest.raises(ProcessLookupError):
+        os.kill(held["pid"], 0)  # the spawned worker has ended
+    trials = stored_trials(spec_of(tmp_path, "workers=2", "study=a"))
+    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
+    assert [t.state for t in trials if t.number == held["trial"]] == [TrialState.FAIL]
+    assert (tmp_path / "a" / "trials.csv").exists()
+    assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("form", ["tune", "tune -m"])
+@pytest.mark.parametrize("how", ["SIGTERM to the command", "Ctrl-C to its process group"])
+def test_a_tune_stopped_while_its_reference_method_runs_stops_at_once(tmp_path, how, form):
+    """SIGTERM or Ctrl-C while the reference method runs (held inside its first run): the
+    command stops at once with one line, exit 128 + the signal, and no trial in the study.
+    Before, the signal waited for every reference run to end (for ever here), then a trial
+    was started only to fail."""
+    sig = signal.SIGTERM if how.startswith("SIGTERM") else signal.SIGINT
+    sweep = ["-m", "study=a,b"] if form.endswith("-m") else ["study=a"]
+    command = [sys.executable, "-m", "metaknot.cli", "tune", *sweep, f"results_dir={tmp_path}",
+               *SMALL, "n_trials=40", "evaluate=false", "pruner=none"]
+    parent = subprocess.Popen(command, env={**os.environ, HOLD_WORKER_ENV: "references"},
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              start_new_session=True)
+    held = wait_until_held(tmp_path / "a", "references", parent)
+    assert held["pid"] == parent.pid
+    stderr = stop(parent, sig)
+    assert parent.returncode == 128 + sig, stderr
+    assert stderr.strip().splitlines() == [
+        f"tune a: interrupted ({signal.Signals(sig).name}) while the reference method ran, "
+        "before any trial; run the same command to resume"]
+    study = optuna.load_study(study_name="a", storage=open_storage(spec_of(tmp_path, "study=a")))
+    assert study.trials == [] and not [k for k in study.user_attrs if k.startswith("reference")]
+    assert not (tmp_path / "b").exists()
+
+
+def test_a_results_dir_that_cannot_be_used_is_one_line_before_a_tune(tmp_path):
+    """As for metaknot run: a loop of symbolic links, a file, a path beyond ASCII unquoted and
+    a folder nothing can be written into (sysfs refuses new files even to root) are one line
+    naming results_dir, exit status 2, for a tune and a sweep of them. Before, Hydra's lexer
+    error (beyond ASCII), a traceback from Hydra's sweep folder (a loop under -m) and a
+    PermissionError traceback (unwritable); quoted, the path beyond ASCII works."""
+    loop = tmp_path / "loop"
+    loop.symlink_to(loop)
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    cases = ((str(loop), "cannot be used: Too many levels of symbolic links"),
+             (str(afile), "is not a folder"),
+             (str(tmp_path / "résultats"), "a value with characters beyond ASCII is read only "
+                                           "in quotes: results_dir='"),
+             ("/sys/kernel/metaknot-results", "cannot write into /sys/kernel (Permission "
+                                              "denied); nothing was run"))
+    for value, message in cases:
+        for sweep in ((), ("-m",), ("-m", "study=a,b")):
+            done = subprocess.run([sys.executable, "-m", "metaknot.cli", "tune", *sweep,
+                                   f"results_dir={value}", *SMALL, "n_trials=1"],
+                                  capture_output=True, text=True, cwd=tmp_path, timeout=300)
+            assert done.returncode == 2, done.stderr
+            (line,) = done.stderr.strip().splitlines()
+            assert line.startswith("metaknot tune: error: results_dir: ") and message in line, \
+                (sweep, line)
+    assert not list(tmp_path.glob("*/tune-dolphin"))
+    done = subprocess.run([sys.executable, "-m", "metaknot.cli", "tune",
+                           f"results_dir='{tmp_path / 'résultats'}'", *SMALL, "n_trials=1",
+                           "evaluate=false"], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "résultats" / "tune-dolphin" / "trials.csv").exists()

@@ -12,11 +12,14 @@ from __future__ import annotations
 
 import signal
 import sys
+from pathlib import Path
 from typing import Any
 
-from ..app import CONFIG_DIR, launch, not_a_setting
+from ..app import CONFIG_DIR, launch, not_a_setting, unreadable
 from ..errors import ConfigError
 from ..interrupt import Interrupted, interrupt_on_signals
+from ..spec import STUDY, check_value
+from ..store import check_writable
 from .spec import tune_spec
 from .study import TuneSpec
 
@@ -47,7 +50,13 @@ def tune(spec: TuneSpec, *, progress: bool = True) -> dict[str, Any]:
     print(f"tune {spec.study}: {spec.optimizer} on {len(spec.train)} training instances x "
           f"{len(spec.train_seeds)} seeds, {spec.budget:,} evaluations per run; storage "
           f"{storage_description(spec)}", flush=True)
-    references(spec, study)
+    try:
+        references(spec, study)
+    except Interrupted as stop:  # nothing of these runs is stored
+        stop.line = (f"tune {spec.study}: interrupted ({signal.Signals(stop.signum).name}) "
+                     "while the reference method ran, before any trial; run the same command "
+                     "to resume")
+        raise
     before = len(study.get_trials(deepcopy=False))
     try:
         spawned = run_workers(spec, progress=progress)
@@ -117,15 +126,19 @@ def main(argv: list[str] | None = None) -> int:
     from hydra.errors import HydraException
 
     args = list(sys.argv[1:] if argv is None else argv)
-    if not any(a.startswith("-") for a in args):
-        error = not_a_setting(args, "tune=dolphin n_trials=100 workers=2")
-        if error:
-            print(f"metaknot tune: error: {error}", file=sys.stderr)
-            return 2
+    single = not any(a.startswith("-") for a in args)
+    error = not_a_setting(args, "tune=dolphin n_trials=100 workers=2") if single else None
+    sweep = bool({"-m", "--multirun"} & set(args))
+    error = error or unreadable_setting(args) or (results_dirs_error(args) if sweep else None)
+    if error:
+        print(f"metaknot tune: error: {error}", file=sys.stderr)
+        return 2
+    if single:
         try:
             with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
                 cfg = compose("tuning", overrides=args)
             spec = tune_spec(cfg)
+            check_writable(spec.study_dir)
         except HydraException as exc:  # a ConfigError too (a CompactHydraException)
             lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
             print(f"metaknot tune: error: {' '.join(lines[:2])}", file=sys.stderr)
@@ -141,4 +154,53 @@ def main(argv: list[str] | None = None) -> int:
                   "resume", file=sys.stderr, flush=True)
             return stop.exit_code
         return 0
-    return launch(task, "tuning", args)
+    try:  # a sweep (-m): its studies one after another, each stopped as a single tune is
+        with interrupt_on_signals(anywhere=False):
+            return launch(task, "tuning", args)
+    except Interrupted as stop:
+        print(stop.line or "metaknot tune: interrupted; run the same command to resume",
+              file=sys.stderr, flush=True)
+        return stop.exit_code
+
+
+def _settings(args: list[str]) -> list[str]:
+    """The settings (Hydra overrides) of a command line, not Hydra's options nor their values."""
+    return [a for a in args if ("=" in a and not a.startswith("-")) or a.startswith("~")]
+
+
+def unreadable_setting(args: list[str]) -> str | None:
+    """The first setting of ``args`` Hydra cannot read, in one line (a value beyond ASCII
+    unquoted gets its quoted spelling: :func:`~..app.unreadable`), or None."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from hydra.errors import HydraException
+
+    parser = OverridesParser.create()
+    for arg in _settings(args):
+        try:
+            parser.parse_overrides([arg])
+        except HydraException as exc:
+            return unreadable(arg, exc)
+    return None
+
+
+def results_dirs_error(args: list[str]) -> str | None:
+    """Why a results folder of a sweep (``-m``; each value of a swept ``results_dir``) cannot
+    be used, in one line: a loop of symbolic links, a file, a folder nothing can be written
+    into; None if each can. Hydra makes its sweep folder there before any study's settings
+    are checked (a traceback before)."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+    from omegaconf import OmegaConf
+
+    folders: list[Any] = [OmegaConf.load(CONFIG_DIR / "tuning.yaml").results_dir]
+    for arg in _settings(args):
+        if arg.partition("=")[0].lstrip("+") == "results_dir":
+            (override,) = OverridesParser.create().parse_overrides([arg])
+            folders = list(override.sweep_iterator()) if override.is_sweep_override() else \
+                [override.value()]
+    try:
+        for folder in (str(getattr(f, "text", f)) for f in folders):  # QuotedString: its text
+            check_value("results_dir", folder, STUDY["results_dir"])
+            check_writable(Path(folder))
+    except ConfigError as exc:
+        return str(exc)
+    return None

@@ -30,7 +30,8 @@ FINISHED = ("COMPLETE", "PRUNED")
 #: Fault injection for the tests: the worker whose ``worker_index`` this variable holds stops
 #: inside the first trial it starts, once its parameters are sampled, writes
 #: ``<study dir>/worker-<index>.held`` (``{"trial": number, "pid": pid}``) and waits there, its
-#: heartbeat beating, until it is killed.
+#: heartbeat beating, until it is killed. ``references`` stops the command inside the first
+#: run of the reference method (``<study dir>/references.held``, ``{"pid": pid}``).
 HOLD_WORKER_ENV = "METAKNOT_TUNE_HOLD_WORKER"
 
 
@@ -200,8 +201,13 @@ def references(spec: TuneSpec, study: Any) -> dict[str, float]:
     for instance in spec.train:
         key = f"reference:{instance.key}"
         if key not in study.user_attrs:
-            values = evaluate_setting(spec, instance, spec.train_seeds,
-                                      optimizer=spec.reference, params={})
+            # a signal stops the runs at once (nothing is stored); the storage call after
+            # them is not cut short
+            with interruptible():
+                if os.environ.get(HOLD_WORKER_ENV) == "references":
+                    _hold(spec, "references")
+                values = evaluate_setting(spec, instance, spec.train_seeds,
+                                          optimizer=spec.reference, params={})
             median = float(np.median(values))
             if not np.isfinite(median) or median <= 0:
                 raise ConfigError(
@@ -228,7 +234,7 @@ def trial_objective(spec: TuneSpec, reference: dict[str, float]) -> Callable[[An
         # them are not cut short (a journal's file lock), the signal waits for the next runs
         if os.environ.get(HOLD_WORKER_ENV) == str(spec.worker_index):
             with interruptible():
-                _hold(spec, trial)
+                _hold(spec, f"worker-{spec.worker_index}", trial.number)
         ratios = []
         for step, instance in enumerate(spec.train):
             with interruptible():
@@ -246,11 +252,13 @@ def trial_objective(spec: TuneSpec, reference: dict[str, float]) -> Callable[[An
     return objective
 
 
-def _hold(spec: TuneSpec, trial: Any) -> None:
-    """Stop inside ``trial`` until killed (:data:`HOLD_WORKER_ENV`)."""
-    marker = spec.study_dir / f"worker-{spec.worker_index}.held"
+def _hold(spec: TuneSpec, name: str, trial: int | None = None) -> None:
+    """Stop here until killed (:data:`HOLD_WORKER_ENV`), once ``<study dir>/<name>.held``
+    says where (the pid, and the ``trial`` if one)."""
+    marker = spec.study_dir / f"{name}.held"
     partial = marker.with_suffix(".partial")
-    partial.write_text(json.dumps({"trial": trial.number, "pid": os.getpid()}))
+    where = {"pid": os.getpid()} if trial is None else {"trial": trial, "pid": os.getpid()}
+    partial.write_text(json.dumps(where))
     partial.replace(marker)
     threading.Event().wait()
 
