@@ -530,14 +530,10 @@ def test_a_stopped_tune_stops_its_workers_fails_their_trials_in_one_line(tmp_pat
                               start_new_session=True)
     try:
         held = wait_until_held(tmp_path / "tune-dolphin", 1, parent)
-        if sig == signal.SIGINT:
-            os.killpg(parent.pid, sig)
-        else:
-            os.kill(parent.pid, sig)
-        _, stderr = parent.communicate(timeout=120)
-    finally:
-        if parent.poll() is None:
-            os.killpg(parent.pid, signal.SIGKILL)
+    except BaseException:
+        os.killpg(parent.pid, signal.SIGKILL)
+        raise
+    stderr = stop(parent, sig)
     assert parent.returncode == 128 + sig, stderr
     (line,) = stderr.strip().splitlines()
     assert re.fullmatch(rf"tune tune-dolphin: added \d+ trials? \(.*\d+ fail.*\); the study "
