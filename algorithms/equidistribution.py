@@ -63,19 +63,21 @@ def check_feature(feature: str) -> str:
     return feature
 
 
-def turning_angles(curve: Curve) -> np.ndarray:
-    """The turning angle of the data polygon at every point (0 at an open curve's ends);
-    function data (one coordinate) as the graph ``(x, y)``, both scaled to [0, 1]."""
+def turning_angles(curve: Curve, reach: int = 1) -> np.ndarray:
+    """The turning angle of the data polygon at every point, between the chords to the points
+    ``reach`` away on either side (0 at an open curve's first and last ``reach``); function
+    data (one coordinate) as the graph ``(x, y)``, both scaled to [0, 1]."""
     q, params = curve.points, curve.params
     if q.shape[1] == 1:
         span = np.ptp(q[:, 0]) or 1.0
         q = np.column_stack(((params - params[0]) / (params[-1] - params[0]), q[:, 0] / span))
-    nxt = np.roll(q, -1, axis=0) - q
-    prv = q - np.roll(q, 1, axis=0)
+    nxt = np.roll(q, -reach, axis=0) - q
+    prv = q - np.roll(q, reach, axis=0)
     cos = np.einsum("ij,ij->i", nxt, prv) / np.maximum(
         np.linalg.norm(nxt, axis=1) * np.linalg.norm(prv, axis=1), np.finfo(float).tiny)
     angle = np.arccos(np.clip(cos, -1.0, 1.0))
-    angle[curve.end_indices] = 0.0
+    if not curve.closed:
+        angle[:reach] = angle[-reach:] = 0.0
     return angle
 
 

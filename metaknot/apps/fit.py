@@ -181,19 +181,18 @@ class _Search:
                 break
         return knots, err
 
-    def polish(self, knots: np.ndarray) -> tuple[np.ndarray, float]:
+    def polish(self, knots: np.ndarray, err: float) -> tuple[np.ndarray, float]:
         """``knots`` moved by variable projection (``varpro`` on the curve's points as free
         knots, least squares, started from these knots: :data:`POLISH_ITERATIONS` Gauss-Newton
         steps at most, then from the averaging and equally spaced knots); knots closer than
         1e-6 of the parameter range become one multiple knot where multiplicities are allowed.
-        Returns the polished knots and their error, or the given ones if polishing did not
-        lower it."""
+        Returns the polished knots and their error, or the given ones (their error ``err``)
+        if polishing did not lower it."""
         import metaknot as mk
         from metaknot.problems import FreeKnots, PointSet
         from metaknot.problems.knot_problems import merge_close_knots
 
         curve = self.curve
-        (err,) = self.errors([knots])
         if knots.size == 0:
             return knots, float(err)
         lo, hi = curve.knot_bounds
@@ -232,24 +231,28 @@ class _Search:
             if errs[order[0]] <= self.tol:
                 knots = rows[order[0]]
                 continue
-            for j in order[: self.tries]:
-                if not np.isfinite(errs[j]):
-                    return knots  # no removal left can be fitted: nothing to nudge
-                nudged, err = self.nudge(rows[j], int(first[j]))
-                if err <= self.tol:
-                    knots = nudged
-                    break
-            else:
-                for j in order[:POLISH_TRIES] if polish else []:
-                    if not np.isfinite(errs[j]):
-                        break
-                    found, err = self.polish(rows[j])
-                    if err <= self.tol:
-                        knots = found
-                        break
-                else:
-                    return knots
+            unstuck = self._unstick(rows, errs, order, first, polish)
+            if unstuck is None:
+                return knots
+            knots = unstuck
         return knots
+
+    def _unstick(self, rows: list[np.ndarray], errs: np.ndarray, order: np.ndarray,
+                 removed: np.ndarray, polish: bool) -> np.ndarray | None:
+        """Where no removal stays within the tolerance: the most promising removals (``order``
+        of ``errs``; ``rows[j]`` is the knots without knot ``removed[j]``) nudged, then, with
+        ``polish``, polished; the first within the tolerance, or None."""
+        for j in order[: self.tries]:
+            if not np.isfinite(errs[j]):
+                return None  # no removal left can be fitted: nothing to nudge
+            nudged, err = self.nudge(rows[j], int(removed[j]))
+            if err <= self.tol:
+                return nudged
+        for j in order[:POLISH_TRIES] if polish else []:
+            found, err = self.polish(rows[j], float(errs[j]))
+            if err <= self.tol:
+                return found
+        return None
 
     def fewest_averaging(self, upper: int) -> np.ndarray | None:
         """The curve's spread knots (averaging knots on open curves) at the fewest count, up
@@ -275,23 +278,15 @@ def corner_params(curve: Curve, angle: float = CORNER_ANGLE, reach: int = CORNER
     points (function data as the graph, each axis scaled to [0, 1]); only points strictly
     inside the knot range (not a closed outline's point 0, an open curve's first or last
     ``reach``)."""
-    q, u = curve.points, curve.params
-    if q.shape[1] == 1:
-        span = np.ptp(q[:, 0]) or 1.0
-        q = np.column_stack(((u - u[0]) / (u[-1] - u[0]), q[:, 0] / span))
-    after = np.roll(q, -reach, axis=0) - q
-    before = q - np.roll(q, reach, axis=0)
-    cos = np.einsum("ij,ij->i", after, before) / np.maximum(
-        np.linalg.norm(after, axis=1) * np.linalg.norm(before, axis=1), np.finfo(float).tiny)
-    turn = np.arccos(np.clip(cos, -1.0, 1.0))
-    if not curve.closed:
-        turn[:reach] = turn[-reach:] = 0.0
+    from metaknot.algorithms.equidistribution import turning_angles
+
+    turn = turning_angles(curve, reach)
     window = np.stack([np.roll(turn, k) for k in range(-reach, reach + 1)])
     peaks = np.flatnonzero((turn >= window.max(axis=0)) & (turn > angle))
     # of equal maxima within reach of each other, the first
     peaks = peaks[np.diff(peaks, prepend=-reach - 1) > reach]
     lo, hi = curve.knot_bounds
-    at = u[peaks]
+    at = curve.params[peaks]
     return at[(at > lo) & (at < hi)]
 
 
