@@ -41,9 +41,9 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 import numpy as np
+from _timing import best_time
 from scipy.interpolate import BSpline, make_lsq_spline
 from scipy.optimize import minimize
 
@@ -155,17 +155,9 @@ def jacobian_cost(problem) -> float:
     residual_jacobian(*args, closed=bool(problem.closed))
     problem.evaluate(knots[None, :])
 
-    def best(func, repeats=20):
-        times = []
-        for _ in range(repeats):
-            start = time.perf_counter()
-            func()
-            times.append(time.perf_counter() - start)
-        return min(times)
-
-    jac = best(lambda: residual_jacobian(*args, closed=bool(problem.closed)))
-    fit = best(lambda: problem.curve.evaluate_positions(knots[None, :], max_deviation=False),
-               200)
+    jac = best_time(lambda: residual_jacobian(*args, closed=bool(problem.closed)), 20)
+    fit = best_time(lambda: problem.curve.evaluate_positions(knots[None, :],
+                                                             max_deviation=False), 200)
     return jac / fit
 
 
