@@ -92,9 +92,8 @@ class NevergradOptimizer(Optimizer):
             # a simple one), not at the box's centre (a multiple knot at every point: too
             # many control points, every candidate near it infeasible)
             lower, upper = float(encoding.lower.min()), float(encoding.upper.max())
-            init = np.full(n, 0.5) if is_mask(problem) else None
-            parametrization = ng.p.Array(init=init, lower=lower, upper=upper) \
-                if init is not None else ng.p.Array(shape=(n,), lower=lower, upper=upper)
+            start = 0.5 if is_mask(problem) else (lower + upper) / 2.0  # nevergrad's default
+            parametrization = ng.p.Array(init=np.full(n, start), lower=lower, upper=upper)
             parametrization.set_integer_casting()
         parametrization.random_state.seed(int(rng.integers(2**31)))
         budget = getattr(problem, "budget", None)
