@@ -87,6 +87,38 @@ def stop(process: subprocess.Popen, sig: int) -> str:
     return stderr
 
 
+def stop_a_held_tune(tmp_path: Path, how: str, study: str, *overrides: str,
+                     multirun: bool = False) -> None:
+    """Start ``metaknot tune [-m] ... workers=2`` (``overrides`` added), hold its spawned
+    worker inside a trial of ``study``, signal it as ``how`` says and check what a stopped tune
+    leaves: the worker stopped, no trial RUNNING (the held one FAIL), trials.csv written, one
+    line on stderr, exit 128 + the signal."""
+    sig = signal.SIGTERM if how.startswith("SIGTERM") else signal.SIGINT
+    command = [sys.executable, "-m", "metaknot.cli", "tune", *(["-m"] if multirun else []),
+               f"results_dir={tmp_path}", *SMALL, "n_trials=40", "workers=2", "evaluate=false",
+               "pruner=none", *overrides]
+    parent = subprocess.Popen(command, env={**os.environ, HOLD_WORKER_ENV: "1"},
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              start_new_session=True)
+    try:
+        held = wait_until_held(tmp_path / study, 1, parent)
+    except BaseException:
+        os.killpg(parent.pid, signal.SIGKILL)
+        raise
+    stderr = stop(parent, sig)
+    assert parent.returncode == 128 + sig, stderr
+    (line,) = stderr.strip().splitlines()
+    assert re.fullmatch(rf"tune {study}: added \d+ trials? \(.*\d+ fail.*\); the study holds "
+                        rf"\d+; interrupted \({signal.Signals(sig).name}\): its running trials "
+                        r"marked FAIL; run the same command to resume", line), line
+    with pytest.raises(ProcessLookupError):
+        os.kill(held["pid"], 0)  # the spawned worker has ended
+    trials = stored_trials(spec_of(tmp_path, "workers=2", f"study={study}"))
+    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
+    assert [t.state for t in trials if t.number == held["trial"]] == [TrialState.FAIL]
+    assert (tmp_path / study / "trials.csv").exists()
+
+
 # --- search spaces ------------------------------------------------------------------------
 
 NAMES = {"population", "pp1", "power", "re", "epsilon", "fitness", "loops"}
@@ -522,29 +554,7 @@ def test_a_stopped_tune_stops_its_workers_fails_their_trials_in_one_line(tmp_pat
     RUNNING (the held one FAIL), trials.csv is written, one line on stderr, exit 128 + the
     signal. Before, SIGTERM orphaned the worker and left the parent's trial RUNNING; Ctrl-C
     printed 99 lines of tracebacks and no trials.csv."""
-    sig = signal.SIGTERM if how.startswith("SIGTERM") else signal.SIGINT
-    command = [sys.executable, "-m", "metaknot.cli", "tune", f"results_dir={tmp_path}", *SMALL,
-               "n_trials=40", "workers=2", "evaluate=false", "pruner=none"]
-    parent = subprocess.Popen(command, env={**os.environ, HOLD_WORKER_ENV: "1"},
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                              start_new_session=True)
-    try:
-        held = wait_until_held(tmp_path / "tune-dolphin", 1, parent)
-    except BaseException:
-        os.killpg(parent.pid, signal.SIGKILL)
-        raise
-    stderr = stop(parent, sig)
-    assert parent.returncode == 128 + sig, stderr
-    (line,) = stderr.strip().splitlines()
-    assert re.fullmatch(rf"tune tune-dolphin: added \d+ trials? \(.*\d+ fail.*\); the study "
-                        rf"holds \d+; interrupted \({signal.Signals(sig).name}\): its running "
-                        r"trials marked FAIL; run the same command to resume", line), line
-    with pytest.raises(ProcessLookupError):
-        os.kill(held["pid"], 0)  # the spawned worker has ended
-    trials = stored_trials(spec_of(tmp_path, "workers=2"))
-    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
-    assert [t.state for t in trials if t.number == held["trial"]] == [TrialState.FAIL]
-    assert (tmp_path / "tune-dolphin" / "trials.csv").exists()
+    stop_a_held_tune(tmp_path, how, "tune-dolphin")
 
 
 @pytest.mark.slow
@@ -555,26 +565,7 @@ def test_a_stopped_tune_sweep_stops_as_a_single_tune_does(tmp_path, how):
     held one FAIL), trials.csv is written, one line on stderr, exit 128 + the signal; study b
     is not started. Before, SIGTERM killed the command alone (the worker went on, both trials
     RUNNING for ever on the journal, no trials.csv) and Ctrl-C printed a traceback."""
-    sig = signal.SIGTERM if how.startswith("SIGTERM") else signal.SIGINT
-    command = [sys.executable, "-m", "metaknot.cli", "tune", "-m", f"results_dir={tmp_path}",
-               *SMALL, "n_trials=40", "workers=2", "evaluate=false", "pruner=none",
-               "study=a,b"]
-    parent = subprocess.Popen(command, env={**os.environ, HOLD_WORKER_ENV: "1"},
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                              start_new_session=True)
-    held = wait_until_held(tmp_path / "a", 1, parent)
-    stderr = stop(parent, sig)
-    assert parent.returncode == 128 + sig, stderr
-    (line,) = stderr.strip().splitlines()
-    assert re.fullmatch(rf"tune a: added \d+ trials? \(.*\d+ fail.*\); the study holds \d+; "
-                        rf"interrupted \({signal.Signals(sig).name}\): its running trials "
-                        r"marked FAIL; run the same command to resume", line), line
-    with pytest.raises(ProcessLookupError):
-        os.kill(held["pid"], 0)  # the spawned worker has ended
-    trials = stored_trials(spec_of(tmp_path, "workers=2", "study=a"))
-    assert not [t for t in trials if t.state in (TrialState.RUNNING, TrialState.WAITING)]
-    assert [t.state for t in trials if t.number == held["trial"]] == [TrialState.FAIL]
-    assert (tmp_path / "a" / "trials.csv").exists()
+    stop_a_held_tune(tmp_path, how, "a", "study=a,b", multirun=True)
     assert not (tmp_path / "b").exists()
 
 
