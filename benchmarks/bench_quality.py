@@ -6,7 +6,7 @@ For each seed curve (centripetal parameters, cubic) FITPACK picks a knot count
 at smoothing ``s = N * 1e-4`` and ``s = N * 1e-6``: six cases. In each case every method gets
 that same number of interior knots K and the same budget, for several seeds, minimising the
 error (objective ``paper`` without error floor: with K fixed it is K x Euclidean distance):
-DE and GA on ordered data indices (``KnotIndices``), nlopt on free knots (``FreeKnots``),
+DE and GA on ordered data indices (``KnotIndices``), nlopt and varpro on free knots (``FreeKnots``),
 random search on indices, and the classical baselines. The table shows each method's median
 RMSE divided by FITPACK's own RMSE (its smoothing spline at that s). The last two lines are
 
@@ -35,7 +35,8 @@ from metaknot.problems import get_curve
 
 CURVES = ("epitrochoid", "archimedean", "vivaldi")
 DEGREE = 3
-LABELS = ("dolphin", "ga", "random", "nlopt-bobyqa", "nlopt-crs2", "averaging", "fitpack")
+LABELS = ("dolphin", "ga", "random", "nlopt-bobyqa", "nlopt-lbfgs", "varpro", "nlopt-crs2",
+          "averaging", "fitpack")
 
 
 def fitpack_rmse(curve: str, factor: float) -> float:
