@@ -158,5 +158,6 @@ def test_the_knotbench_study_covers_the_suite(tmp_path) -> None:
     from metaknot.experiments import load_study
 
     runs = load_study(tmp_path / "knotbench").runs
-    assert len(runs) == len(split("mini")) and set(runs["label"]) == {"nlopt-bobyqa"}
+    assert len(runs) == 3 * len(split("mini"))
+    assert set(runs["label"]) == {"nlopt-bobyqa", "nlopt-lbfgs", "varpro"}
     assert set(runs["suite.task"]) == {"fixed_k_small.free"} and set(runs["status"]) == {"ok"}
