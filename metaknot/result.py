@@ -49,9 +49,9 @@ class RunResult:
         the run accounts for, or a changed budget (see :func:`metaknot.minimize`).
     audited_fits, accounted_fits
         The audit's counts: model fits tallied while the optimizer was set up and ran
-        (:mod:`metaknot.audit`), and the fits the run accounts for (its evaluations, further
-        fits made during the evaluator's calls, by the problem or the callbacks, and declared
-        external fits).
+        (:func:`~metaknot.budget.add_fits`), and the fits the run accounts for (its
+        evaluations, further fits made during the evaluator's calls, by the problem or the
+        callbacks, and declared external fits).
     front
         Two-objective problems: the final Pareto front as columns (``objective_0``,
         ``objective_1`` and the members' metrics, e.g. ``n_control_points`` and ``rmse``),
