@@ -3,9 +3,10 @@ fit tally that audits it.
 
 An optimizer never calls ``problem.evaluate`` itself (it is set up on a :class:`~metaknot.Task`,
 which cannot evaluate); it calls an :class:`Evaluator`, which truncates a batch to what is left of
-the budget, keeps the best candidate, runs the callbacks and raises :class:`BudgetExhausted` once
-nothing is left. So an optimizer that plays by the interface cannot use more evaluations than it
-was given. The evaluator's budget and counters are read-only properties.
+the budget, keeps the best candidate, reports a :class:`Progress` to the callbacks and raises
+:class:`BudgetExhausted` once nothing is left. So an optimizer that plays by the interface cannot
+use more evaluations than it was given. The evaluator's budget and counters are read-only
+properties.
 
 The evaluator counts the candidates it scores; the fit tally counts, independently, the fits
 the model layer computes. metaknot's B-spline layer (the batched kernels, the move evaluator,
@@ -26,17 +27,17 @@ import time
 import warnings
 import weakref
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from .front import ParetoArchive
 from .problem import Problem
-from .progress import Progress
 from .task import Task
 from .validate import is_integer
 
-__all__ = ["BudgetExhausted", "Evaluator", "add_fits", "fits_tallied"]
+__all__ = ["BudgetExhausted", "Evaluator", "Progress", "add_fits", "fits_tallied"]
 
 _FLOAT64 = np.dtype(np.float64)
 
@@ -69,6 +70,45 @@ def check_budget(budget: object) -> int:
         raise ValueError(f"budget must be a positive integer number of evaluations; "
                          f"got {budget!r}")
     return int(budget)
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What callbacks see after every evaluated batch.
+
+    Attributes
+    ----------
+    n_evaluations
+        Evaluations used so far (this batch included).
+    budget
+        Evaluations allowed.
+    best_f
+        Best objective value so far.
+    batch_f
+        Objective values of this batch (evaluations ``n_evaluations - len(batch_f) + 1`` to
+        ``n_evaluations``); for a two-objective problem, the front's hypervolume gap after
+        each candidate.
+    elapsed
+        Seconds since the evaluator was created.
+    batch_metrics
+        Per-candidate metrics of this batch that the problem provides (knot problems:
+        ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``).
+    """
+
+    n_evaluations: int
+    budget: int
+    best_f: float
+    batch_f: np.ndarray
+    elapsed: float
+    batch_metrics: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __init__(self, n_evaluations: int, budget: int, best_f: float, batch_f: np.ndarray,
+                 elapsed: float, batch_metrics: Mapping[str, np.ndarray] | None = None) -> None:
+        # made after every evaluated batch: the fields are set at once (the generated
+        # __init__ of a frozen dataclass sets them one by one, at twice the cost)
+        self.__dict__.update(n_evaluations=n_evaluations, budget=budget, best_f=best_f,
+                             batch_f=batch_f, elapsed=elapsed,
+                             batch_metrics={} if batch_metrics is None else batch_metrics)
 
 
 class Evaluator:

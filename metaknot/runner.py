@@ -9,11 +9,10 @@ from typing import Any
 
 import numpy as np
 
-from .budget import BudgetExhausted, Evaluator, fits_tallied
+from .budget import BudgetExhausted, Evaluator, Progress, fits_tallied
 from .callbacks import Callback, ProgressBar, RunStart, TraceRecorder, as_callback
 from .optimizer import Optimizer
 from .problem import Problem
-from .progress import Progress
 from .registry import get_optimizer, get_problem
 from .result import RunResult
 from .validate import check_flag, is_integer
