@@ -140,7 +140,7 @@ RUN_PATH_FILES = {
     ("open", "random_search"): {"evaluations": 11, "ask_to_record": 15, "run": 16},
     ("open", "one_plus_one"): {"evaluations": 14, "ask_to_record": 18, "run": 19},
     ("closed", "random_search"): {"evaluations": 11, "ask_to_record": 14, "run": 15},
-    ("closed", "one_plus_one"): {"evaluations": 15, "ask_to_record": 17, "run": 18},
+    ("closed", "one_plus_one"): {"evaluations": 14, "ask_to_record": 17, "run": 18},
 }
 
 

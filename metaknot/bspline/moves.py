@@ -51,7 +51,7 @@ from ..budget import add_fits
 from ..validate import is_integer
 from . import _kernel, _moves
 from .fit import BatchFit, Infeasibility, _prepare
-from .knots import _offsets, _periodic_knots, _repeated_beyond, check_multiplicity
+from .knots import _offsets, _periodic_knots, check_multiplicity
 
 __all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "PeriodicMoveEvaluator",
            "bit_flips", "bound_to"]
@@ -333,8 +333,9 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-        t = _periodic_knots(interior, p, self.max_multiplicity)
-        if (np.diff(interior) < 0).any() or _repeated_beyond(interior, self.max_multiplicity):
+        code, t = _kernel.periodic_knots(interior, p, self.max_multiplicity)
+        if code != _kernel.FEASIBLE:  # refused: named by the knot vector's check, else unsorted
+            _periodic_knots(interior, p, self.max_multiplicity)
             raise ValueError("the incumbent cannot be fitted: "  # (indexed as given: sorted)
                              f"{Infeasibility(_kernel.COINCIDENT_KNOTS).message}")
         m = interior.size + 1
