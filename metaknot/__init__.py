@@ -8,12 +8,11 @@ The public API::
     result.solution.fit.spline       # a scipy.interpolate.BSpline
 """
 
-from .budget import BudgetExhausted, Evaluator
+from .budget import BudgetExhausted, Evaluator, Progress
 from .callbacks import Callback, ProgressBar, RunStart, TraceRecorder
 from .front import ParetoArchive, hypervolume_2d, nondominated_mask
 from .optimizer import Optimizer, check_param
 from .problem import Encoding, Problem
-from .progress import Progress, Trace
 from .registry import (
     available_optimizers,
     available_problems,
@@ -21,7 +20,7 @@ from .registry import (
     get_problem,
     register,
 )
-from .result import RunResult
+from .result import RunResult, Trace
 from .runner import make_rng, minimize
 from .task import Task
 

@@ -1,34 +1,62 @@
-"""The evaluation budget: the only path from an optimizer to the problem's objective.
+"""The evaluation budget: the only path from an optimizer to the problem's objective, and the
+fit tally that audits it.
 
 An optimizer never calls ``problem.evaluate`` itself (it is set up on a :class:`~metaknot.Task`,
 which cannot evaluate); it calls an :class:`Evaluator`, which truncates a batch to what is left of
-the budget, keeps the best candidate, runs the callbacks and raises :class:`BudgetExhausted` once
-nothing is left. So an optimizer that plays by the interface cannot use more evaluations than it
-was given. The evaluator's budget and counters are read-only properties, and the runner audits
-each run against the fits the model layer itself tallied (:mod:`metaknot.audit`): fits made
-behind the evaluator's back mark the run ``status="budget_violation"``.
+the budget, keeps the best candidate, reports a :class:`Progress` to the callbacks and raises
+:class:`BudgetExhausted` once nothing is left. So an optimizer that plays by the interface cannot
+use more evaluations than it was given. The evaluator's budget and counters are read-only
+properties.
+
+The evaluator counts the candidates it scores; the fit tally counts, independently, the fits
+the model layer computes. metaknot's B-spline layer (the batched kernels, the move evaluator,
+the periodic kernel and the single fits of :mod:`metaknot.bspline`) adds every fit it makes
+with :func:`add_fits`, whoever calls it. :func:`metaknot.minimize` compares the fits tallied
+during a run with those the run accounts for (its evaluations, further fits made during its
+evaluator's calls, and the fits the optimizer declared with :meth:`metaknot.Task.count_fits`);
+more fits than that mark the run ``status="budget_violation"``. The tally is per thread, so
+runs in different threads of one process audit only their own fits. A problem whose model is
+not metaknot's spline layer takes part by calling :func:`add_fits` from its own evaluation
+code.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 import warnings
 import weakref
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .audit import fits as fits_tallied
 from .front import ParetoArchive
 from .problem import Problem
-from .progress import Progress
 from .task import Task
 from .validate import is_integer
 
-__all__ = ["BudgetExhausted", "Evaluator"]
+__all__ = ["BudgetExhausted", "Evaluator", "Progress", "add_fits", "fits_tallied"]
 
 _FLOAT64 = np.dtype(np.float64)
+
+
+class _Tally(threading.local):
+    count = 0
+
+
+_tally = _Tally()
+
+
+def add_fits(n: int) -> None:
+    """Add ``n`` fits to this thread's fit tally (called by the model layer, once per call)."""
+    _tally.count += n
+
+
+def fits_tallied() -> int:
+    """Fits tallied in this thread so far."""
+    return _tally.count
 
 
 class BudgetExhausted(Exception):
@@ -42,6 +70,45 @@ def check_budget(budget: object) -> int:
         raise ValueError(f"budget must be a positive integer number of evaluations; "
                          f"got {budget!r}")
     return int(budget)
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What callbacks see after every evaluated batch.
+
+    Attributes
+    ----------
+    n_evaluations
+        Evaluations used so far (this batch included).
+    budget
+        Evaluations allowed.
+    best_f
+        Best objective value so far.
+    batch_f
+        Objective values of this batch (evaluations ``n_evaluations - len(batch_f) + 1`` to
+        ``n_evaluations``); for a two-objective problem, the front's hypervolume gap after
+        each candidate.
+    elapsed
+        Seconds since the evaluator was created.
+    batch_metrics
+        Per-candidate metrics of this batch that the problem provides (knot problems:
+        ``rmse``, ``n_control_points`` and, when computed, ``max_deviation``).
+    """
+
+    n_evaluations: int
+    budget: int
+    best_f: float
+    batch_f: np.ndarray
+    elapsed: float
+    batch_metrics: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __init__(self, n_evaluations: int, budget: int, best_f: float, batch_f: np.ndarray,
+                 elapsed: float, batch_metrics: Mapping[str, np.ndarray] | None = None) -> None:
+        # made after every evaluated batch: the fields are set at once (the generated
+        # __init__ of a frozen dataclass sets them one by one, at twice the cost)
+        self.__dict__.update(n_evaluations=n_evaluations, budget=budget, best_f=best_f,
+                             batch_f=batch_f, elapsed=elapsed,
+                             batch_metrics={} if batch_metrics is None else batch_metrics)
 
 
 class Evaluator:
@@ -85,7 +152,7 @@ class Evaluator:
         Evaluations the problem decided by exact delta evaluation (batches passed with
         ``near``; see :meth:`__call__`).
     accounted_fits
-        The model fits this evaluator accounts for (see :mod:`metaknot.audit`): one per
+        The model fits this evaluator accounts for (see :func:`add_fits`): one per
         evaluation, the fits made during its calls beyond those (rows scored and dropped
         after an accepted one, a move evaluator moved to a new incumbent, the callbacks'),
         and the declared external fits. Evaluations made beyond the budget by tampering
@@ -228,11 +295,11 @@ class Evaluator:
             X = X[:remaining]
         elif X.shape[0] == 0:
             return np.empty(0)
-        fits_before, evaluations_before = fits_tallied(), self._n_evaluations
+        fits_before, evaluations_before = _tally.count, self._n_evaluations
         try:
             return self._score(X, near, accept)
         finally:  # the call's fits (the problem's and the callbacks') beyond its evaluations
-            extra = fits_tallied() - fits_before - (self._n_evaluations - evaluations_before)
+            extra = _tally.count - fits_before - (self._n_evaluations - evaluations_before)
             if extra > 0:
                 self._extra_fits += extra
 

@@ -17,13 +17,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from .progress import Progress, Trace, ordered_names
+from .budget import Progress
+from .result import RunResult, Trace
 from .validate import is_integer
 
 if TYPE_CHECKING:
     from .optimizer import Optimizer
     from .problem import Problem
-    from .result import RunResult
 
 __all__ = [
     "Callback",
@@ -197,14 +197,17 @@ class TraceRecorder(Callback):
         incumbent = np.maximum.accumulate(np.where(improved, np.arange(F.size), -1))[rows]
         earlier, at = incumbent < 0, np.maximum(incumbent, 0)
         batch_metrics = progress.batch_metrics
-        for name in ordered_names(self._metrics, batch_metrics):
+        for name in batch_metrics:  # first seen now: earlier rows get NaN
+            if name not in self._metrics:
+                self._metrics[name] = [np.full(len(r), np.nan) for r in self._evals]
+        # the names recorded so far, then the new ones: a dict's fixed order (a set's would
+        # change with the interpreter's string hashing, and the stored columns with it)
+        for name, columns in self._metrics.items():
             values = batch_metrics.get(name)
             column = np.full(rows.size, np.nan) if values is None else \
                 np.asarray(values, dtype=np.float64)[at]
             column[earlier] = self._incumbent.get(name, np.nan)
-            if name not in self._metrics:  # first seen now: earlier rows get NaN
-                self._metrics[name] = [np.full(len(r), np.nan) for r in self._evals]
-            self._metrics[name].append(column)
+            columns.append(column)
             if incumbent[-1] >= 0:
                 self._incumbent[name] = float(column[-1])
         self._evals.append(first + 1 + rows)

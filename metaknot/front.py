@@ -14,8 +14,6 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .progress import ordered_names
-
 __all__ = ["ParetoArchive", "hypervolume_2d", "nondominated_mask"]
 
 
@@ -124,11 +122,12 @@ class ParetoArchive:
         self.F = np.insert(F[keep], at, f, axis=0)
         x = np.asarray(x)[None, :]
         self.X = x.copy() if self.X is None else np.insert(self.X[keep], at, x, axis=0)
-        names = ordered_names(self.metrics, row)
+        # the names so far, then the new ones: a dict's fixed order (a set's would change with
+        # the interpreter's string hashing, and the stored columns with it)
         self.metrics = {
             name: np.insert(self.metrics.get(name, np.full(keep.size, np.nan))[keep], at,
                             row.get(name, np.nan))
-            for name in names
+            for name in {**self.metrics, **row}
         }
         self.hypervolume = hypervolume_2d(self.F, self.reference)
         return True

@@ -1,4 +1,5 @@
-"""The record of one optimisation run."""
+"""The record of one optimisation run, and the :class:`Trace` of best-so-far values it keeps
+(made by the trace recorder, :mod:`metaknot.callbacks`)."""
 
 from __future__ import annotations
 
@@ -8,9 +9,44 @@ from typing import Any
 
 import numpy as np
 
-from .progress import Trace
+__all__ = ["RunResult", "Trace"]
 
-__all__ = ["RunResult"]
+
+@dataclass(frozen=True, eq=False)
+class Trace:
+    """Best-so-far history of a run, one row per recorded evaluation count.
+
+    A row is recorded at every improvement of the best value and at every checkpoint of
+    :func:`~metaknot.callbacks.checkpoint_grid` (and at the run's last evaluation, marked as a
+    checkpoint).
+
+    Attributes
+    ----------
+    evaluations
+        Evaluation count (1-based) of the row, increasing.
+    best_f
+        Best objective value after that many evaluations.
+    metrics
+        The incumbent's metrics after that many evaluations (``rmse``, ``n_control_points``,
+        ... as the problem provides them; NaN while nothing feasible was found).
+    improvement, checkpoint
+        Whether the row is an improvement, a checkpoint, or both.
+    """
+
+    evaluations: np.ndarray
+    best_f: np.ndarray
+    metrics: dict[str, np.ndarray]
+    improvement: np.ndarray
+    checkpoint: np.ndarray
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The trace as named columns (for a table)."""
+        return {"evaluations": self.evaluations, "best_f": self.best_f, **self.metrics,
+                "improvement": self.improvement, "checkpoint": self.checkpoint}
+
+    def __len__(self) -> int:
+        return int(self.evaluations.size)
+
 
 @dataclass(frozen=True, eq=False)
 class RunResult:
@@ -49,9 +85,9 @@ class RunResult:
         the run accounts for, or a changed budget (see :func:`metaknot.minimize`).
     audited_fits, accounted_fits
         The audit's counts: model fits tallied while the optimizer was set up and ran
-        (:mod:`metaknot.audit`), and the fits the run accounts for (its evaluations, further
-        fits made during the evaluator's calls, by the problem or the callbacks, and declared
-        external fits).
+        (:func:`~metaknot.budget.add_fits`), and the fits the run accounts for (its
+        evaluations, further fits made during the evaluator's calls, by the problem or the
+        callbacks, and declared external fits).
     front
         Two-objective problems: the final Pareto front as columns (``objective_0``,
         ``objective_1`` and the members' metrics, e.g. ``n_control_points`` and ``rmse``),

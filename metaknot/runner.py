@@ -9,12 +9,10 @@ from typing import Any
 
 import numpy as np
 
-from .audit import fits as fits_tallied
-from .budget import BudgetExhausted, Evaluator
+from .budget import BudgetExhausted, Evaluator, Progress, fits_tallied
 from .callbacks import Callback, ProgressBar, RunStart, TraceRecorder, as_callback
 from .optimizer import Optimizer
 from .problem import Problem
-from .progress import Progress
 from .registry import get_optimizer, get_problem
 from .result import RunResult
 from .validate import check_flag, is_integer
@@ -153,8 +151,8 @@ def interrupt_behind(exc: BaseException) -> KeyboardInterrupt | None:
 
 class _Audit:
     """The run's audit: the model fits tallied while the optimizer was set up and ran
-    (:mod:`metaknot.audit`) against the fits the evaluator accounts for, and the budget
-    against its value at the start.
+    (:func:`~metaknot.budget.add_fits`) against the fits the evaluator accounts for, and the
+    budget against its value at the start.
 
     The audit's own state lives here, in the runner, where neither the optimizer nor the
     evaluator it is handed can reach it by attribute access.

@@ -12,7 +12,7 @@ whose ``__self__`` is the problem. Every evaluation goes through the
 FITPACK scan) are declared with :meth:`Task.count_fits` and end up in the run record.
 
 This is what an optimizer is *given*; it is not a sandbox (Python has none). What keeps a run
-honest beyond it is the audit of :func:`metaknot.minimize` (see :mod:`metaknot.audit`).
+honest beyond it is the audit of :func:`metaknot.minimize` (see :mod:`metaknot.budget`).
 """
 
 from __future__ import annotations

@@ -349,9 +349,10 @@ class KnotProblem(Problem):
         row: np.ndarray = X[0]
         value = self._values(self._fit_batch(X))[0]  # X checked above
         value = float(value) if np.ndim(value) == 0 else value
+        # its knots (1-D, from the checked candidate) and the multiplicity (checked when the
+        # problem was made) are fitted without a second check, as _fit_batch fits them
         return KnotSolution(x=row, objective_value=value,
-                            fit=self.curve.fit(self._interior_knots(row),
-                                               max_multiplicity=self.max_multiplicity))
+                            fit=self.curve._fit(self._interior_knots(row), self.max_multiplicity))
 
     def describe(self) -> dict[str, Any]:
         """Problem name, encoding and every setting: the data (name, fingerprint, size, noise),

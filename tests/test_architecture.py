@@ -137,10 +137,10 @@ def test_fitpack_is_called_from_one_module():
 #:   optimizer's ``setup``) is left out;
 #: * ``run``: the whole run, set-up included.
 RUN_PATH_FILES = {
-    ("open", "random_search"): {"evaluations": 13, "ask_to_record": 17, "run": 18},
-    ("open", "one_plus_one"): {"evaluations": 16, "ask_to_record": 20, "run": 21},
-    ("closed", "random_search"): {"evaluations": 13, "ask_to_record": 16, "run": 17},
-    ("closed", "one_plus_one"): {"evaluations": 17, "ask_to_record": 19, "run": 20},
+    ("open", "random_search"): {"evaluations": 11, "ask_to_record": 13, "run": 15},
+    ("open", "one_plus_one"): {"evaluations": 14, "ask_to_record": 16, "run": 18},
+    ("closed", "random_search"): {"evaluations": 11, "ask_to_record": 13, "run": 15},
+    ("closed", "one_plus_one"): {"evaluations": 14, "ask_to_record": 16, "run": 18},
 }
 
 

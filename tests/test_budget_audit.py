@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 import metaknot as mk
-from metaknot import audit
 from metaknot.bspline import closed_parameterize, fit_spline, parameterize
 from metaknot.bspline.curve import ClosedCurve, OpenCurve
 from metaknot.bspline.moves import MoveEvaluator, PeriodicMoveEvaluator
+from metaknot.budget import fits_tallied
 from metaknot.problems import FreeKnots, KnotIndices, KnotProblem, KnotSelection, get_curve
 from tests.test_all_optimizers import CASES, IDS
 
@@ -32,9 +32,9 @@ OUTLINE = get_curve("epitrochoid", n_points=80)
 
 
 def tallied(action) -> int:
-    before = audit.fits()
+    before = fits_tallied()
     action()
-    return audit.fits() - before
+    return fits_tallied() - before
 
 
 def test_every_entry_point_of_the_fitting_layer_counts_its_fits():
@@ -71,15 +71,15 @@ def test_the_tally_is_per_thread():
     seen = {}
 
     def elsewhere():
-        seen["before"] = audit.fits()
+        seen["before"] = fits_tallied()
         OpenCurve(u, q, 3).evaluate_masks(np.ones((3, u.size - 2), dtype=bool))
-        seen["after"] = audit.fits()
+        seen["after"] = fits_tallied()
 
-    before = audit.fits()
+    before = fits_tallied()
     thread = threading.Thread(target=elsewhere)
     thread.start()
     thread.join()
-    assert audit.fits() == before
+    assert fits_tallied() == before
     assert seen["after"] - seen["before"] == 3
 
 

@@ -129,7 +129,7 @@ def test_site_builds_in_strict_mode(tmp_path: Path) -> None:
     api = {name: (site / "api" / name / "index.html").read_text(encoding="utf-8")
            for name in ("metaknot", "bspline", "problems", "algorithms", "experiments", "apps")}
     for name, anchor in [("metaknot", "metaknot.runner.minimize"),
-                         ("metaknot", "metaknot.audit.add_fits"),
+                         ("metaknot", "metaknot.budget.add_fits"),
                          ("bspline", "metaknot.bspline.moves.MoveEvaluator"),
                          ("problems", "metaknot.problems.knot_problems.KnotSelection"),
                          ("algorithms", "metaknot.algorithms.dolphin.DolphinEcholocation"),

@@ -652,6 +652,44 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
 
 
 @njit(cache=True)
+def _breaks_into(interior: np.ndarray, max_mult: int, breaks: np.ndarray) -> int:
+    """Fill ``breaks[:m]`` with the ``m = interior.size + 1`` breakpoints 0 and ``interior``;
+    return COINCIDENT_KNOTS unless they increase, a knot repeated at most ``max_mult`` times
+    (0 never; NaN fails), else FEASIBLE."""
+    m = interior.size + 1
+    breaks[0] = 0.0
+    breaks[1:m] = interior
+    run = 1  # copies of the breakpoint so far
+    for k in range(1, m):
+        run = run + 1 if breaks[k] == breaks[k - 1] else 1
+        if not (breaks[k] > breaks[k - 1] or (breaks[k] == breaks[k - 1] and k > 1
+                                              and run <= max_mult)):
+            return COINCIDENT_KNOTS
+    return FEASIBLE
+
+
+@njit(cache=True)
+def periodic_knots(interior: np.ndarray, p: int, max_mult: int) -> tuple:
+    """The extended knot vector of the breakpoints 0 and ``interior`` (``m + 2p + 1`` knots,
+    :func:`extended_knots`) and the reason to refuse them: SINGULAR for fewer than ``p``
+    breakpoints, KNOT_OUT_OF_RANGE for a knot not in (0, 1) (NaN included), COINCIDENT_KNOTS
+    for knots that decrease or repeat more than ``max_mult`` times, else FEASIBLE."""
+    m = interior.size + 1
+    t = np.empty(m + 2 * p + 1)
+    if m < p:
+        return SINGULAR, t
+    breaks = np.empty(m)
+    code = _breaks_into(interior, max_mult, breaks)
+    if code == FEASIBLE and not breaks[m - 1] < 1.0:
+        code = KNOT_OUT_OF_RANGE
+    elif code == COINCIDENT_KNOTS and not (breaks[1] > 0.0):
+        code = KNOT_OUT_OF_RANGE  # the first knot at or below 0, or NaN
+    if code == FEASIBLE:
+        extended_knots(breaks, p, t)
+    return code, t
+
+
+@njit(cache=True)
 def deviation_from_basis(q: np.ndarray, p: int, m: int, coef: np.ndarray, basis: np.ndarray,
                          spans: np.ndarray) -> float:
     """Largest distance of a data point to the periodic spline with coefficients ``coef``
@@ -758,17 +796,11 @@ def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mu
         if max_dev.size > 0:
             max_dev[b] = np.inf
         return
-    breaks[0] = 0.0
-    breaks[1:m] = interior
-    run = 1  # copies of the breakpoint so far
-    for k in range(1, m):  # a refused row (out of range, coincident) is not fitted
-        run = run + 1 if breaks[k] == breaks[k - 1] else 1
-        if not (breaks[k] > breaks[k - 1] or (breaks[k] == breaks[k - 1] and k > 1
-                                              and run <= max_mult)):
-            sse[b], reason[b] = np.inf, COINCIDENT_KNOTS
-            if max_dev.size > 0:
-                max_dev[b] = np.inf
-            return
+    if _breaks_into(interior, max_mult, breaks) != FEASIBLE:  # a refused row is not fitted
+        sse[b], reason[b] = np.inf, COINCIDENT_KNOTS
+        if max_dev.size > 0:
+            max_dev[b] = np.inf
+        return
     t = t_ws[: m + 2 * p + 1]
     extended_knots(breaks[:m], p, t)
     coef = coef_ws[:m]

@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
-from .. import audit
+from ..budget import add_fits
 from ..validate import check_flag
 from . import _kernel
 from ._codegen import MAX_DIMENSION
@@ -78,7 +78,7 @@ def _outputs(b: int, max_deviation: bool
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The kernel's output arrays for ``b`` candidates (SSE, maximum deviation, control
     points, reason); the audit's tally counts the ``b`` fits they are for."""
-    audit.add_fits(b)
+    add_fits(b)
     return (np.empty(b), np.empty(b if max_deviation else 0), np.empty(b, dtype=np.int64),
             np.empty(b, dtype=np.int8))
 
@@ -515,7 +515,7 @@ class ClosedCurve(Curve):
         p, u, q = self.degree, self.params, self.points
         t = _periodic_knots(interior, p, max_multiplicity)
         m = t.size - 2 * p - 1
-        audit.add_fits(1)
+        add_fits(1)
         if m > u.size:
             raise ValueError(f"{m} control points for {u.size} data points")
         coef = np.zeros((m, q.shape[1]))

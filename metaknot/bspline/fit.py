@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline
 
-from .. import audit
+from ..budget import add_fits
 from . import _kernel
 from ._codegen import MAX_DIMENSION
 from .knots import check_multiplicity
@@ -294,7 +294,7 @@ def _fit_clamped(u: np.ndarray, q: np.ndarray, interior_knots: ArrayLike, p: int
     interior = np.asarray(interior_knots, dtype=np.float64)
     if interior.ndim != 1:
         raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-    audit.add_fits(1)
+    add_fits(1)
     code, t, coef = _kernel.fit_one(u, q, np.ascontiguousarray(interior), p, max_multiplicity)
     if code != Infeasibility.FEASIBLE:
         raise ValueError(f"cannot fit these knots: {Infeasibility(code).message}")

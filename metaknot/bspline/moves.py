@@ -47,11 +47,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import audit
+from ..budget import add_fits
 from ..validate import is_integer
 from . import _kernel, _moves
 from .fit import BatchFit, Infeasibility, _prepare
-from .knots import _offsets, _periodic_knots, _repeated_beyond, check_multiplicity
+from .knots import _offsets, _periodic_knots, check_multiplicity
 
 __all__ = ["PATH_CHECKS", "PATH_DELTA", "PATH_FULL", "MoveEvaluator", "PeriodicMoveEvaluator",
            "bit_flips", "bound_to"]
@@ -169,7 +169,7 @@ class MoveEvaluator:
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-        audit.add_fits(1)
+        add_fits(1)
         code, t, _ = _kernel.fit_one(u, q, interior, p, self.max_multiplicity)
         if code != _kernel.FEASIBLE:
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
@@ -218,7 +218,7 @@ class MoveEvaluator:
         already of the compiled code's types (float64 knots, int64 offsets, starts and stops,
         contiguous; their values are checked there)."""
         b = offsets.size - 1
-        audit.add_fits(b)
+        add_fits(b)
         sse = np.empty(b)
         max_dev = np.empty(b if max_deviation else 0)
         n_ctrl = np.empty(b, dtype=np.int64)
@@ -333,12 +333,13 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-        t = _periodic_knots(interior, p, self.max_multiplicity)
-        if (np.diff(interior) < 0).any() or _repeated_beyond(interior, self.max_multiplicity):
+        code, t = _kernel.periodic_knots(interior, p, self.max_multiplicity)
+        if code != _kernel.FEASIBLE:  # refused: named by the knot vector's check, else unsorted
+            _periodic_knots(interior, p, self.max_multiplicity)
             raise ValueError("the incumbent cannot be fitted: "  # (indexed as given: sorted)
                              f"{Infeasibility(_kernel.COINCIDENT_KNOTS).message}")
         m = interior.size + 1
-        audit.add_fits(1)
+        add_fits(1)
         if m > u.size:
             raise ValueError("the incumbent cannot be fitted: "
                              f"{Infeasibility(_kernel.TOO_MANY_CONTROL_POINTS).message}")
