@@ -478,8 +478,11 @@ def load_study(path: str | os.PathLike) -> Study:
     ------
     StoreError
         If the directory does not exist, is a results folder (the message lists its
-        studies), or holds a file the store cannot read or a field of the wrong kind (named).
-        Reading never changes the study.
+        studies), or holds a file the store cannot read, a field of the wrong kind or a
+        record (under ``runs/`` or ``failed/``) changed after its run: settings that do not
+        give its run id, an outcome its run could not reach (a best value out of its own
+        trace or fit, a trace beyond its evaluations, metrics that disagree), another study's
+        record (each named, with the field). Reading never changes the study.
     """
     import pandas as pd
 
