@@ -24,6 +24,8 @@ from __future__ import annotations
 import datetime as _dt
 import errno
 import json
+import math
+import operator
 import os
 import re
 import shutil
@@ -476,8 +478,11 @@ def load_study(path: str | os.PathLike) -> Study:
     ------
     StoreError
         If the directory does not exist, is a results folder (the message lists its
-        studies), or holds a file the store cannot read or a field of the wrong kind (named).
-        Reading never changes the study.
+        studies), or holds a file the store cannot read, a field of the wrong kind or a
+        record (under ``runs/`` or ``failed/``) changed after its run: settings that do not
+        give its run id, an outcome its run could not reach (a best value out of its own
+        trace or fit, a trace beyond its evaluations, metrics that disagree), another study's
+        record (each named, with the field). Reading never changes the study.
     """
     import pandas as pd
 
@@ -498,25 +503,21 @@ def load_study(path: str | os.PathLike) -> Study:
             names = ", ".join(studies)
             raise StoreError(f"{store.study_dir}: a results folder, not a study; its studies: "
                              f"{names if len(names) <= 80 else names[:77] + '...'}")
-    rows = []
     entries = list(_run_files(store.runs_dir))
-    for (entry, run_id), row in zip(entries, _read_records([e for e, _ in entries]),
-                                    strict=True):
-        if row.get("run_id") != run_id:
-            raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r:.40}, not "
-                             f"of {run_id!r}")
-        changed = _changed_after_the_run(row, run_id)
-        if changed is not None:
-            raise StoreError(f"{entry}: {changed}: the record was changed after its run; move "
-                             "it out of the study (or delete it to run that run again)")
-        rows.append(row)
-    _check_one_study([entry for entry, _ in entries], rows, store.study_dir.name)
-    failures = []
+    rows = [_checked(entry, run_id, row, complete=True) for (entry, run_id), row in
+            zip(entries, _read_records([e for e, _ in entries]), strict=True)]
+    failed = []
     for entry in _entries(store.failed_dir):
-        if not FAILED_FILE.fullmatch(entry.name):
+        match = FAILED_FILE.fullmatch(entry.name)
+        if not match:
             raise StoreError(f"{entry}: not a metaknot failed-run record; move it out of the "
                              "study")
-        failures.append(read_record(entry))
+        failed.append((entry, match.group("run_id")))
+    failures = [_checked(entry, run_id, row, complete=False) for (entry, run_id), row in
+                zip(failed, _read_records([e for e, _ in failed]), strict=True)]
+    every = [entry for entry, _ in entries + failed]
+    _check_one_study(every, rows + failures, store.study_dir.name)
+    _check_settings_stored(every, rows + failures)
     ok_ids = {r["run_id"] for r in rows}
     latest = {row["run_id"]: row for row in sorted(failures, key=lambda r: r.get("timestamp") or "")
               if row["run_id"] not in ok_ids}
@@ -530,6 +531,30 @@ def load_study(path: str | os.PathLike) -> Study:
         columns=["run_id", "evaluations", "best_f", "improvement", "checkpoint"])
     return Study(path=store.study_dir, name=store.study_dir.name, runs=runs, trace=trace,
                  failures=_frame(failures))
+
+
+def _checked(entry: Path, run_id: str, row: dict[str, Any], *, complete: bool
+             ) -> dict[str, Any]:
+    """``row``, the record read from ``entry`` (named for ``run_id``) under ``runs/``
+    (``complete``) or ``failed/``, once checked: a :class:`StoreError` naming the file and the
+    field if it holds another run's record, a status of the other folder (a failed attempt
+    shown as a finished run), settings without its run id or an outcome its run could not
+    have had (:func:`_changed_after_the_run`)."""
+    if row.get("run_id") != run_id:
+        raise StoreError(f"{entry}: holds the record of run {row.get('run_id')!r:.40}, not "
+                         f"of {run_id!r}")
+    status = row.get("status")
+    if (status in COMPLETE_STATUSES) != complete:
+        where = "runs/ holds the records of complete runs" if complete else \
+            "failed/ holds the attempts that failed"
+        raise StoreError(f"{entry}: its status {status!r:.40} is not that of its folder "
+                         f"({where}): the record was changed or moved after its run; move it "
+                         "out of the study")
+    changed = _changed_after_the_run(row, run_id)
+    if changed is not None:
+        raise StoreError(f"{entry}: {changed}: the record was changed after its run; move "
+                         "it out of the study (or delete it to run that run again)")
+    return row
 
 
 def _check_one_study(entries: list[Path], rows: list[dict[str, Any]], folder: str) -> None:
@@ -550,22 +575,184 @@ def _check_one_study(entries: list[Path], rows: list[dict[str, Any]], folder: st
                      "study")
 
 
+def _check_settings_stored(entries: list[Path], rows: list[dict[str, Any]]) -> None:
+    """Raise :class:`StoreError` naming a record without settings (``config``) in a study
+    whose other records have them: a run stores its settings, so one without them had them
+    removed, and its run id could not be checked."""
+    with_settings = sum(row.get("config") is not None for row in rows)
+    if not 0 < with_settings < len(rows):
+        return
+    entry = next(e for e, r in zip(entries, rows, strict=True) if r.get("config") is None)
+    raise StoreError(f"{entry}: the record has no settings ('config'), as {with_settings} "
+                     "other record(s) here have; it was changed after its run and its run id "
+                     "cannot be checked; move it out of the study")
+
+
 def _changed_after_the_run(row: Mapping[str, Any], run_id: str) -> str | None:
-    """What shows a stored run's record was edited (None: nothing does): settings that do not
+    """What shows a record was edited after its run (None: nothing does): settings that do not
     give its run id ``run_id``, or a seed or budget that are not those of its settings (the
-    report pairs and groups runs by these fields); a best value that is not a number, or a
-    finite one that is not the best of its own trace."""
-    settings = _settings_changed(row, run_id)
-    if settings is not None:
-        return settings
-    best = row.get("best_f")
-    if best is None:
-        return None
-    if best != best:
+    report pairs and groups runs by these fields), or an outcome its run could not have had
+    (:func:`_outcome_changed`)."""
+    return _settings_changed(row, run_id) or _outcome_changed(row)
+
+
+#: Relative slack of the checks that compare a record's best value with its own fit metrics:
+#: the run scores a candidate on one numerical path and its record's metrics come from the
+#: decoded fit (another), which agree to about 1e-12. Near an exact fit, where the two
+#: differ by rounding only, an absolute slack of 1e-9 of the fitted curve's size is added.
+_SLACK = 1e-6
+
+
+def _number(value: Any) -> float | None:
+    """A record's number field as a float (None: empty, or not a number: a field the checks
+    of :func:`_problem` leave alone is then not compared)."""
+    return float(value) if isinstance(value, int | float) else None
+
+
+def _outcome_changed(row: Mapping[str, Any]) -> str | None:
+    """What shows a record's outcome was edited (None: nothing does), from the record alone
+    (pure Python on a few fields and the trace: a small share of reading the file):
+
+    - a best value that is not a number, is -inf, or is not the best of its own trace;
+    - a trace whose best so far rises, or whose evaluation counts do not rise from 1 to at
+      most the run's ``n_evaluations``; a run ``ok`` with more evaluations than its budget;
+    - fit metrics that disagree with each other (``rmse`` is ``sqrt(sse / n_points)``,
+      ``euclidean_distance`` ``sqrt(sse)``, ``max_deviation`` at least the RMSE) or with the
+      stored spline (its control points, its knots for its coefficients);
+    - a best value out of what the objective gives for the record's own fit
+      (:func:`_objective_changed`).
+
+    The data are not rebuilt, so the best candidate is not scored again."""
+    best = _number(row.get("best_f"))
+    if best is not None and best != best:
         return "its best value is not a number"
-    trace = [v for v in row.get(f"{TRACE_PREFIX}best_f") or () if v is not None and v == v]
-    if trace and np.isfinite(best) and min(trace) != best:
-        return f"its best value {best!r} is not the best of its own trace ({min(trace)!r})"
+    if best == -math.inf:
+        return "its best value is -inf"
+    known = row.get(f"{TRACE_PREFIX}best_f") or []
+    if None in known or not all(map(operator.eq, known, known)):  # NaN: not equal to itself
+        known = [v for v in known if v is not None and v == v]
+    if known:
+        lowest = min(known)
+        if best is not None and math.isfinite(best) and lowest != best:
+            return f"its best value {best!r} is not the best of its own trace ({lowest!r})"
+        if not all(map(operator.ge, known, known[1:])):
+            rise = next(i for i in range(1, len(known)) if known[i] > known[i - 1])
+            return (f"its trace's best so far rises (point {rise}: {known[rise - 1]!r} to "
+                    f"{known[rise]!r})")
+    evaluations = row.get(f"{TRACE_PREFIX}evaluations") or []
+    n_evaluations, budget = _number(row.get("n_evaluations")), _number(row.get("budget"))
+    if evaluations:
+        if evaluations[0] < 1 or not all(map(operator.lt, evaluations, evaluations[1:])):
+            return "its trace's evaluation counts do not rise from 1"
+        if n_evaluations is not None and evaluations[-1] > n_evaluations:
+            return (f"its trace reaches {evaluations[-1]} evaluations, beyond its "
+                    f"n_evaluations {n_evaluations:g}")
+    if (row.get("status") == "ok" and n_evaluations is not None and budget is not None
+            and n_evaluations > budget):
+        return f"its n_evaluations {n_evaluations:g} exceed its budget {budget:g}"
+    return _fit_changed(row, best)
+
+
+class _Near:
+    """Whether two error values of a record agree: within :data:`_SLACK` relative, or within
+    1e-9 of the size of the record's fitted curve (its largest coefficient; 1 without a
+    spline), which is computed only for values that differ by more than the relative slack."""
+
+    def __init__(self, row: Mapping[str, Any]) -> None:
+        self.row = row
+        self._absolute: float | None = None
+
+    @property
+    def absolute(self) -> float:
+        if self._absolute is None:
+            rows = self.row.get("spline.coefficients") or ()
+            size = max((abs(v) for point in rows for v in point), default=1.0)
+            self._absolute = 1e-9 * size
+        return self._absolute
+
+    def __call__(self, a: float, b: float) -> bool:
+        gap = abs(a - b)
+        return gap <= _SLACK * max(abs(a), abs(b)) or gap <= self.absolute
+
+
+def _fit_changed(row: Mapping[str, Any], best: float | None) -> str | None:
+    """The part of :func:`_outcome_changed` on the record's fit metrics and stored spline."""
+    knots, coefficients = row.get("spline.knots"), row.get("spline.coefficients")
+    degree = row.get("spline.degree")
+    n_cp = _number(row.get("n_control_points"))
+    if knots is not None and coefficients is not None and degree is not None:
+        if len(knots) - degree - 1 != len(coefficients):
+            return (f"its spline has {len(knots)} knots for {len(coefficients)} coefficients "
+                    f"of degree {degree}")
+        stored = len(coefficients) - (degree if row.get("spline.closed") else 0)
+        if n_cp is not None and n_cp == n_cp and n_cp != stored:
+            return f"its n_control_points {n_cp:g} are not its spline's ({stored})"
+    sse, n_points = _number(row.get("sse")), _number(row.get("n_points"))
+    if sse is None or sse != sse or n_points is None or not n_points > 0:
+        return None  # no fit (a run that failed before evaluating, a hand-made record)
+    if not 0 <= sse < math.inf:
+        return f"its sse {sse!r} is not a finite value >= 0"
+    near, error = _Near(row), math.sqrt(sse / n_points)
+    rmse = _number(row.get("rmse"))
+    if rmse is not None and not near(rmse, error):
+        return f"its rmse {rmse!r} is not sqrt(sse / n_points) ({error!r})"
+    distance = _number(row.get("euclidean_distance"))
+    if distance is not None and distance == distance and not near(distance, math.sqrt(sse)):
+        return f"its euclidean_distance {distance!r} is not sqrt(sse) ({math.sqrt(sse)!r})"
+    deviation = _number(row.get("max_deviation"))
+    if deviation is not None and deviation < error and not near(deviation, error):
+        return f"its max_deviation {deviation!r} is below its rmse ({error!r})"
+    if best is None or not math.isfinite(best) or n_cp is None or n_cp != n_cp:
+        return None
+    return _objective_changed(row, best, sse, n_points, n_cp, near)
+
+
+def _objective_changed(row: Mapping[str, Any], best: float, sse: float, n_points: float,
+                       n_cp: float, near: _Near) -> str | None:
+    """A best value out of what the record's objective (its ``objective`` field) gives for its
+    own fit metrics (None: within it, or an objective not known here):
+
+    - ``rmse``: the record's RMSE;
+    - ``paper``: control points x ``sqrt(sse)``, or more (the floor, a share of the data's
+      scale, which the record does not hold);
+    - ``error_bounded``: control points plus at most 1 (within the tolerance) or at least
+      ``n_points + 2`` (beyond it);
+    - ``bic``: ``n ln(sse / n) + ln(n) k`` on the record's SSE, or more (the SSE floor);
+    - ``pareto``: a hypervolume gap in [0, 1], with ``hypervolume`` its complement."""
+    objective = row.get("objective")
+    error = math.sqrt(sse / n_points)
+    lowest: float | None = None
+    if objective == "rmse":
+        if not near(best, error):
+            return f"its best value {best!r} is not its rmse ({error!r}), which the run minimised"
+    elif objective == "pareto":
+        if not 0.0 <= best <= 1.0:
+            return f"its best value {best!r} (a hypervolume gap) is not within [0, 1]"
+        volume = _number(row.get("hypervolume"))
+        if volume is not None and abs(volume - (1.0 - best)) > 1e-12:
+            return f"its hypervolume {volume!r} is not 1 - its best value ({1.0 - best!r})"
+    elif objective == "paper":
+        product = n_cp * math.sqrt(sse)
+        if best < product and not near(best, product):
+            lowest = product
+    elif objective == "error_bounded":
+        if best < n_cp * (1 - _SLACK):
+            lowest = n_cp
+        elif n_cp + 1 + _SLACK * n_cp < best < (n_points + 2) * (1 - _SLACK):
+            return (f"its best value {best!r} is neither within 1 of its {n_cp:g} control "
+                    f"points nor beyond n_points + 2 ({n_points + 2:g})")
+    elif objective == "bic":
+        dim, degree = _number(row.get("dim")), _number(row.get("degree"))
+        if dim is not None and degree is not None:
+            n = n_points * dim
+            extra = 1 if row.get("closed") else degree + 1
+            parameters = dim * n_cp + n_cp - extra
+            formula = n * math.log(max(sse, sys.float_info.min) / n) + math.log(n) * parameters
+            if best < formula - _SLACK * max(1.0, abs(formula)):
+                lowest = formula
+    if lowest is not None:
+        return (f"its best value {best!r} is below what its {objective} objective gives for "
+                f"its own fit ({lowest!r})")
     return None
 
 

@@ -628,7 +628,9 @@ def test_cell_without_common_seeds(tmp_path):
 def test_failed_runs_are_left_out_with_a_note(tmp_path):
     runs = [_run(m, seed, 300, f + 0.1 * seed) for m, f in (("A", 1), ("B", 2))
             for seed in range(6)]
-    failed = [_run("B", seed, 300, np.nan, status="failed") for seed in (6, 7)]
+    # failed before evaluating: best value +inf, as such a run records (never NaN, which
+    # the evaluator counts as +inf and the store refuses on load)
+    failed = [_run("B", seed, 300, np.inf, status="failed") for seed in (6, 7)]
     study = _write(tmp_path / "s", runs + failed)
     assert len(list((study / "failed").iterdir())) == 2
     comparison = prepare(study)
@@ -660,7 +662,7 @@ def test_runs_that_failed_their_budget_audit_are_stored_and_left_out_with_a_note
 
 
 def test_a_study_where_every_run_failed(tmp_path):
-    study = _write(tmp_path / "s", [_run("A", seed, 300, np.nan, status="failed")
+    study = _write(tmp_path / "s", [_run("A", seed, 300, np.inf, status="failed")
                                     for seed in range(3)])
     with pytest.raises(ReportError, match=r"none of the 3 runs finished \(all failed or left "
                                           r"out by the budget audit\)"):

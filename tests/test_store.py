@@ -1057,3 +1057,178 @@ def test_a_record_whose_settings_were_edited_is_named_on_load(tmp_path, column, 
               "move it out of the study"
     with pytest.raises(StoreError, match=pattern):
         load_study(study_dir)
+
+
+def _tampered(tmp_path, name: str, **columns) -> Path:
+    """A copy of :data:`CURRENT_STUDY` in ``tmp_path`` whose record of run ``name`` has the
+    ``columns`` given: a value each, or a function of the stored value (its type kept; None:
+    the column removed). Returns the record's path."""
+    import shutil
+
+    study_dir = tmp_path / "current-study"
+    if not study_dir.exists():
+        shutil.copytree(CURRENT_STUDY, study_dir)
+    path = study_dir / "runs" / f"{name}.parquet"
+    table = pq.read_table(path)
+    for column, edit in columns.items():
+        index = table.schema.get_field_index(column)
+        if edit is None:
+            table = table.remove_column(index)
+            continue
+        value = edit(table.column(column)[0].as_py()) if callable(edit) else edit
+        kind = table.schema.field(index).type  # a column of nulls takes the value's type
+        array = pa.array([value]) if pa.types.is_null(kind) else pa.array([value], type=kind)
+        table = table.set_column(index, column, array)
+    pq.write_table(table, path)
+    return path
+
+
+def _last(value):
+    """A trace edit: its last best value replaced by ``value`` (a consistent edit: the best
+    value is the best of the trace)."""
+    return lambda trace: [*trace[:-1], value]
+
+
+def _changed_message(path: Path, problem: str) -> str:
+    return rf"{re.escape(str(path))}: {problem}: the record was changed after its run; " \
+        "move it out of the study"
+
+
+PAPER_RUN, RMSE_RUN, PARETO_RUN = "bf351629f0a297c7", "140fe0c6478e1709", "5a2022cff40b22ce"
+
+
+def _fixture_record(name: str) -> dict:
+    return store_module.read_record(CURRENT_STUDY / "runs" / f"{name}.parquet")
+
+
+def _outcome_edits():
+    """(run, columns, message) of records whose outcome was edited consistently: the best
+    value with its trace, or a field with what it must agree with left alone."""
+    paper, rmse, pareto = (_fixture_record(name) for name in (PAPER_RUN, RMSE_RUN,
+                                                              PARETO_RUN))
+    below = 0.5 * paper["n_control_points"] * paper["sse"] ** 0.5
+    return {
+        "-1e308 with its trace": (PAPER_RUN, {"best_f": -1e308, "trace.best_f": _last(-1e308)},
+                                  r"its best value -1e\+308 is below what its paper objective "
+                                  r"gives for its own fit \(.*\)"),
+        "-inf with its trace": (PAPER_RUN, {"best_f": -np.inf,
+                                            "trace.best_f": _last(-np.inf)},
+                                r"its best value is -inf"),
+        "paper below its fit": (PAPER_RUN, {"best_f": below, "trace.best_f": _last(below)},
+                                r"its best value .* is below what its paper objective gives "
+                                r"for its own fit \(0\.00401072\d*\)"),
+        "rmse halved": (RMSE_RUN, {"best_f": rmse["best_f"] / 2,
+                                   "trace.best_f": _last(rmse["best_f"] / 2)},
+                        r"its best value .* is not its rmse \(0\.1048866941593990\d*\), which "
+                        "the run minimised"),
+        "pareto below 0": (PARETO_RUN, {"best_f": -0.5, "trace.best_f": _last(-0.5)},
+                           r"its best value -0\.5 \(a hypervolume gap\) is not within \[0, 1\]"),
+        "pareto lowered": (PARETO_RUN, {"best_f": pareto["best_f"] / 2,
+                                        "trace.best_f": _last(pareto["best_f"] / 2)},
+                           r"its hypervolume 0\.907.* is not 1 - its best value \(0\.95.*\)"),
+        "trace rises": (PAPER_RUN, {"trace.best_f": lambda t: [t[0], 2 * t[0], *t[2:]]},
+                        r"its trace's best so far rises \(point 1: .*\)"),
+        "trace evaluations": (PAPER_RUN, {"trace.evaluations": lambda e: [*e[:-1], 1000]},
+                              r"its trace reaches 1000 evaluations, beyond its n_evaluations "
+                              "100"),
+        "trace evaluations fall": (PAPER_RUN, {"trace.evaluations": lambda e: e[::-1]},
+                                   r"its trace's evaluation counts do not rise from 1"),
+        "beyond its budget": (PAPER_RUN, {"n_evaluations": 1000},
+                              r"its n_evaluations 1000 exceed its budget 100"),
+        "rmse field": (PAPER_RUN, {"rmse": lambda value: value / 2},
+                       r"its rmse .* is not sqrt\(sse / n_points\) \(.*\)"),
+        "sse below 0": (PAPER_RUN, {"sse": -1.0}, r"its sse -1\.0 is not a finite value >= 0"),
+        "euclidean distance": (PAPER_RUN, {"euclidean_distance": 1.0},
+                               r"its euclidean_distance 1\.0 is not sqrt\(sse\) \(9\.3272.*\)"),
+        "max deviation": (PAPER_RUN, {"max_deviation": 1e-9},
+                          r"its max_deviation 1e-09 is below its rmse \(9\.3272.*\)"),
+        "control points": (PAPER_RUN, {"n_control_points": 40},
+                           r"its n_control_points 40 are not its spline's \(43\)"),
+        "spline knots": (PAPER_RUN, {"spline.knots": lambda knots: knots[1:]},
+                         r"its spline has 46 knots for 43 coefficients of degree 3"),
+    }
+
+
+OUTCOME_EDITS = _outcome_edits()
+
+
+@pytest.mark.parametrize("case", list(OUTCOME_EDITS))
+def test_a_record_whose_outcome_was_edited_consistently_is_named_on_load(tmp_path, case):
+    """A best value edited with its trace (still the best of it) or a fit metric edited alone
+    is refused by name when it is out of what the run could reach: below what its objective
+    gives for the record's own fit (an RMSE objective: the RMSE itself; a Pareto front: a gap
+    in [0, 1]), a trace that rises or runs beyond the run's evaluations, evaluations beyond
+    the budget, metrics that disagree with each other or with the stored spline."""
+    run, columns, message = OUTCOME_EDITS[case]
+    path = _tampered(tmp_path, run, **columns)
+    with pytest.raises(StoreError, match=_changed_message(path, message)):
+        load_study(path.parent.parent)
+
+
+def test_the_outcome_checks_keep_every_record_of_the_current_study():
+    """Every record of the study written by this version passes every check of its outcome
+    (pareto, paper and rmse objectives; open and closed curves; mask, index and free
+    encodings)."""
+    for path in sorted((CURRENT_STUDY / "runs").glob("*.parquet")):
+        assert store_module._outcome_changed(store_module.read_record(path)) is None, path
+
+
+def _as_failed(tmp_path, name: str, file_run: str | None = None, **columns) -> Path:
+    """The record of run ``name`` of a copy of :data:`CURRENT_STUDY`, made a failed attempt
+    (status ``failed``, with ``columns``) and moved to ``failed/`` under the run id
+    ``file_run`` (its own by default)."""
+    path = _tampered(tmp_path, name, **{"status": "failed", "error": "RuntimeError: boom",
+                                        **columns})
+    failed = path.parent.parent / "failed"
+    failed.mkdir(exist_ok=True)
+    target = failed / f"{file_run or name}.20260101T000000000000Z.1.abcd1234.parquet"
+    path.rename(target)
+    return target
+
+
+def test_a_failed_attempt_of_this_version_loads(tmp_path):
+    """A failed attempt (its record as a run's, status ``failed``) passes the checks."""
+    target = _as_failed(tmp_path, PAPER_RUN)
+    study = load_study(target.parent.parent)
+    assert len(study.failures) == 1 and len(study.runs) == 7
+    assert study.runs.set_index("run_id").loc[PAPER_RUN, "status"] == "failed"
+
+
+@pytest.mark.parametrize(("file_run", "columns", "message"), [
+    (RUN_A, {}, rf"holds the record of run '{PAPER_RUN}', not of '{RUN_A}'"),
+    (None, {"seed": 1}, _changed_message(Path("x"), r"its seed 1 is not that of its settings "
+                                                    r"\(0\)").split(": ", 1)[1]),
+    (None, {"best_f": float("nan")}, r"its best value is not a number: the record was "
+                                     "changed"),
+    (None, {"best_f": -1e308, "trace.best_f": _last(-1e308)},
+     r"its best value -1e\+308 is below what its paper objective gives"),
+    (None, {"status": "ok"}, r"its status 'ok' is not that of its folder \(failed/ holds the "
+                             r"attempts that failed\)"),
+    (None, {"study": "another"}, r"the record of a run of study 'another', not of "
+                                 "'current-study'"),
+], ids=["named for another run", "seed edited", "NaN", "-1e308 with its trace", "status ok",
+        "another study"])
+def test_a_failed_attempt_is_checked_as_a_run_is(tmp_path, file_run, columns, message):
+    """A record under ``failed/`` (shown as its run when no complete record supersedes it) is
+    checked as one under ``runs/``: its file's run id, its settings, its outcome, its study,
+    and a status of a failed attempt."""
+    target = _as_failed(tmp_path, PAPER_RUN, file_run, **columns)
+    with pytest.raises(StoreError, match=rf"{re.escape(str(target))}: {message}"):
+        load_study(target.parent.parent)
+
+
+def test_a_complete_record_with_the_status_of_a_failure_is_named(tmp_path):
+    path = _tampered(tmp_path, PAPER_RUN, status="failed")
+    with pytest.raises(StoreError, match=rf"{re.escape(str(path))}: its status 'failed' is not "
+                                         r"that of its folder \(runs/ holds the records of "
+                                         r"complete runs\)"):
+        load_study(path.parent.parent)
+
+
+def test_a_record_whose_settings_were_removed_is_named_on_load(tmp_path):
+    """A record without settings (``config``) among records that have them cannot have its run
+    id checked: it is refused by name (a study of hand-made records without settings loads)."""
+    path = _tampered(tmp_path, PAPER_RUN, config=None)
+    with pytest.raises(StoreError, match=rf"{re.escape(str(path))}: the record has no settings "
+                                         r"\('config'\), as 6 other record\(s\) here have"):
+        load_study(path.parent.parent)
