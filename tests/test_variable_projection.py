@@ -347,3 +347,69 @@ def test_the_gradient_methods_run_blas_on_one_thread(optimizer, monkeypatch):
     mk.minimize(problem, optimizer, budget=200, seed=0)
     assert seen and all(threads == {1} for threads in seen)
     assert blas_threads() == before
+
+
+def _kang() -> tuple[np.ndarray, np.ndarray]:
+    from metaknot.suite import get_instance
+
+    data = get_instance("kang_spline").point_set()
+    return np.asarray(data.params), np.asarray(data.points)
+
+
+def test_jump_knots_find_kangs_knots_and_its_double_one_above_noise():
+    """Each of kang_spline's 11 knots within a data spacing (the double one as two knots next
+    to 0.5408), with noise of 1e-9 of the range added: a repeat weight ten times larger gives
+    the double knot a third copy instead of the knot at 0.9407, ten times smaller gives a
+    knot to a cluster of noise instead of the double knot's second."""
+    from metaknot.algorithms.variable_projection import jump_knots
+    from metaknot.suite.functions import KANG_KNOTS
+
+    u, q = _kang()
+    for seed in range(3):
+        noisy = q + 1e-9 * np.ptp(q) * np.random.default_rng(seed).normal(size=q.shape)
+        found = jump_knots(u, noisy, 3, 11, (0.0, 1.0))
+        assert np.abs(found - np.array(KANG_KNOTS)).max() < 1.1e-3
+        for weight in (1e-2, 1e-4):
+            other = jump_knots(u, noisy, 3, 11, (0.0, 1.0), repeat_weight=weight)
+            assert np.abs(other - np.array(KANG_KNOTS)).max() > 1e-2
+
+
+def test_jump_knots_repeat_a_knot_at_most_degree_times():
+    from metaknot.algorithms.variable_projection import jump_knots
+    from metaknot.suite.functions import KANG_KNOTS
+
+    u, q = _kang()
+    found = jump_knots(u, q, 3, 31, (0.0, 1.0))
+    assert found.size == 31 and np.all(np.diff(found) > 0)
+    for knot in KANG_KNOTS:
+        assert 1 <= np.sum(np.abs(found - knot) < 3e-3) <= 3
+
+
+def test_jump_knots_of_a_closed_outline_skip_its_seam():
+    """A periodic cubic with breakpoints 0 and six knots: the six found (a cluster at the
+    seam, where the breakpoint 0 is a knot already, gives none), a seventh repeats one."""
+    from metaknot.algorithms.variable_projection import jump_knots
+
+    knots = np.array([0.11, 0.27, 0.43, 0.52, 0.68, 0.86])
+    breaks = np.r_[0.0, knots]
+    t = np.r_[breaks[-3:] - 1.0, breaks, 1.0, breaks[1:4] + 1.0]
+    coefficients = np.random.default_rng(1).normal(size=(breaks.size, 2))
+    u = np.arange(400) / 400
+    q = BSpline(t, np.r_[coefficients, coefficients[:3]], 3)(u)
+    np.testing.assert_allclose(jump_knots(u, q, 3, 6, (0.0, 1.0), closed=True), knots,
+                               atol=1e-9)
+    seventh = jump_knots(u, q, 3, 7, (0.0, 1.0), closed=True)
+    assert seventh.size == 7 and np.abs(seventh[:, None] - knots).min(axis=1).max() < 3e-3
+
+
+def test_kangs_spline_is_recovered_from_its_own_starts():
+    """From its own starts (the jump knots among them), 3,000 evaluations: kang_spline with
+    11 knots and merge_spacing=1e-4 to rounding, the double knot merged."""
+    from metaknot.suite import get_instance
+    from metaknot.suite.functions import KANG_KNOTS
+
+    data = get_instance("kang_spline").point_set()
+    problem = FreeKnots(data, n_knots=11, objective="rmse", merge_spacing=1e-4)
+    result = mk.minimize(problem, "varpro", budget=3000, seed=0)
+    assert result.best_f <= 1e-9 * np.ptp(data.points)
+    np.testing.assert_allclose(np.sort(result.best_x), KANG_KNOTS, atol=1e-9)
