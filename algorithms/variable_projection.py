@@ -264,16 +264,22 @@ class VariableProjection(Optimizer):
 
     Starts: ``initial`` if given, the problem's averaging knots, equally spaced knots, the
     knots where the data's derivative of the degree's order jumps (:func:`jump_knots`), then,
-    in turn, a perturbation of the best point so far (its log spans plus normal noise, of
-    standard deviation ``perturbation`` times 1/2, 1, 2, 4 in turn) and knots drawn anywhere
-    (spans uniform on the simplex), until the budget is spent or ``restarts`` further starts
-    have run. A start may take at most :func:`start_evaluations` evaluations and half of
-    those left; the solver's scaling follows the Jacobian's columns (``x_scale="jac"``).
+    whenever the best point so far is better than when this was last done, that point with one
+    knot moved (a knot added in the middle of the span whose data have the largest squared
+    residual, and of the knots then the one whose removal leaves the least error taken out,
+    each removal tried as one evaluation: a knot spent where it does little, two knots run
+    together, goes where the error is), else, in turn, a perturbation of the best point so far
+    (its log spans plus normal noise, of standard deviation ``perturbation`` times 1/2, 1, 2, 4
+    in turn) and knots drawn anywhere (spans uniform on the simplex), until the budget is spent
+    or ``restarts`` further starts have run. A start may take at most
+    :func:`start_evaluations` evaluations and half of those left; the solver's scaling follows
+    the Jacobian's columns (``x_scale="jac"``).
 
     Parameters
     ----------
     restarts
-        Starts after the three deterministic ones (>= 0), or ``None``: until the budget is spent.
+        Starts after the three deterministic ones (>= 0; a moved knot's start counts as one),
+        or ``None``: until the budget is spent.
     perturbation
         Middle standard deviation of a perturbed start's change of the log spans (> 0; 0.5
         changes a span by a factor of about 1.6).
@@ -403,22 +409,51 @@ class VariableProjection(Optimizer):
                     solve(log_spans_from_knots(values, bounds))
                     return
 
+        def relocated(z: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """The knots ``z`` (multiplicities ``counts``) with a knot added in the middle of
+            the span whose data have the largest squared residual and the knot whose removal
+            then leaves the least error (each removal tried: one evaluation) taken out."""
+            nonlocal groups
+            groups = counts
+            errors = residual(z).reshape(u.size, -1)
+            distinct = knots_from_log_spans(z, bounds)[0]
+            ends = np.concatenate(([bounds[0]], distinct, [bounds[1]]))
+            squared = np.bincount(np.searchsorted(distinct, u, side="right"),
+                                  weights=np.sum(errors**2, axis=1), minlength=ends.size - 1)
+            worst = int(np.argmax(squared))
+            added = 0.5 * (ends[worst] + ends[worst + 1])
+            candidates = []
+            for drop in range(distinct.size):
+                fewer = counts.copy()
+                fewer[drop] -= 1
+                values = np.sort(np.append(np.repeat(distinct, fewer), added))
+                candidates.append(values)
+            scores = evaluator(np.array(candidates))
+            return _grouped(candidates[int(np.argmin(scores))], bounds)
+
+        last_moved = np.inf  # the best value when a relocation was last tried
         starts = self._starts()
         try:
+            restart = 0  # the perturbed and drawn starts so far
             for run in itertools.count():
                 if evaluator.remaining <= 0 or (self.restarts is not None
                                                 and run >= len(starts) + self.restarts):
                     break
                 if run < len(starts):
                     z0, groups = starts[run]
-                elif best[1] is not None and (run - len(starts)) % 2 == 0:
-                    scale = self.perturbation * 2.0 ** ((run - len(starts)) // 2 % 4 - 1)
+                elif best[1] is not None and best[0] < last_moved:
+                    last_moved = best[0]
+                    z0, groups = relocated(best[1], best[2])
+                elif best[1] is not None and restart % 2 == 0:
+                    scale = self.perturbation * 2.0 ** (restart // 2 % 4 - 1)
                     z0 = best[1] + self.rng.normal(0.0, scale, best[1].size)
                     groups = best[2]
+                    restart += 1
                 else:  # spans drawn uniformly (a flat Dirichlet): anywhere in the range
                     z0 = np.log(self.rng.exponential(size=problem.n_knots + 1))
                     z0 = z0[1:] - z0[0]
                     groups = np.ones(problem.n_knots, dtype=np.int64)
+                    restart += 1
                 reached = solve(z0)
                 if merge is not None and reached is not None:
                     merge_and_solve(z0, reached)

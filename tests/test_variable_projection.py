@@ -240,10 +240,12 @@ def test_the_methods_own_fits_are_declared(monkeypatch):
     result = mk.minimize(problem, "varpro", budget=300, seed=0)
     assert calls[True] > 0
     # the residual's fit (a repeat of the evaluation's) declared; each Jacobian charged as
-    # 6 + 1 fits, but for what the budget could not take at the end (external)
+    # 6 + 1 fits, but for what the budget could not take at the end (external): at most two
+    # Jacobians, one pending when a single evaluation is left (the charge leaves it to the
+    # evaluation) and one made after that evaluation
     assert result.n_evaluations - result.charged_fits == sum(evaluations)
     assert result.charged_fits + result.external_fits == calls[False] + (6 + 1) * calls[True]
-    assert (6 + 1) * calls[True] - result.charged_fits < 2 * (6 + 1)
+    assert (6 + 1) * calls[True] - result.charged_fits <= 2 * (6 + 1)
     assert result.status == "ok" and result.record()["charged_fits"] == result.charged_fits
 
 
@@ -413,3 +415,16 @@ def test_kangs_spline_is_recovered_from_its_own_starts():
     result = mk.minimize(problem, "varpro", budget=3000, seed=0)
     assert result.best_f <= 1e-9 * np.ptp(data.points)
     np.testing.assert_allclose(np.sort(result.best_x), KANG_KNOTS, atol=1e-9)
+
+
+def test_a_knot_spent_where_it_does_little_is_moved_where_the_error_is():
+    """humps with 7 knots (suite task fixed_k_small.free), seed 0: the deterministic starts
+    end at 2.46-2.64 and the perturbed and drawn ones at 1.94 at best; moving the knot whose
+    removal costs least to the span with the largest error, again after each improvement,
+    reaches the reference's 0.21271 (a long multi-start of scipy's L-BFGS-B/Nelder-Mead)."""
+    from metaknot.suite import get_instance
+    from metaknot.suite.tasks import get_task
+
+    problem = get_task(get_instance("humps"), "fixed_k_small.free").problem()
+    result = mk.minimize(problem, "varpro", budget=3000, seed=0)
+    assert result.best_f <= 0.2128
