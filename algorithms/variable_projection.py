@@ -32,6 +32,7 @@ derivative is the sum of its copies').
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from contextlib import AbstractContextManager
 
@@ -261,25 +262,24 @@ class VariableProjection(Optimizer):
     to the budget as ``K + 1`` fits (one refined basis per knot, and the fit), so that a run
     of ``varpro`` and one of a derivative-free method at the same budget do comparable work.
 
-    Starts: whenever the best point so far is better than when this was last done, that point
-    with one knot moved (a knot added in the middle of the span whose data have the largest
-    squared residual, and of the knots then the one whose removal leaves the least error taken
-    out, each removal tried as one evaluation: a knot spent where it does little, two knots run
-    together, goes where the error is); else the next of ``initial`` if given, then the
-    problem's averaging knots, equally spaced knots and the knots where the data's derivative
-    of the degree's order jumps (:func:`jump_knots`), these three from the lowest value (one
-    evaluation each); then, in turn, a perturbation of the best point
-    so far (its log spans plus normal noise, of standard deviation ``perturbation`` times 1/2,
-    1, 2, 4 in turn) and knots drawn anywhere (spans uniform on the simplex), until the budget
-    is spent or ``restarts`` further starts have run. A start may take at most
+    Starts: ``initial`` if given, the problem's averaging knots, equally spaced knots, the
+    knots where the data's derivative of the degree's order jumps (:func:`jump_knots`), then,
+    whenever the best point so far is better than when this was last done, that point with one
+    knot moved (a knot added in the middle of the span whose data have the largest squared
+    residual, and of the knots then the one whose removal leaves the least error taken out,
+    each removal tried as one evaluation: a knot spent where it does little, two knots run
+    together, goes where the error is), else, in turn, a perturbation of the best point so far
+    (its log spans plus normal noise, of standard deviation ``perturbation`` times 1/2, 1, 2, 4
+    in turn) and knots drawn anywhere (spans uniform on the simplex), until the budget is spent
+    or ``restarts`` further starts have run. A start may take at most
     :func:`start_evaluations` evaluations and half of those left; the solver's scaling follows
     the Jacobian's columns (``x_scale="jac"``).
 
     Parameters
     ----------
     restarts
-        Perturbed and drawn starts after the deterministic ones (>= 0; the starts with a
-        knot moved are not counted), or ``None``: until the budget is spent.
+        Starts after the three deterministic ones (>= 0; a moved knot's start counts as one),
+        or ``None``: until the budget is spent.
     perturbation
         Middle standard deviation of a perturbed start's change of the log spans (> 0; 0.5
         changes a span by a factor of about 1.6).
@@ -434,31 +434,16 @@ class VariableProjection(Optimizer):
         last_moved = np.inf  # the best value when a relocation was last tried
         starts = self._starts()
         try:
-            # the deterministic starts after a given one from the lowest value (an evaluation
-            # each; infeasible ones last); moving a knot waits for a solve's improvement
-            given = 0 if self.initial is None else 1
-            values = []
-            for z0, counts in starts:
-                groups = counts  # the multiplicities residual() fits with
-                r = residual(z0)
-                values.append(float(r @ r) if np.isfinite(r).all() else np.inf)
-            order = np.argsort(values[given:], kind="stable")
-            starts[given:] = [starts[given + i] for i in order]
-            last_moved = best[0]
             restart = 0  # the perturbed and drawn starts so far
-            next_start = 0  # the deterministic starts taken
-            while True:
+            for run in itertools.count():
                 if evaluator.remaining <= 0 or (self.restarts is not None
-                                                and next_start == len(starts)
-                                                and restart >= self.restarts
-                                                and not best[0] < last_moved):
+                                                and run >= len(starts) + self.restarts):
                     break
-                if best[1] is not None and best[0] < last_moved:
+                if run < len(starts):
+                    z0, groups = starts[run]
+                elif best[1] is not None and best[0] < last_moved:
                     last_moved = best[0]
                     z0, groups = relocated(best[1], best[2])
-                elif next_start < len(starts):
-                    z0, groups = starts[next_start]
-                    next_start += 1
                 elif best[1] is not None and restart % 2 == 0:
                     scale = self.perturbation * 2.0 ** (restart // 2 % 4 - 1)
                     z0 = best[1] + self.rng.normal(0.0, scale, best[1].size)
