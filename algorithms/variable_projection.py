@@ -48,7 +48,7 @@ from metaknot.task import ProblemView
 
 from ._adapters import free_knots, refuse_variable_count
 
-__all__ = ["VariableProjection", "knots_from_log_spans", "log_spans_from_knots",
+__all__ = ["VariableProjection", "jump_knots", "knots_from_log_spans", "log_spans_from_knots",
            "one_blas_thread", "residual_jacobian", "start_evaluations"]
 
 
@@ -69,6 +69,66 @@ def start_evaluations(n_knots: int) -> int:
     on galvez_f1 at K = 8: RMSE 0.026-0.062 against 0.014-0.015), few enough that a start in a
     poor basin gives way to the next."""
     return 100 * (n_knots + 2)
+
+
+def jump_knots(u: np.ndarray, points: np.ndarray, p: int, count: int,
+               bounds: tuple[float, float], *, closed: bool = False,
+               repeat_weight: float = 1e-3) -> np.ndarray:
+    """``count`` interior knots where the data's ``p``-th derivative jumps (a start for the
+    search): the data's ``p``-th divided differences (of a spline of degree ``p``, constant
+    between its knots) differenced again, their largest local peaks (each with its ``p + 1``
+    neighbours either side, a cluster) taken in turn, a knot at each cluster's weighted centre.
+    Knots beyond one per cluster go by highest averages, a cluster's ``n``-th (``2 <= n <= p``)
+    scored ``repeat_weight`` times its mass / ``n``: a knot the data show to be multiple (its
+    mass far above the others') is repeated, split over the data spacing, before a cluster at
+    the level of rounding gets one (knots beyond what the jumps place are spread evenly). On
+    data sampled from a spline with knots between the data sites this finds them to within a
+    data spacing. A closed outline is extended by a period; a cluster at its seam is the
+    breakpoint 0, which is a knot already."""
+    u = np.asarray(u, dtype=np.float64)
+    q = np.asarray(points, dtype=np.float64).reshape(u.size, -1)
+    if closed:  # the first p + 1 points again, a period on
+        u = np.concatenate((u, u[: p + 1] + 1.0))
+        q = np.concatenate((q, q[: p + 1]))
+    differences = q
+    with np.errstate(divide="ignore", invalid="ignore"):  # repeated parameters: no jump
+        for order in range(1, p + 1):
+            differences = ((differences[1:] - differences[:-1])
+                           / (u[order:] - u[:-order])[:, None])
+        mass = np.linalg.norm(differences[1:] - differences[:-1], axis=1)  # points i..i+p+1
+    mass[~np.isfinite(mass)] = 0.0
+    centre = 0.5 * (u[: mass.size] + u[p + 1: p + 1 + mass.size])
+    lower, upper = bounds
+    spacing = float(np.median(np.diff(u)))
+    clusters: list[tuple[float, float]] = []  # (mass, weighted centre)
+    left = mass.copy()
+    while len(clusters) < count and left.max() > 0:
+        peak = int(np.argmax(left))
+        window = slice(max(0, peak - p - 1), peak + p + 2)
+        weights = left[window].copy()
+        at = float(weights @ centre[window] / weights.sum())
+        left[window] = 0.0
+        if closed:  # a cluster at the seam is the breakpoint 0, a knot already
+            at = at % 1.0
+            if min(at, 1.0 - at) < spacing:
+                continue
+        clusters.append((float(weights.sum()), at))
+    if not clusters:
+        return np.linspace(lower, upper, count + 2)[1:-1]
+    seats = np.zeros(len(clusters), dtype=np.int64)
+    masses = np.array([cluster[0] for cluster in clusters])
+    for _ in range(count):
+        scores = np.where(seats == 0, masses, repeat_weight * masses / (seats + 1))
+        scores[seats >= p] = -1.0  # at most p copies: the curve stays continuous
+        if scores.max() < 0:
+            break
+        seats[int(np.argmax(scores))] += 1
+    knots = np.concatenate([clusters[c][1] + spacing * (np.arange(n) - (n - 1) / 2)
+                            for c, n in enumerate(seats) if n])
+    if knots.size < count:  # too few jumps: the rest evenly spread
+        knots = np.concatenate((knots, np.linspace(lower, upper, count - knots.size + 2)[1:-1]))
+    margin = 0.5 * spacing
+    return np.sort(np.clip(knots, lower + margin, upper - margin))
 
 
 def _knot_vector(interior: np.ndarray, bounds: tuple[float, float], p: int, closed: bool
@@ -202,17 +262,24 @@ class VariableProjection(Optimizer):
     to the budget as ``K + 1`` fits (one refined basis per knot, and the fit), so that a run
     of ``varpro`` and one of a derivative-free method at the same budget do comparable work.
 
-    Starts: ``initial`` if given, the problem's averaging knots, equally spaced knots, then,
-    in turn, a perturbation of the best point so far (its log spans plus normal noise, of
-    standard deviation ``perturbation`` times 1/2, 1, 2, 4 in turn) and knots drawn anywhere
-    (spans uniform on the simplex), until the budget is spent or ``restarts`` further starts
-    have run. A start may take at most :func:`start_evaluations` evaluations and half of
-    those left; the solver's scaling follows the Jacobian's columns (``x_scale="jac"``).
+    Starts: ``initial`` if given, the problem's averaging knots, equally spaced knots, the
+    knots where the data's derivative of the degree's order jumps (:func:`jump_knots`), then,
+    whenever the best point so far is better than when this was last done, that point with one
+    knot moved (a knot added in the middle of the span whose data have the largest squared
+    residual, and of the knots then the one whose removal leaves the least error taken out,
+    each removal tried as one evaluation: a knot spent where it does little, two knots run
+    together, goes where the error is), else, in turn, a perturbation of the best point so far
+    (its log spans plus normal noise, of standard deviation ``perturbation`` times 1/2, 1, 2, 4
+    in turn) and knots drawn anywhere (spans uniform on the simplex), until the budget is spent
+    or ``restarts`` further starts have run. A start may take at most
+    :func:`start_evaluations` evaluations and half of those left; the solver's scaling follows
+    the Jacobian's columns (``x_scale="jac"``).
 
     Parameters
     ----------
     restarts
-        Starts after the two deterministic ones (>= 0), or ``None``: until the budget is spent.
+        Starts after the three deterministic ones (>= 0; a moved knot's start counts as one),
+        or ``None``: until the budget is spent.
     perturbation
         Middle standard deviation of a perturbed start's change of the log spans (> 0; 0.5
         changes a span by a factor of about 1.6).
@@ -259,8 +326,10 @@ class VariableProjection(Optimizer):
         k = self.problem.n_knots
         uniform = np.linspace(*bounds, k + 2)[1:-1]
         given = [] if self.initial is None else [_grouped(self.initial, bounds)]
+        jumps = jump_knots(self.problem.params, self.problem.points, self.problem.degree, k,
+                           bounds, closed=bool(self.problem.closed))
         return [*given, _grouped(np.sort(self.problem.start_knots(k)), bounds),
-                _grouped(uniform, bounds)]
+                _grouped(uniform, bounds), _grouped(jumps, bounds)]
 
     def run(self, evaluator: Evaluator) -> None:
         with one_blas_thread():
@@ -340,22 +409,51 @@ class VariableProjection(Optimizer):
                     solve(log_spans_from_knots(values, bounds))
                     return
 
+        def relocated(z: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            """The knots ``z`` (multiplicities ``counts``) with a knot added in the middle of
+            the span whose data have the largest squared residual and the knot whose removal
+            then leaves the least error (each removal tried: one evaluation) taken out."""
+            nonlocal groups
+            groups = counts
+            errors = residual(z).reshape(u.size, -1)
+            distinct = knots_from_log_spans(z, bounds)[0]
+            ends = np.concatenate(([bounds[0]], distinct, [bounds[1]]))
+            squared = np.bincount(np.searchsorted(distinct, u, side="right"),
+                                  weights=np.sum(errors**2, axis=1), minlength=ends.size - 1)
+            worst = int(np.argmax(squared))
+            added = 0.5 * (ends[worst] + ends[worst + 1])
+            candidates = []
+            for drop in range(distinct.size):
+                fewer = counts.copy()
+                fewer[drop] -= 1
+                values = np.sort(np.append(np.repeat(distinct, fewer), added))
+                candidates.append(values)
+            scores = evaluator(np.array(candidates))
+            return _grouped(candidates[int(np.argmin(scores))], bounds)
+
+        last_moved = np.inf  # the best value when a relocation was last tried
         starts = self._starts()
         try:
+            restart = 0  # the perturbed and drawn starts so far
             for run in itertools.count():
                 if evaluator.remaining <= 0 or (self.restarts is not None
                                                 and run >= len(starts) + self.restarts):
                     break
                 if run < len(starts):
                     z0, groups = starts[run]
-                elif best[1] is not None and (run - len(starts)) % 2 == 0:
-                    scale = self.perturbation * 2.0 ** ((run - len(starts)) // 2 % 4 - 1)
+                elif best[1] is not None and best[0] < last_moved:
+                    last_moved = best[0]
+                    z0, groups = relocated(best[1], best[2])
+                elif best[1] is not None and restart % 2 == 0:
+                    scale = self.perturbation * 2.0 ** (restart // 2 % 4 - 1)
                     z0 = best[1] + self.rng.normal(0.0, scale, best[1].size)
                     groups = best[2]
+                    restart += 1
                 else:  # spans drawn uniformly (a flat Dirichlet): anywhere in the range
                     z0 = np.log(self.rng.exponential(size=problem.n_knots + 1))
                     z0 = z0[1:] - z0[0]
                     groups = np.ones(problem.n_knots, dtype=np.int64)
+                    restart += 1
                 reached = solve(z0)
                 if merge is not None and reached is not None:
                     merge_and_solve(z0, reached)

@@ -240,10 +240,12 @@ def test_the_methods_own_fits_are_declared(monkeypatch):
     result = mk.minimize(problem, "varpro", budget=300, seed=0)
     assert calls[True] > 0
     # the residual's fit (a repeat of the evaluation's) declared; each Jacobian charged as
-    # 6 + 1 fits, but for what the budget could not take at the end (external)
+    # 6 + 1 fits, but for what the budget could not take at the end (external): at most two
+    # Jacobians, one pending when a single evaluation is left (the charge leaves it to the
+    # evaluation) and one made after that evaluation
     assert result.n_evaluations - result.charged_fits == sum(evaluations)
     assert result.charged_fits + result.external_fits == calls[False] + (6 + 1) * calls[True]
-    assert (6 + 1) * calls[True] - result.charged_fits < 2 * (6 + 1)
+    assert (6 + 1) * calls[True] - result.charged_fits <= 2 * (6 + 1)
     assert result.status == "ok" and result.record()["charged_fits"] == result.charged_fits
 
 
@@ -347,3 +349,82 @@ def test_the_gradient_methods_run_blas_on_one_thread(optimizer, monkeypatch):
     mk.minimize(problem, optimizer, budget=200, seed=0)
     assert seen and all(threads == {1} for threads in seen)
     assert blas_threads() == before
+
+
+def _kang() -> tuple[np.ndarray, np.ndarray]:
+    from metaknot.suite import get_instance
+
+    data = get_instance("kang_spline").point_set()
+    return np.asarray(data.params), np.asarray(data.points)
+
+
+def test_jump_knots_find_kangs_knots_and_its_double_one_above_noise():
+    """Each of kang_spline's 11 knots within a data spacing (the double one as two knots next
+    to 0.5408), with noise of 1e-9 of the range added: a repeat weight ten times larger gives
+    the double knot a third copy instead of the knot at 0.9407, ten times smaller gives a
+    knot to a cluster of noise instead of the double knot's second."""
+    from metaknot.algorithms.variable_projection import jump_knots
+    from metaknot.suite.functions import KANG_KNOTS
+
+    u, q = _kang()
+    for seed in range(3):
+        noisy = q + 1e-9 * np.ptp(q) * np.random.default_rng(seed).normal(size=q.shape)
+        found = jump_knots(u, noisy, 3, 11, (0.0, 1.0))
+        assert np.abs(found - np.array(KANG_KNOTS)).max() < 1.1e-3
+        for weight in (1e-2, 1e-4):
+            other = jump_knots(u, noisy, 3, 11, (0.0, 1.0), repeat_weight=weight)
+            assert np.abs(other - np.array(KANG_KNOTS)).max() > 1e-2
+
+
+def test_jump_knots_repeat_a_knot_at_most_degree_times():
+    from metaknot.algorithms.variable_projection import jump_knots
+    from metaknot.suite.functions import KANG_KNOTS
+
+    u, q = _kang()
+    found = jump_knots(u, q, 3, 31, (0.0, 1.0))
+    assert found.size == 31 and np.all(np.diff(found) > 0)
+    for knot in KANG_KNOTS:
+        assert 1 <= np.sum(np.abs(found - knot) < 3e-3) <= 3
+
+
+def test_jump_knots_of_a_closed_outline_skip_its_seam():
+    """A periodic cubic with breakpoints 0 and six knots: the six found (a cluster at the
+    seam, where the breakpoint 0 is a knot already, gives none), a seventh repeats one."""
+    from metaknot.algorithms.variable_projection import jump_knots
+
+    knots = np.array([0.11, 0.27, 0.43, 0.52, 0.68, 0.86])
+    breaks = np.r_[0.0, knots]
+    t = np.r_[breaks[-3:] - 1.0, breaks, 1.0, breaks[1:4] + 1.0]
+    coefficients = np.random.default_rng(1).normal(size=(breaks.size, 2))
+    u = np.arange(400) / 400
+    q = BSpline(t, np.r_[coefficients, coefficients[:3]], 3)(u)
+    np.testing.assert_allclose(jump_knots(u, q, 3, 6, (0.0, 1.0), closed=True), knots,
+                               atol=1e-9)
+    seventh = jump_knots(u, q, 3, 7, (0.0, 1.0), closed=True)
+    assert seventh.size == 7 and np.abs(seventh[:, None] - knots).min(axis=1).max() < 3e-3
+
+
+def test_kangs_spline_is_recovered_from_its_own_starts():
+    """From its own starts (the jump knots among them), 3,000 evaluations: kang_spline with
+    11 knots and merge_spacing=1e-4 to rounding, the double knot merged."""
+    from metaknot.suite import get_instance
+    from metaknot.suite.functions import KANG_KNOTS
+
+    data = get_instance("kang_spline").point_set()
+    problem = FreeKnots(data, n_knots=11, objective="rmse", merge_spacing=1e-4)
+    result = mk.minimize(problem, "varpro", budget=3000, seed=0)
+    assert result.best_f <= 1e-9 * np.ptp(data.points)
+    np.testing.assert_allclose(np.sort(result.best_x), KANG_KNOTS, atol=1e-9)
+
+
+def test_a_knot_spent_where_it_does_little_is_moved_where_the_error_is():
+    """humps with 7 knots (suite task fixed_k_small.free), seed 0: the deterministic starts
+    end at 2.46-2.64 and the perturbed and drawn ones at 1.94 at best; moving the knot whose
+    removal costs least to the span with the largest error, again after each improvement,
+    reaches the reference's 0.21271 (a long multi-start of scipy's L-BFGS-B/Nelder-Mead)."""
+    from metaknot.suite import get_instance
+    from metaknot.suite.tasks import get_task
+
+    problem = get_task(get_instance("humps"), "fixed_k_small.free").problem()
+    result = mk.minimize(problem, "varpro", budget=3000, seed=0)
+    assert result.best_f <= 0.2128
