@@ -17,6 +17,7 @@ demo: $(STAMP)  ## a small study (DE, GA, random search on the seed curves), the
 	$(BIN)/metaknot report results/smoke
 
 test: $(STAMP) typecheck chromium postgres  ## the type check, then the whole test suite (slow studies at CI size)
+	$(BIN)/python .ci/warm-kernels  # the compiled kernels' cache, once, before parallel tests
 	$(BIN)/python -m pytest -n 2 --dist loadgroup -q
 
 typecheck: $(STAMP)  ## the static type check: mypy as configured in pyproject.toml, 0 errors
