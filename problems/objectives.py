@@ -178,14 +178,23 @@ class BIC(Objective):
         self.error_floor = _check_nonneg("error_floor", error_floor)
 
     def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
-        n = data.n_points * data.dim
-        floor = (self.error_floor * data.scale) ** 2 * n
+        floor = (self.error_floor * data.scale) ** 2 * (data.n_points * data.dim)
         sse = np.maximum(fit.sse, max(floor, np.finfo(float).tiny))
-        n_interior = fit.n_control_points - data.extra_control_points
-        k = data.dim * fit.n_control_points + n_interior
         with np.errstate(invalid="ignore", over="ignore"):
-            value = n * np.log(sse / n) + np.log(n) * k
+            value = bic_value(sse, data.n_points, data.dim, fit.n_control_points,
+                              data.extra_control_points)
         return np.where(fit.feasible, value, np.inf)
+
+
+def bic_value(sse: Any, n_points: float, dim: float, n_control_points: Any,
+              extra_control_points: float) -> Any:
+    """:class:`BIC`'s ``n ln(SSE / n) + ln(n) k`` (``n = N d``, ``k = d * control points +
+    interior knots``) of an SSE already floored, for arrays or numbers: the one formula, which
+    the results store also checks a record's best value against."""
+    n = n_points * dim
+    n_interior = n_control_points - extra_control_points
+    k = dim * n_control_points + n_interior
+    return n * np.log(sse / n) + np.log(n) * k
 
 
 

@@ -1232,3 +1232,22 @@ def test_a_record_whose_settings_were_removed_is_named_on_load(tmp_path):
     with pytest.raises(StoreError, match=rf"{re.escape(str(path))}: the record has no settings "
                                          r"\('config'\), as 6 other record\(s\) here have"):
         load_study(path.parent.parent)
+
+
+@pytest.mark.parametrize(("objective", "closed"), [("bic", False), ("bic", True),
+                                                   ("error_bounded", False)])
+def test_the_bounds_of_the_objectives_the_fixture_lacks_are_checked(objective, closed):
+    """The BIC (the objective's own formula on the record's SSE) and error-bounded bounds: a
+    run's record passes; its best value lowered by 1 (below the formula, below the
+    control points) are named."""
+    import metaknot as mk
+    from metaknot.problems import KnotSelection, get_curve
+
+    problem = KnotSelection(get_curve("epitrochoid" if closed else "archimedean"),
+                            objective=objective, closed=closed)
+    record = mk.minimize(problem, mk.get_optimizer("random_search"), budget=50, seed=0).record()
+    assert store_module._outcome_changed(record) is None
+    lowered = {**record, "best_f": record["best_f"] - 1.0}  # (a run's record holds no trace)
+    assert (store_module._outcome_changed(lowered) or "").startswith(
+        f"its best value {lowered['best_f']!r} is below what its {objective} objective gives "
+        "for its own fit")
