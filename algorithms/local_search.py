@@ -35,8 +35,6 @@ The simple local method any population method must beat at equal budget:
 
 from __future__ import annotations
 
-from collections import Counter
-
 import numpy as np
 
 from metaknot.optimizer import Optimizer, check_param
@@ -95,20 +93,22 @@ def index_neighbours(x: np.ndarray, lower: int, upper: int, max_step: int = 1,
     within ``lower..upper`` that holds fewer than ``max_multiplicity`` knots (a free one for
     distinct knots; else onto a knot, raising its multiplicity)."""
     x = np.asarray(x, dtype=np.int64)
-    held = x.tolist()  # (np.unique per call cost a fifth of metaknot fit's search)
-    taken = set(held) if max_multiplicity == 1 else \
-        {v for v, c in Counter(held).items() if c >= max_multiplicity}
-    moves = []
-    for k, value in enumerate(x):
-        for step in range(1, max_step + 1):
-            for target in (value - step, value + step):
-                if lower <= target <= upper and target not in taken:
-                    y = x.copy()
-                    y[k] = target
-                    moves.append(np.sort(y))
-    if not moves:
+    steps = np.arange(1, max_step + 1)
+    source = np.repeat(np.arange(x.size), 2 * max_step)
+    target = (x[:, None] + np.concatenate((-steps, steps))[None, :]).ravel()
+    inside = (target >= lower) & (target <= upper)
+    source, target = source[inside], target[inside]
+    held = np.bincount(x - lower, minlength=upper - lower + 1)  # knots at each index
+    free = held[target - lower] < max_multiplicity
+    if not free.any():
         return np.empty((0, x.size), dtype=np.int64)
-    return np.unique(np.array(moves), axis=0)
+    moves = np.repeat(x[None, :], int(free.sum()), axis=0)
+    moves[np.arange(len(moves)), source[free]] = target[free]
+    moves.sort(axis=1)
+    moves = moves[np.lexsort(moves.T[::-1])]  # as rows, the order np.unique gives them
+    repeated = np.zeros(len(moves), dtype=bool)  # a copy of a multiple knot moved like another
+    repeated[1:] = (moves[1:] == moves[:-1]).all(axis=1)
+    return moves[~repeated]
 
 
 @register("local_search")

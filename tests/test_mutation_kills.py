@@ -233,6 +233,28 @@ def test_index_neighbours_match_exhaustive_enumeration(max_step):
         assert len({tuple(r) for r in got}) == len(got)  # distinct rows
 
 
+@pytest.mark.parametrize("max_multiplicity", [1, 2, 3])
+def test_index_neighbours_are_distinct_rows_in_lexicographic_order(max_multiplicity):
+    """Best improvement breaks ties by this order; with multiple knots two copies of a value
+    moved alike give one row."""
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        x = np.sort(rng.integers(1, 9, size=5))
+        _, counts = np.unique(x, return_counts=True)
+        if counts.max() > max_multiplicity:
+            continue
+        got = index_neighbours(x, 1, 8, 2, max_multiplicity)
+        expected = set()
+        for k in range(x.size):
+            for target in range(x[k] - 2, x[k] + 3):
+                if target != x[k] and 1 <= target <= 8 \
+                        and np.count_nonzero(x == target) < max_multiplicity:
+                    y = x.copy()
+                    y[k] = target
+                    expected.add(tuple(np.sort(y)))
+        assert [tuple(r) for r in got] == sorted(expected)
+
+
 def test_a_packed_index_set_has_no_neighbours():
     got = index_neighbours(np.array([3, 4, 5, 6]), 3, 6, 2)
     assert got.shape == (0, 4) and np.issubdtype(got.dtype, np.integer)
