@@ -568,10 +568,74 @@ def back_substitute(st, far, width, p, d, ncol, x):
 @njit(cache=True)
 def closed_workspaces(m, p, d):
     """The workspaces of :func:`solve_closed_into` for ``m`` control points: the
-    reciprocals, the factor, its wrap-around entries, a dense row, the solution and the
-    basis values of a seam row with their knot differences."""
+    reciprocals, the factor, its wrap-around entries, a dense row, the solution, the
+    basis values of a seam row with their knot differences, and the seam's own factor
+    (:func:`_seam_into`)."""
     return (np.empty((m + p + 1) * p), np.empty(m * (1 + p + d)), np.empty((m, p)),
-            np.empty(m + d), np.empty((m, d)), np.empty((3, p + 1)))
+            np.empty(m + d), np.empty((m, d)), np.empty((3, p + 1)),
+            np.empty(2 * p * (1 + p + d)), np.empty((2 * p, p)))
+
+
+@njit(cache=True)
+def _seam_into(u, q, t, p, m, seam, st, far, row, seam_basis, seam_st, seam_far, basis, spans):
+    """Rotate the seam rows ``0 .. seam - 1`` (the spans before breakpoint ``p``) into the
+    factor ``st``, ``far`` of :func:`solve_closed_into`; return what is left of them. A seam
+    row touches the first ``p`` unknowns and the last ``p`` only: when those are ``2p``
+    distinct ones (``m >= 2p``), the rows are first rotated among themselves into a dense
+    factor of those ``2p`` columns (``seam_st``, ``seam_far``; rows of :func:`rotate_dense`
+    with ``ncol = 2p``), whose at most ``2p`` rows are then rotated, weighted, through the
+    whole factor: the fill-in of the band then runs ``2p`` times, not once per seam row.
+    Stores the rows' basis values and natural spans if ``basis`` is not empty."""
+    d = q.shape[1]
+    width = 1 + p + d
+    keep = basis.shape[0] > 0
+    local = m >= 2 * p
+    ncol = 2 * p if local else m
+    if local:
+        seam_st[: ncol * width] = 0.0
+        seam_st[: ncol * width : width] = EMPTY
+        seam_far[:] = 0.0
+    fst = seam_st if local else st
+    ffar = seam_far if local else far
+    values = row[m : m + d]  # the row's right-hand side lives behind its entries
+    h, left, right = seam_basis[0], seam_basis[1], seam_basis[2]
+    sse = 0.0
+    j = 0
+    for i in range(seam):
+        xi = u[i]
+        while j < p - 1 and xi >= t[p + j + 1]:
+            j += 1
+        basis_at(t, p + j, xi, p, h, left, right)
+        if keep:
+            spans[i] = j
+            for k in range(p + 1):
+                basis[i, k] = h[k]
+        row[:ncol] = 0.0
+        for k in range(p + 1):  # extended function j + k is unknown (j + k - p) mod m
+            e = j + k
+            row[e - p if e >= p else ncol - p + e] += h[k]
+        for c in range(d):
+            values[c] = q[i, c]
+        sse += rotate_dense(fst, ffar, width, p, d, ncol, row, values, 0, ncol, 1.0)
+    if not local:
+        return sse
+    for a in range(ncol):  # the seam factor's rows: local column a is unknown a or m - 2p + a
+        o = a * width
+        big_w = seam_st[o]
+        if big_w == EMPTY:
+            continue
+        row[:m] = 0.0
+        row[a if a < p else m - 2 * p + a] = 1.0
+        for b in range(1, min(p, ncol - 1 - a) + 1):
+            c = a + b
+            row[c if c < p else m - 2 * p + c] = seam_st[o + b]
+        for k in range(max(0, a + 1), p):
+            row[m - p + k] = seam_far[a, k]
+        for c in range(d):
+            values[c] = seam_st[o + p + 1 + c]
+        sse += rotate_dense(st, far, width, p, d, m, row, values, a if a < p else m - 2 * p + a,
+                            m, big_w)
+    return sse
 
 
 @njit(cache=True)
@@ -597,7 +661,7 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     m = t.size - 2 * p - 1
     if m > n:
         return TOO_MANY_CONTROL_POINTS, np.inf
-    iv, st, far, row, x, seam_basis = ws
+    iv, st, far, row, x, seam_basis, seam_st, seam_far = ws
     width = 1 + p + d
     shifted = t[p:]
     reciprocals_into(shifted, p, iv)
@@ -610,25 +674,8 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     keep = basis.shape[0] > 0
     sse, _ = rows(u[seam:], q[seam:], shifted, iv, p, m, st,
                   basis[seam:] if keep else basis, spans[seam:] if keep else spans)
-    values = row[m : m + d]  # the row's right-hand side lives behind its entries
-    h, left, right = seam_basis[0], seam_basis[1], seam_basis[2]
-    j = 0
-    for i in range(seam):
-        xi = u[i]
-        while j < p - 1 and xi >= t[p + j + 1]:
-            j += 1
-        basis_at(t, p + j, xi, p, h, left, right)
-        if keep:
-            spans[i] = j
-            for k in range(p + 1):
-                basis[i, k] = h[k]
-        row[:m] = 0.0
-        for k in range(p + 1):  # extended function j + k is unknown (j + k - p) mod m
-            e = j + k
-            row[e - p if e >= p else m - p + e] += h[k]
-        for c in range(d):
-            values[c] = q[i, c]
-        sse += rotate_dense(st, far, width, p, d, m, row, values, 0, m, 1.0)
+    sse += _seam_into(u, q, t, p, m, seam, st, far, row, seam_basis, seam_st, seam_far,
+                      basis, spans)
     smallest_dinv, largest_dinv, _, _ = bound(st, p, width, m)
     if not (smallest_dinv > 0.0 and smallest_dinv > pivot_ratio * pivot_ratio * largest_dinv):
         return SINGULAR, np.inf

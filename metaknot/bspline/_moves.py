@@ -52,11 +52,12 @@ from ._kernel import (
     _max_deviation,
     back_substitute,
     basis_at,
+    closed_workspaces,
     deviation_from_basis,
     extended_knots,
-    fit_closed,
     periodic_distance2,
     rotate_dense,
+    solve_closed_into,
 )
 from ._moves_rows import EMPTY, FASTMATH, absorb, sweep, window
 
@@ -853,6 +854,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
     x_band = np.zeros((m_max, d))
     x_merged = np.zeros((cols_max, d))
     full_basis = np.empty((n if want_max_dev else 0, p + 1))  # the full fit's rows
+    ws_full = closed_workspaces(m_max, p, d)
     full_spans = np.empty(n if want_max_dev else 0, dtype=np.int64)
     window_basis = np.empty((n, p + 1))
     window_span = np.empty(n, dtype=np.int64)
@@ -1021,7 +1023,8 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
         # the full fit decides
         path_out[b] = PATH_FULL
         c2 = coef[:m2]
-        code, value = fit_closed(u, q, tb, p, c2, full_basis, full_spans)
+        code, value = solve_closed_into(u, q, tb, p, c2, full_basis, full_spans, ws_full,
+                                        PIVOT_RATIO)
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
