@@ -533,3 +533,37 @@ def test_points_of_more_than_three_coordinates_are_refused_as_on_open_curves() -
             make_curve(points, closed=closed)
     with pytest.raises(ValueError, match="1 to 3 coordinates"):
         ClosedCurve(closed_parameterize(points), points, 3).fit([0.3, 0.6])
+
+
+@pytest.mark.parametrize("degree", [1, 2, 3, 4, 5])
+def test_either_side_of_the_seam_rows_own_factor_fits_as_dense_least_squares(degree) -> None:
+    """m = 2p - 1, 2p, 2p + 1 control points (the seam rows get a factor of their own from
+    m = 2p on) against dense least squares on the wrapped design matrix, dimensions 1-3,
+    breakpoints at data points and between them."""
+    from metaknot.bspline._kernel import evaluate_batch
+
+    rng = np.random.default_rng(11)
+    checked = 0
+    for d in range(1, 4):
+        for m in (2 * degree - 1, 2 * degree, 2 * degree + 1):
+            for trial in range(6):
+                u = np.unique(np.concatenate(([0.0], rng.random(int(rng.integers(40, 120))))))
+                q = rng.normal(size=(u.size, d))
+                chosen = rng.choice(u[1:], m - 1, replace=False) if trial % 2 else \
+                    rng.uniform(0.02, 0.98, m - 1)
+                interior = np.sort(chosen)
+                outputs = (np.empty(1), np.empty(1), np.empty(1, dtype=np.int64),
+                           np.empty(1, dtype=np.int8))
+                evaluate_batch(u, q, degree, True, 1, interior, np.array([0, m - 1]), *outputs,
+                               1)
+                sse, max_dev, _, reason = (value[0] for value in outputs)
+                reference = dense_reference(u, q, interior, degree)
+                if reference is None or reason != 0:
+                    assert reference is None or np.linalg.cond(
+                        _wrapped(u, interior, degree)) > 1e9, (degree, d, m, trial)
+                    continue
+                checked += 1
+                scale = float((q**2).sum())
+                np.testing.assert_allclose(sse, reference[0], rtol=1e-9, atol=1e-12 * scale)
+                np.testing.assert_allclose(max_dev, reference[1], rtol=1e-7, atol=1e-9)
+    assert checked >= 40
