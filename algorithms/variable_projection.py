@@ -283,8 +283,8 @@ class VariableProjection(Optimizer):
     five iterations: knots running together converge slowly (on humps+noise0.01s0 at K = 7,
     two starts crept for 1,650 evaluations from 2.7207 to 2.7206). Where a start ends with two
     knots between the same two data parameters, the solve goes on (up to three times) from
-    its end with one knot moved as above. The solver's scaling follows the Jacobian's columns
-    (``x_scale="jac"``).
+    its end with one knot moved as above, within what is left of the start's share. The
+    solver's scaling follows the Jacobian's columns (``x_scale="jac"``).
 
     Parameters
     ----------
@@ -393,9 +393,11 @@ class VariableProjection(Optimizer):
                 derivative = np.add.reduceat(derivative, np.cumsum(groups) - groups, axis=1)
             return derivative @ chain
 
-        def solve(z0: np.ndarray) -> np.ndarray | None:
-            """One solve from ``z0`` (None if its fit is infeasible): the log spans reached."""
-            share = max(1, min(evaluator.remaining // 2, start_evaluations(problem.n_knots)))
+        def solve(z0: np.ndarray, share: int | None = None) -> np.ndarray | None:
+            """One solve from ``z0`` (None if its fit is infeasible): the log spans reached.
+            ``share``: the most evaluations it may use (default: a start's)."""
+            if share is None:
+                share = start_share()
             if not np.isfinite(residual(z0)).all():
                 return None
             # at most one Jacobian per residual: the share bounds the budget used
@@ -455,6 +457,11 @@ class VariableProjection(Optimizer):
             scores = evaluator(np.array(candidates))
             return _grouped(candidates[int(np.argmin(scores))], bounds)
 
+        def start_share() -> int:
+            """The evaluations a start may use: :func:`start_evaluations`, at most half of
+            those left."""
+            return max(1, min(evaluator.remaining // 2, start_evaluations(problem.n_knots)))
+
         def collapsed(z: np.ndarray) -> bool:
             """Whether two of the knots ``z`` have no data parameter between them."""
             cells = np.searchsorted(u, knots_from_log_spans(z, bounds)[0])
@@ -488,11 +495,14 @@ class VariableProjection(Optimizer):
                     z0 = z0[1:] - z0[0]
                     groups = np.ones(problem.n_knots, dtype=np.int64)
                     restart += 1
-                reached = solve(z0)
+                share, before = start_share(), evaluator.remaining
+                reached = solve(z0, share)
                 for _ in range(REPAIRS if merge is None else 0):  # knots run together: one moved
-                    if reached is None or not collapsed(reached):
+                    left = share - (before - evaluator.remaining)  # within the start's share
+                    if reached is None or not collapsed(reached) \
+                            or left < 2 * (problem.n_knots + 2):
                         break
-                    reached = solve(relocated(reached, groups)[0])
+                    reached = solve(relocated(reached, groups)[0], left - problem.n_knots)
                 if merge is not None and reached is not None:
                     merge_and_solve(z0, reached)
         except BudgetExhausted:

@@ -482,3 +482,15 @@ def test_knots_run_together_are_pulled_apart(monkeypatch):
                              optimizer_kwargs={"restarts": 0})
         ends[repairs] = (result.n_evaluations, result.best_f)
     assert ends[0] != ends[module.REPAIRS]
+
+
+def test_a_start_and_its_repairs_keep_to_the_start_s_share(monkeypatch):
+    """The solves on from knots that ran together are part of their start: with a share of
+    200 evaluations, the three deterministic starts on noisy humps (whose knots run together)
+    use 600 at most, repairs included."""
+    import metaknot.algorithms.variable_projection as module
+
+    monkeypatch.setattr(module, "start_evaluations", lambda n_knots: 200)
+    result = mk.minimize(_noisy_humps(), "varpro", budget=3000, seed=0,
+                         optimizer_kwargs={"restarts": 0})
+    assert 400 < result.n_evaluations <= 3 * 200
