@@ -746,7 +746,9 @@ def test_cli_report_writes_the_report(tmp_path, capsys):
                      "--metric", "rmse", "--alpha", "0.01"]) == 0
     assert (out / "report.html").is_file() and (out / "tables" / "pairwise_rmse.csv").is_file()
     assert not (out / "tables" / "pairwise_best_f.csv").exists()
-    assert f"report: {out / 'report.html'}" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"report: {out / 'report.html'}" in printed
+    assert f"tables: {out / 'tables'}\n" in printed  # where they are, not where they were built
     assert "significant at 0.01" in (out / "report.md").read_text()
     # the default folder lies beside the study
     assert cli_main(["report", str(study), "--no-figures"]) == 0

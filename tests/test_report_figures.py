@@ -227,6 +227,8 @@ def test_every_figure_of_a_report_draws_a_method_in_its_one_style(study, tmp_pat
     lines: list[str] = []
     build(study, tmp_path / "report", log=lines.append)
     assert not any("skipped" in line for line in lines), lines
+    pngs = len(list((tmp_path / "report" / "figures").glob("*.png")))
+    assert f"figures: {pngs} in {tmp_path / 'report' / 'figures'}" in lines  # the final folder
     look = figures_module.styles(prepare(study))
     names = {name.split("-")[0] for name, _ in drawn.values()}
     assert {"budget", "convergence", "ecdf", "front", "curves", "cd"} <= names

@@ -120,6 +120,10 @@ def build(study: Any, out: str | os.PathLike | None = None, *, alpha: float = 0.
     moved = Report(out=final, html=final / report.html.name, markdown=final / report.markdown.name,
                    summary=report.summary, tables=report.tables,
                    figures=[final / path.relative_to(out) for path in report.figures])
+    # the folders as they are now (they were built aside, under another name)
+    say(f"tables: {final / 'tables'}")
+    if figures:
+        say(f"figures: {sum(p.suffix == '.png' for p in moved.figures)} in {final / 'figures'}")
     say(f"report: {moved.html}")
     return moved
 
@@ -190,7 +194,6 @@ def _build(comparison: Comparison, out: Path, alpha: float, metrics: Sequence[st
     for name, table in tables.items():
         table.to_csv(out / "tables" / f"{name}.csv", index=False)
     _write_latex(comparison, tables, metrics, out / "tables")
-    say(f"tables: {out / 'tables'}")
 
     drawn: list[_Figure] = []
     if figures:
@@ -343,7 +346,6 @@ def _draw(comparison: Comparison, friedman: dict[str, FriedmanResult], metrics: 
             figure.savefig(svg, metadata={"Date": None})
         plt.close(figure)
         drawn.append(_Figure(name, title, caption, png, svg))
-    say(f"figures: {len(drawn)} in {folder}")
     return drawn
 
 
