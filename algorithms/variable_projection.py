@@ -393,11 +393,9 @@ class VariableProjection(Optimizer):
                 derivative = np.add.reduceat(derivative, np.cumsum(groups) - groups, axis=1)
             return derivative @ chain
 
-        def solve(z0: np.ndarray, share: int | None = None) -> np.ndarray | None:
-            """One solve from ``z0`` (None if its fit is infeasible): the log spans reached.
-            ``share``: the most evaluations it may use (default: a start's)."""
-            if share is None:
-                share = start_share()
+        def solve(z0: np.ndarray, share: int) -> np.ndarray | None:
+            """One solve from ``z0`` using at most ``share`` evaluations (None if its fit is
+            infeasible): the log spans reached."""
             if not np.isfinite(residual(z0)).all():
                 return None
             # at most one Jacobian per residual: the share bounds the budget used
@@ -432,7 +430,7 @@ class VariableProjection(Optimizer):
                 values, counts = np.unique(merged, return_counts=True)
                 if counts.size < distinct.size and counts.max() <= degree:
                     groups = counts
-                    solve(log_spans_from_knots(values, bounds))
+                    solve(log_spans_from_knots(values, bounds), start_share())
                     return
 
         def relocated(z: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

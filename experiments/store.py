@@ -744,9 +744,10 @@ def _objective_changed(row: Mapping[str, Any], best: float, sse: float, n_points
     elif objective == "bic":
         dim, degree = _number(row.get("dim")), _number(row.get("degree"))
         if dim is not None and degree is not None:
+            from metaknot.bspline.knots import extra_control_points
             from metaknot.problems.objectives import bic_value
 
-            extra = 1 if row.get("closed") else degree + 1  # a closed curve's 0 is a knot
+            extra = extra_control_points(int(degree), closed=bool(row.get("closed")))
             formula = float(bic_value(max(sse, sys.float_info.min), n_points, dim, n_cp, extra))
             if best < formula - _SLACK * max(1.0, abs(formula)):
                 lowest = formula

@@ -197,7 +197,6 @@ def bic_value(sse: Any, n_points: float, dim: float, n_control_points: Any,
     return n * np.log(sse / n) + np.log(n) * k
 
 
-
 class ErrorBounded(Objective):
     """Fewest control points whose fit keeps the error within a tolerance.
 

@@ -629,7 +629,7 @@ def _seam_into(u, q, t, p, m, seam, st, far, row, seam_basis, seam_st, seam_far,
         for b in range(1, min(p, ncol - 1 - a) + 1):
             c = a + b
             row[c if c < p else m - 2 * p + c] = seam_st[o + b]
-        for k in range(max(0, a + 1), p):
+        for k in range(a + 1, p):
             row[m - p + k] = seam_far[a, k]
         for c in range(d):
             values[c] = seam_st[o + p + 1 + c]

@@ -854,8 +854,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
     x_band = np.zeros((m_max, d))
     x_merged = np.zeros((cols_max, d))
     full_basis = np.empty((n if want_max_dev else 0, p + 1))  # the full fit's rows
-    ws_full = closed_workspaces(1, p, d)  # made full size at the first full fit
-    full_ready = False
+    ws_full = closed_workspaces(m_max, p, d)
     full_spans = np.empty(n if want_max_dev else 0, dtype=np.int64)
     window_basis = np.empty((n, p + 1))
     window_span = np.empty(n, dtype=np.int64)
@@ -1024,9 +1023,6 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
         # the full fit decides
         path_out[b] = PATH_FULL
         c2 = coef[:m2]
-        if not full_ready:
-            ws_full = closed_workspaces(m_max, p, d)
-            full_ready = True
         code, value = solve_closed_into(u, q, tb, p, c2, full_basis, full_spans, ws_full,
                                         PIVOT_RATIO)
         reason_out[b] = code

@@ -49,6 +49,7 @@ from .knots import (
     check_multiplicity,
     check_offsets,
     clamped_knot_vector,
+    extra_control_points,
     padded_rows,
     periodic_knot_vector,
     stack_indices,
@@ -346,7 +347,7 @@ class OpenCurve(Curve):
 
     @property
     def extra_control_points(self) -> int:
-        return self.degree + 1
+        return extra_control_points(self.degree)
 
     @property
     def knot_bounds(self) -> tuple[float, float]:
@@ -454,7 +455,7 @@ class ClosedCurve(Curve):
 
     @property
     def extra_control_points(self) -> int:
-        return 1
+        return extra_control_points(self.degree, closed=True)
 
     @property
     def knot_bounds(self) -> tuple[float, float]:

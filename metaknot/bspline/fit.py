@@ -16,7 +16,7 @@ from scipy.interpolate import BSpline
 from ..budget import add_fits
 from . import _kernel
 from ._codegen import MAX_DIMENSION
-from .knots import check_multiplicity
+from .knots import check_multiplicity, extra_control_points
 from .parameterize import MAX_COORDINATE, as_points, check_degree
 
 __all__ = [
@@ -235,7 +235,7 @@ class SplineFit(CurveFit):
     @property
     def extra_control_points(self) -> int:
         """``degree + 1``: a clamped spline's control points beyond its interior knots."""
-        return self.degree + 1
+        return extra_control_points(self.degree)
 
 
 @dataclass(frozen=True, eq=False)
@@ -252,7 +252,7 @@ class PeriodicFit(CurveFit):
     @property
     def extra_control_points(self) -> int:
         """1: a periodic spline has one control point per breakpoint, 0 included."""
-        return 1
+        return extra_control_points(self.degree, closed=True)
 
 
 def fit_spline(

@@ -20,6 +20,7 @@ __all__ = [
     "check_multiplicity",
     "check_offsets",
     "clamped_knot_vector",
+    "extra_control_points",
     "n_control_points",
     "padded_rows",
     "periodic_knot_vector",
@@ -30,9 +31,15 @@ __all__ = [
 ]
 
 
+def extra_control_points(degree: int, closed: bool = False) -> int:
+    """Control points beyond the interior knots: ``degree + 1`` on a clamped (open) spline, 1
+    on a periodic one (its breakpoint 0)."""
+    return 1 if closed else int(degree) + 1
+
+
 def n_control_points(n_interior: int, degree: int) -> int:
     """Number of control points of a clamped spline: interior knots + degree + 1."""
-    return int(n_interior) + int(degree) + 1
+    return int(n_interior) + extra_control_points(degree)
 
 
 def _as_params(u: ArrayLike) -> np.ndarray:
@@ -123,9 +130,9 @@ def _periodic_knots(interior: ArrayLike, p: int, max_multiplicity: int = 1) -> n
     if m < p:
         raise ValueError(f"a periodic spline of degree {p} needs at least {p - 1} interior "
                          f"knots; got {inner.size}")
-    before = breaks[m - p :] - 1.0
-    after = np.concatenate((breaks, [1.0]))[: p + 1] + 1.0
-    return np.concatenate((before, breaks, [1.0], after[1:]))
+    t = np.empty(m + 2 * p + 1)
+    _kernel.extended_knots(breaks, p, t)
+    return t
 
 
 def averaging_knots(u: ArrayLike, n_interior: int, degree: int = 3) -> np.ndarray:
