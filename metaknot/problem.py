@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -15,19 +16,85 @@ __all__ = ["Encoding", "Problem"]
 
 EncodingKind = Literal["binary", "integer", "continuous"]
 
-_compiled: dict[str, Any] = {}
 _INT64 = np.dtype(np.int64)
+_compiled: list[bool] = []  # whether the kernels below were replaced by numba's versions
+_compiling = threading.Lock()
 
 
-def _kernels() -> Any:
-    """:mod:`metaknot._encoding_kernels` (compiled: loaded on first use, so that importing
-    metaknot does not import numba)."""
-    module = _compiled.get("module")
-    if module is None:
-        from . import _encoding_kernels as module
+def _kernels() -> None:
+    """Replace this module's kernels (the bounds check of :meth:`Encoding.check`, the repair of
+    integer sets of :meth:`Encoding.repair`) by their numba versions, each compiled at its
+    first call and cached on disk: when the first encoding of whole numbers is made, so that
+    importing metaknot does not import numba. All at once, so that one calling another finds
+    it compiled; once, also when threads make encodings at the same time."""
+    if _compiled:
+        return
+    from numba import njit
 
-        _compiled["module"] = module
-    return module
+    with _compiling:
+        if not _compiled:
+            namespace = globals()
+            for name in ("_within", "_distinct_nearest_rows", "_repair_sets"):
+                namespace[name] = njit(cache=True)(namespace[name])
+            _compiled.append(True)
+
+
+def _within(X: np.ndarray, low: int, high: int) -> bool:
+    """True if every entry of ``X`` lies in ``low..high``: one pass without a branch, which the
+    compiler vectorises (candidates are nearly always valid: stopping at the first one outside
+    saves nothing)."""
+    flat = X.ravel()
+    outside = 0
+    for i in range(flat.size):
+        outside |= (flat[i] < low) | (flat[i] > high)
+    return outside == 0
+
+
+def _distinct_nearest_rows(X: np.ndarray, rows: np.ndarray, lo: int, hi: int) -> None:
+    """In place, for each row index in ``rows``: the row's sorted values, in order, each moved to
+    the nearest value of ``lo..hi`` not taken by an earlier one (ties: the lower), then sorted.
+    """
+    used = np.zeros(hi - lo + 1, dtype=np.bool_)
+    for r in rows:
+        row = X[r]
+        used[:] = False
+        for j in range(row.size):
+            v = row[j]
+            step = 0
+            while True:
+                c = v - step
+                if lo <= c <= hi and not used[c - lo]:
+                    break
+                c = v + step
+                if lo <= c <= hi and not used[c - lo]:
+                    break
+                step += 1
+            used[c - lo] = True
+            row[j] = c
+        row.sort()
+
+
+def _repair_sets(X: np.ndarray, lower: np.ndarray, upper: np.ndarray, lo: int,
+                hi: int) -> np.ndarray:
+    """:meth:`Encoding.repair` of integer sets in one pass: each row of ``X`` (int64)
+    clipped to ``lower..upper`` per column, sorted, and, if a value repeats, made distinct by
+    :func:`_distinct_nearest_rows`. Returns a new array."""
+    out = np.empty_like(X)
+    rows = np.empty(X.shape[0], dtype=np.int64)
+    n_rows = 0
+    for r in range(X.shape[0]):
+        row = out[r]
+        for j in range(X.shape[1]):
+            row[j] = min(max(X[r, j], lower[j]), upper[j])
+        row.sort()
+        for j in range(1, row.size):
+            if row[j] == row[j - 1]:
+                rows[n_rows] = r
+                n_rows += 1
+                break
+    if n_rows:
+        _distinct_nearest_rows(out, rows[:n_rows], lo, hi)
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +150,7 @@ class Encoding:
         high = self.upper.max() if self.n_var else 0
         if self.kind != "continuous":
             low, high = math.ceil(low), math.floor(high)
+            _kernels()  # the checks and repairs of whole numbers are compiled
         object.__setattr__(self, "_low", low)
         object.__setattr__(self, "_high", high)
         object.__setattr__(self, "_uniform_bounds", bool(
@@ -106,7 +174,7 @@ class Encoding:
         if X.dtype != _INT64 or self.kind == "continuous":  # int64 needs no conversion
             X = self._as_dtype(X)
         if self.kind != "continuous" and (
-                not _kernels().within(X, self._low, self._high) or (
+                not _within(X, self._low, self._high) or (
                     not self._uniform_bounds and X.size
                     and ((X < self.lower).any() or (X > self.upper).any()))):
             raise ValueError(
@@ -166,7 +234,7 @@ class Encoding:
             lo, hi = int(self._low), int(self._high)
             if self.n_var > hi - lo + 1:
                 raise ValueError(f"cannot pick {self.n_var} distinct values from {lo}..{hi}")
-            return _kernels().repair_sets(X, self.lower, self.upper, lo, hi)
+            return _repair_sets(X, self.lower, self.upper, lo, hi)
         X = np.clip(X, self.lower, self.upper)
         if self.kind != "continuous":
             X = np.rint(X).astype(np.int64)
@@ -180,7 +248,7 @@ class Encoding:
             raise ValueError(f"cannot pick {self.n_var} distinct values from {lo}..{hi}")
         rows = np.flatnonzero((np.diff(X, axis=1) == 0).any(axis=1))
         if rows.size:
-            _kernels().distinct_nearest_rows(X, rows, lo, hi)
+            _distinct_nearest_rows(X, rows, lo, hi)
         return X
 
 

@@ -117,7 +117,7 @@ def test_compiled_places_are_numpys_choice_for_every_count():
     """The compiled places of a step (Floyd's sampling and its shuffle) are
     ``Generator.choice(n, count, replace=False)``'s values, leaving the generator where
     ``choice`` does, for every count up to n (n = count draws nothing at its first place)."""
-    from metaknot.algorithms._mutation_kernels import _floyd
+    from metaknot.algorithms import one_plus_one
 
     for n in (1, 2, 3, 17, 359, 10_000):
         taken = np.zeros(n, dtype=bool)
@@ -125,7 +125,7 @@ def test_compiled_places_are_numpys_choice_for_every_count():
             for seed in range(3):
                 ours, numpys = np.random.default_rng(seed), np.random.default_rng(seed)
                 out = np.empty(count, dtype=np.int64)
-                _floyd(ours, n, count, out, taken)
+                one_plus_one._floyd(ours, n, count, out, taken)
                 np.testing.assert_array_equal(out, numpys.choice(n, size=count, replace=False))
                 assert ours.bit_generator.state == numpys.bit_generator.state
                 assert not taken.any()
