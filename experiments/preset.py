@@ -16,6 +16,7 @@ Python function. See ``docs/tuning.md``.
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -51,9 +52,8 @@ def load_preset(path: str | Path) -> dict[str, Any]:
     """
     import yaml
 
-    file = Path(path)
     try:
-        text = file.read_text()
+        text = Path(path).read_text()
     except FileNotFoundError:
         raise ConfigError(f"--preset: no such file: {path}") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -113,13 +113,8 @@ def preset_overrides(preset: dict[str, Any]) -> list[str]:
 
 
 def _override_value(value: Any) -> str:
-    if value is None:
-        return "null"
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f"'{value}'"
-    return repr(value)
+    """``value`` in an override: a string quoted, else as JSON (null, true, a finite number)."""
+    return f"'{value}'" if isinstance(value, str) else json.dumps(value)
 
 
 def expand_preset(args: list[str]) -> list[str]:
