@@ -385,24 +385,17 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
 def plain_config(cfg: Mapping[str, Any]) -> dict[str, Any]:
     """A resolved plain-dict copy of a DictConfig (or mapping), without Hydra's own node."""
     from omegaconf import DictConfig, OmegaConf
+    from omegaconf.errors import MissingMandatoryValue
 
-    out: dict[Any, Any]
-    if isinstance(cfg, DictConfig):
-        from omegaconf.errors import MissingMandatoryValue
-
-        out = {}
-        for key in cfg:
-            if key == "hydra":
-                continue
-            try:
-                value = cfg[key]  # resolved in the context of the whole configuration
-                out[key] = OmegaConf.to_container(value, resolve=True, throw_on_missing=True) \
-                    if OmegaConf.is_config(value) else value
-            except MissingMandatoryValue as exc:
-                raise ConfigError(f"{exc.full_key}: required, no value given") from None
-    else:
-        out = _deep_copy(cfg)
-    out.pop("hydra", None)
+    if not isinstance(cfg, DictConfig):
+        return {key: value for key, value in _deep_copy(cfg).items() if key != "hydra"}
+    try:  # each value resolved in the context of the whole configuration
+        out: dict[Any, Any] = {
+            key: OmegaConf.to_container(value, resolve=True, throw_on_missing=True)
+            if OmegaConf.is_config(value) else value
+            for key, value in cfg.items() if key != "hydra"}
+    except MissingMandatoryValue as exc:
+        raise ConfigError(f"{exc.full_key}: required, no value given") from None
     return out
 
 
