@@ -249,12 +249,8 @@ def _usable_dir(path: str) -> bool:
     return bool(path)
 
 
-def _n_knots(value: Any) -> bool:
-    """Whether ``value`` is a knot count: an integer, ``"max"`` or ``"fitpack:<factor>"``."""
-    return not isinstance(value, str) or value == "max" or _fitpack_factor(value) is not None
-
-
 def _fitpack_factor(text: str) -> float | None:
+    """The factor of a knot count ``"fitpack:<factor>"`` (a finite number > 0), else None."""
     match = FITPACK_COUNT.match(text)
     try:
         factor = float(match.group(1)) if match else None
@@ -289,7 +285,8 @@ PROBLEM = {"name": Setting((str, NULL), None, expect="a label"),
            "closed": Setting((bool,), False, omit=True),
            "instance": Setting((object,), None, omit=True),
            "task": Setting((object,), None, omit=True)}
-N_KNOTS = Setting((int, str), 20, 1, test=_n_knots,
+N_KNOTS = Setting((int, str), 20, 1,
+                  test=lambda n: not isinstance(n, str) or n == "max" or _fitpack_factor(n),
                   expect="an integer, 'max' or 'fitpack:<factor>' with a factor > 0")
 
 
