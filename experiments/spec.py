@@ -25,7 +25,7 @@ import numpy as np
 from metaknot.validate import is_integer, is_real
 
 from .errors import ConfigError, naming, short
-from .run import ENCODINGS, RunSpec, run_id
+from .run import ENCODINGS, RUN_KEYS, RunSpec, run_id
 
 __all__ = ["ConfigError", "objective_defaults", "optimizer_defaults", "plain_config",
            "run_spec", "signature_defaults"]
@@ -366,9 +366,8 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
         encoding, objective = dict(task.encoding), dict(task.objective)
     optimizer, cls = _named("optimizer", top["optimizer"], "_name_", Setting(
         (str,), expect="the name of a registered optimizer"), _optimizer_class)
-    config = {"problem": problem, "encoding": encoding, "objective": objective,
-              "optimizer": optimizer,
-              **{key: top[key] for key in ("budget", "seed", "checkpoints_per_decade")}}
+    top.update(problem=problem, encoding=encoding, objective=objective, optimizer=optimizer)
+    config = {key: top[key] for key in RUN_KEYS}
     spec = RunSpec(config=config, run_id=run_id(config), study=top["study"],
                    results_dir=Path(top["results_dir"]), threads=top["threads"],
                    progress=top["progress"], label=top["label"] or optimizer["_name_"],
