@@ -404,22 +404,17 @@ def _deep_copy(value: Any) -> Any:
 
 
 def _check_fingerprint(points: str | None, stored: Any) -> str | None:
-    """The data file's digest; a stored one (a configuration read back from a record) must
-    match it, or the file changed since the run."""
+    """The data file's digest (SHA-256, 16 hex digits); a stored one (a configuration read back
+    from a record) must match it, or the file changed since the run."""
     if points is None:
         return None
     from metaknot.problems import check_points_file
 
     with naming("problem.points"):  # its kind and size from its first bytes, before the
         check_points_file(points)     # digest reads it through
-    digest = _file_digest(points)
+    with open(points, "rb") as file:  # read in blocks; a changed file gives new run ids
+        digest = hashlib.file_digest(file, "sha256").hexdigest()[:16]
     if stored is not None and stored != digest:
         raise ConfigError(f"problem.points: {points} changed since the run was configured "
                           f"(fingerprint {digest}, recorded {stored})")
     return digest
-
-
-def _file_digest(path: str) -> str:
-    """Short SHA-256 of a data file (read in blocks): a changed file gives new run ids."""
-    with open(path, "rb") as file:
-        return hashlib.file_digest(file, "sha256").hexdigest()[:16]
