@@ -330,7 +330,7 @@ def run_spec(cfg: Mapping[str, Any], *, check_build: bool = True) -> RunSpec:
 
         with naming("problem.instance"):
             instance = get_instance(str(instance))
-        problem.update(curve=None, points=None, instance=instance.id, closed=instance.closed)
+        problem.update(instance=instance.id, closed=instance.closed)
     elif problem["points"] is not None:
         if not Path(problem["points"]).is_file():
             raise ConfigError(f"problem.points: file not found: {problem['points']}")
