@@ -23,7 +23,7 @@ from ..spec import (
     run_spec,
     signature_settings,
 )
-from .space import SearchSpace
+from .space import ENCODING_CHOICES, SearchSpace
 from .study import Instance, TuneSpec
 
 __all__ = ["TRAIN_SEED_OFFSET", "tune_spec"]
@@ -110,7 +110,7 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
                           "(fixed and searched at once)")
     _unknown("tune.fixed", fixed, names)
     encoding = dict(tune["encoding"] or {"kind": "mask"})
-    check_value("tune.encoding.kind", encoding.get("kind"), Setting(values=("mask", "indices")))
+    check_value("tune.encoding.kind", encoding.get("kind"), Setting(values=ENCODING_CHOICES))
     objective = dict(top["objective"])
     train, n_train = _instances("train", top["train"])
     test, n_test = _instances("test", top["test"])
