@@ -53,13 +53,11 @@ def load_preset(path: str | Path) -> dict[str, Any]:
     import yaml
 
     try:
-        text = Path(path).read_text()
+        data = yaml.safe_load(Path(path).read_text())
     except FileNotFoundError:
         raise ConfigError(f"--preset: no such file: {path}") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"--preset: {path} cannot be read ({exc})") from None
-    try:
-        data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" (line {mark.line + 1})" if mark is not None else ""
