@@ -182,6 +182,34 @@ def test_compiled_batch_names_what_cannot_be_fitted() -> None:
 
 
 
+@pytest.mark.parametrize("serial", [True, False], ids=["calling thread", "thread pool"])
+def test_closed_candidates_are_sorted_then_refused_in_order(serial) -> None:
+    """A closed candidate's knots are taken in any order (sorted before the fit), and refused
+    by the first check it fails: a knot outside (0, 1), then coincident knots, then too few
+    breakpoints for the degree; on the calling thread (small batches) as on the threads."""
+    from metaknot.bspline import Infeasibility
+    from metaknot.bspline import curve as curve_module
+    from metaknot.bspline.curve import make_curve
+
+    curve = make_curve(outline(60), degree=5, closed=True)
+    rows = [np.array([0.6, 0.2, 0.4, 0.8, 0.9, 0.1]), np.array([0.1, 0.2, 0.4, 0.6, 0.8, 0.9]),
+            np.array([0.5, 0.5, 0.5]), np.array([1.5, 0.5, 0.5, 0.5]), np.array([0.5]),
+            np.array([0.2, 0.2, 0.2, 0.7, 0.9, 0.95])]
+    knots, offsets = np.concatenate(rows), np.cumsum([0] + [len(r) for r in rows])
+    serial_batch = curve_module.SERIAL_BATCH
+    curve_module.SERIAL_BATCH = serial_batch if serial else 0
+    try:
+        batch = curve.evaluate_knots(knots, offsets, max_multiplicity=2)
+    finally:
+        curve_module.SERIAL_BATCH = serial_batch
+    assert list(batch.reason) == [Infeasibility.FEASIBLE, Infeasibility.FEASIBLE,
+                                  Infeasibility.COINCIDENT_KNOTS, Infeasibility.KNOT_OUT_OF_RANGE,
+                                  Infeasibility.SINGULAR, Infeasibility.COINCIDENT_KNOTS]
+    assert batch.sse[0] == batch.sse[1] and batch.max_deviation[0] == batch.max_deviation[1]
+    assert list(batch.n_control_points) == [7, 7, 4, 5, 2, 7]
+    assert np.isinf(batch.sse[2:]).all() and np.isinf(batch.max_deviation[2:]).all()
+
+
 @pytest.mark.parametrize("shape", [(1, 2, 3), (2, 1, 4)])
 def test_compiled_batch_refuses_positions_that_are_not_rows(shape) -> None:
     """Positions of more than two dimensions are refused by name before the compiled loop
@@ -212,9 +240,9 @@ def test_closed_masks_fit_as_their_knots_do(density) -> None:
 
 @pytest.mark.parametrize("nan_is_absent", [True, False])
 def test_rows_of_positions_are_refused_as_numpy_finds_them(nan_is_absent) -> None:
-    """The compiled flattening of position rows (NaN dropped or out of range, knots outside
-    (0, 1) fitted as 0.5 and refused, coincident knots refused, out of range first) gives the
-    values of the same steps in numpy over random rows of every kind."""
+    """Position rows (NaN dropped or out of range; knots outside (0, 1) refused before
+    coincident knots, neither fitted) give the values of the same steps in numpy over random
+    rows of every kind: the refused rows marked, the others fitted by the batch kernel."""
     from metaknot.bspline import _kernel
     from metaknot.bspline.curve import _outputs
 

@@ -348,48 +348,67 @@ def _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult):
         max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE else np.inf
 
 
+@njit(cache=True)
+def _curve_workspaces(n_points, d, p, n_max, want_max_dev, closed):
+    """The workspaces of :func:`_score` and of :func:`_score_closed`, those of the other kind
+    of curve empty."""
+    return (_workspaces(n_points, d, p, 0 if closed else n_max, want_max_dev and not closed),
+            _closed_score_workspaces(n_points, d, p, n_max if closed else 0,
+                                     want_max_dev and closed))
+
+
+@njit(cache=True)
+def _score_any(u, q, p, closed, interior, b, ws, ws_closed, sse, max_dev, n_ctrl, reason,
+               max_mult):
+    """Candidate ``b`` of an open (:func:`_score`) or a closed curve (:func:`_score_closed`)."""
+    if closed:
+        _score_closed(u, q, p, interior, b, ws_closed, sse, max_dev, n_ctrl, reason, max_mult)
+    else:
+        _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult)
+
+
+@njit(cache=True)
+def _score_range(u, q, p, closed, max_mult, knots, offsets, lo, hi, n_max, sse, max_dev, n_ctrl,
+                 reason):
+    """Score the candidates ``lo .. hi - 1`` of a flattened batch (:func:`evaluate_batch`) with
+    one set of workspaces, sized for ``n_max`` control points."""
+    ws, ws_closed = _curve_workspaces(u.size, q.shape[1], p, n_max, max_dev.size > 0, closed)
+    for b in range(lo, hi):
+        _score_any(u, q, p, closed, knots[offsets[b] : offsets[b + 1]], b, ws, ws_closed, sse,
+                   max_dev, n_ctrl, reason, max_mult)
+
+
 @njit(cache=True, parallel=True)
 def evaluate_batch(u, q, p, closed, max_mult, knots, offsets, sse, max_dev, n_ctrl, reason,
                    n_chunks):
     """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``
-    (sorted; of a closed curve, inside (0, 1)), each knot repeated at most ``max_mult``
-    times, in ``n_chunks`` parts for the threads.
+    (sorted; of a closed curve, in any order: :func:`_score_closed` sorts them), each knot
+    repeated at most ``max_mult`` times, in ``n_chunks`` parts for the threads.
 
     ``max_dev`` may be empty: the maximum deviation (a second pass over the data) is then
     skipped.
     """
     n_cand = offsets.size - 1
-    want_max_dev = max_dev.size > 0
     n_max = _largest_fit(offsets, u.size, p)
     n_chunks = min(n_cand, max(n_chunks, 1))
-    for c in prange(n_chunks):
-        # one workspace per chunk, sized for the largest candidate
-        if closed:
-            ws_closed = _closed_score_workspaces(u.size, q.shape[1], p, n_max, want_max_dev)
-            for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
-                _score_closed(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws_closed, sse,
-                              max_dev, n_ctrl, reason, max_mult)
-        else:
-            ws = _workspaces(u.size, q.shape[1], p, n_max, want_max_dev)
-            for b in range(c * n_cand // n_chunks, (c + 1) * n_cand // n_chunks):
-                _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev,
-                       n_ctrl, reason, max_mult)
+    for c in prange(n_chunks):  # one workspace per chunk, sized for the largest candidate
+        _score_range(u, q, p, closed, max_mult, knots, offsets, c * n_cand // n_chunks,
+                     (c + 1) * n_cand // n_chunks, n_max, sse, max_dev, n_ctrl, reason)
 
 
 @njit(cache=True)
-def evaluate_batch_serial(u, q, p, max_mult, knots, offsets, sse, max_dev, n_ctrl, reason):
-    """:func:`evaluate_batch` of an open curve on the calling thread (small batches: no thread
-    pool to wake)."""
-    ws = _workspaces(u.size, q.shape[1], p, _largest_fit(offsets, u.size, p), max_dev.size > 0)
-    for b in range(offsets.size - 1):
-        _score(u, q, p, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev, n_ctrl, reason,
-               max_mult)
+def evaluate_batch_serial(u, q, p, closed, max_mult, knots, offsets, sse, max_dev, n_ctrl,
+                          reason):
+    """:func:`evaluate_batch` on the calling thread (small batches: no thread pool to wake)."""
+    _score_range(u, q, p, closed, max_mult, knots, offsets, 0, offsets.size - 1,
+                 _largest_fit(offsets, u.size, p), sse, max_dev, n_ctrl, reason)
 
 
 @njit(cache=True)
-def evaluate_masks_serial(u, q, p, masks, sse, max_dev, n_ctrl, reason):
-    """:func:`evaluate_batch` of a ``(B, N - 2)`` batch of masks (nonzero: a knot at that
-    interior point) on the calling thread, each mask's knots gathered in one workspace."""
+def evaluate_masks_serial(u, q, p, closed, masks, sse, max_dev, n_ctrl, reason):
+    """:func:`evaluate_batch` of a batch of masks over the candidate knots ``u[1:]`` (nonzero:
+    a knot there; ``(B, N - 2)`` on an open curve, ``(B, N - 1)`` on a closed one) on the
+    calling thread, each mask's knots gathered in one workspace."""
     n_cand, n_var = masks.shape
     k_max = 0
     for b in range(n_cand):
@@ -397,7 +416,8 @@ def evaluate_masks_serial(u, q, p, masks, sse, max_dev, n_ctrl, reason):
         for i in range(n_var):
             count += masks[b, i] != 0
         k_max = max(k_max, count)
-    ws = _workspaces(u.size, q.shape[1], p, min(k_max, u.size) + p + 1, max_dev.size > 0)
+    ws, ws_closed = _curve_workspaces(u.size, q.shape[1], p, min(k_max, u.size) + p + 1,
+                                      max_dev.size > 0, closed)
     interior = np.empty(k_max)
     for b in range(n_cand):
         end = n_var  # branch-free gathering, as in masks_to_knots
@@ -407,17 +427,19 @@ def evaluate_masks_serial(u, q, p, masks, sse, max_dev, n_ctrl, reason):
         for i in range(end):
             interior[k] = u[i + 1]
             k += masks[b, i] != 0
-        _score(u, q, p, interior[:k], b, ws, sse, max_dev, n_ctrl, reason, 1)
+        _score_any(u, q, p, closed, interior[:k], b, ws, ws_closed, sse, max_dev, n_ctrl,
+                   reason, 1)
 
 
 @njit(cache=True)
-def evaluate_positions_serial(u, q, p, max_mult, positions, nan_is_absent, sse, max_dev, n_ctrl,
-                              reason):
+def evaluate_positions_serial(u, q, p, closed, max_mult, positions, nan_is_absent, sse, max_dev,
+                              n_ctrl, reason):
     """:func:`evaluate_batch` of a ``(B, K)`` batch of knot positions on the calling thread,
     each row sorted in one workspace (NaN last, as numpy sorts; dropped if ``nan_is_absent``,
     else reported by the knot checks)."""
     n_cand, k = positions.shape
-    ws = _workspaces(u.size, q.shape[1], p, min(k, u.size) + p + 1, max_dev.size > 0)
+    ws, ws_closed = _curve_workspaces(u.size, q.shape[1], p, min(k, u.size) + p + 1,
+                                      max_dev.size > 0, closed)
     interior = np.empty(k)
     for b in range(n_cand):
         interior[:] = positions[b]
@@ -426,7 +448,8 @@ def evaluate_positions_serial(u, q, p, max_mult, positions, nan_is_absent, sse, 
         if nan_is_absent:
             while count > 0 and np.isnan(interior[count - 1]):
                 count -= 1
-        _score(u, q, p, interior[:count], b, ws, sse, max_dev, n_ctrl, reason, max_mult)
+        _score_any(u, q, p, closed, interior[:count], b, ws, ws_closed, sse, max_dev, n_ctrl,
+                   reason, max_mult)
 
 
 @njit(cache=True, parallel=True)
@@ -779,48 +802,6 @@ def fit_closed(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.nda
 
 
 @njit(cache=True)
-def rows_to_knots(pos: np.ndarray, nan_is_absent: bool, max_mult: int) -> tuple:
-    """Rows of knot positions, each sorted (NaN last), flattened for :func:`evaluate_batch`:
-    the knots, the row offsets and each row's reason to be refused (0 for none). NaN means no
-    knot when ``nan_is_absent`` and is out of range otherwise; a knot outside (0, 1) is passed on
-    as 0.5 (its row still fits) and refuses its row as KNOT_OUT_OF_RANGE, which takes precedence
-    over COINCIDENT_KNOTS (a knot below the one before it, or repeated more than ``max_mult``
-    times)."""
-    n_rows, width = pos.shape
-    offsets = np.zeros(n_rows + 1, dtype=np.int64)
-    for b in range(n_rows):
-        count = 0
-        for k in range(width):
-            if not (nan_is_absent and np.isnan(pos[b, k])):
-                count += 1
-        offsets[b + 1] = offsets[b] + count
-    knots = np.empty(offsets[n_rows])
-    refused = np.zeros(n_rows, dtype=np.int8)
-    for b in range(n_rows):
-        at = offsets[b]
-        out_of_range = coincident = False
-        previous = 0.0
-        run = 1  # copies of the knot so far
-        for k in range(width):
-            x = pos[b, k]
-            if nan_is_absent and np.isnan(x):
-                continue
-            run = run + 1 if at > offsets[b] and x == previous else 1
-            if at > offsets[b] and (x < previous or run > max_mult):  # False for NaN
-                coincident = True
-            previous = x
-            inside = 0.0 < x < 1.0
-            knots[at] = x if inside else 0.5
-            out_of_range |= not inside
-            at += 1
-        if out_of_range:
-            refused[b] = KNOT_OUT_OF_RANGE
-        elif coincident:
-            refused[b] = COINCIDENT_KNOTS
-    return knots, offsets, refused
-
-
-@njit(cache=True)
 def _closed_score_workspaces(n_points, d, p, n_max, want_max_dev):
     """The workspaces of :func:`_score_closed` for candidates of at most ``n_max`` control
     points."""
@@ -831,23 +812,54 @@ def _closed_score_workspaces(n_points, d, p, n_max, want_max_dev):
 
 
 @njit(cache=True)
+def _closed_verdict(interior, max_mult):
+    """The reason to refuse the breakpoints 0 and ``interior`` (in any order) of a closed
+    candidate: KNOT_OUT_OF_RANGE for a knot not in (0, 1) (NaN included) before
+    COINCIDENT_KNOTS for one repeated more than ``max_mult`` times, else FEASIBLE; and whether
+    ``interior`` is sorted."""
+    in_order = True
+    for i in range(interior.size):
+        x = interior[i]
+        if not (x > 0.0 and x < 1.0):
+            return KNOT_OUT_OF_RANGE, in_order
+        if i > 0 and x < interior[i - 1]:
+            in_order = False
+    repeated = _repeated_beyond(interior, max_mult) if in_order else \
+        _repeated_beyond(np.sort(interior), max_mult)
+    return (COINCIDENT_KNOTS if repeated else FEASIBLE), in_order
+
+
+@njit(cache=True)
+def _repeated_beyond(knots, max_mult):
+    """Whether a value of the sorted ``knots`` repeats more than ``max_mult`` times."""
+    run = 1
+    for i in range(1, knots.size):
+        run = run + 1 if knots[i] == knots[i - 1] else 1
+        if run > max_mult:
+            return True
+    return False
+
+
+@njit(cache=True)
 def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult):
     """:func:`_score` of a closed curve: candidate ``b``'s breakpoints are 0 and its
-    ``interior`` knots (each repeated at most ``max_mult`` times), its ``m = interior.size + 1``
-    control points periodic."""
+    ``interior`` knots, in any order (sorted here), each repeated at most ``max_mult`` times;
+    its ``m = interior.size + 1`` control points periodic. Refused before a fit (and before a
+    workspace is touched): a knot outside (0, 1) (:func:`_closed_verdict`), then coincident
+    knots, then fewer than ``p`` breakpoints (SINGULAR) or more than there are points."""
     ws_fit, basis, spans, breaks, t_ws, coef_ws = ws
     m = interior.size + 1
     n_ctrl[b] = m
-    if m < p or m > u.size:  # refused before a workspace is touched
-        sse[b], reason[b] = np.inf, SINGULAR if m < p else TOO_MANY_CONTROL_POINTS
+    code, in_order = _closed_verdict(interior, max_mult)
+    if code == FEASIBLE and (m < p or m > u.size):
+        code = SINGULAR if m < p else TOO_MANY_CONTROL_POINTS
+    if code != FEASIBLE:
+        sse[b], reason[b] = np.inf, code
         if max_dev.size > 0:
             max_dev[b] = np.inf
         return
-    if _breaks_into(interior, max_mult, breaks) != FEASIBLE:  # a refused row is not fitted
-        sse[b], reason[b] = np.inf, COINCIDENT_KNOTS
-        if max_dev.size > 0:
-            max_dev[b] = np.inf
-        return
+    breaks[0] = 0.0
+    breaks[1:m] = interior if in_order else np.sort(interior)
     t = t_ws[: m + 2 * p + 1]
     extended_knots(breaks[:m], p, t)
     coef = coef_ws[:m]

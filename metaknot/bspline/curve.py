@@ -44,13 +44,11 @@ from .knots import (
     _periodic_knots,
     as_positions,
     averaging_knots,
-    check_indices,
     check_masks,
     check_multiplicity,
     check_offsets,
     clamped_knot_vector,
     extra_control_points,
-    padded_rows,
     periodic_knot_vector,
     stack_indices,
     stack_positions,
@@ -206,10 +204,21 @@ class Curve(ABC):
         return self._evaluate_flat(*check_offsets(knots, offsets), max_deviation,
                                    check_multiplicity(max_multiplicity, self.degree))
 
-    @abstractmethod
     def _evaluate_flat(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool,
                        max_multiplicity: int = 1) -> BatchFit:
-        """:meth:`evaluate_knots` of offsets that match the knots (not checked again)."""
+        """:meth:`evaluate_knots` of offsets that match the knots (not checked again), by the
+        compiled fits: on the calling thread up to :data:`SERIAL_BATCH` candidates, else on the
+        kernel's threads."""
+        sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
+        knots = np.ascontiguousarray(knots, dtype=np.float64)
+        if sse.size <= SERIAL_BATCH:
+            _kernel.evaluate_batch_serial(self.params, self.points, self.degree, self.closed,
+                                          max_multiplicity, knots, offsets, *out)
+        else:
+            _kernel.evaluate_batch(self.params, self.points, self.degree, self.closed,
+                                   max_multiplicity, knots, offsets, *out,
+                                   8 * numba.get_num_threads())
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
     def evaluate_masks(self, masks: np.ndarray, *, max_deviation: bool = True) -> BatchFit:
         """Fit a ``(B, len(candidate_params))`` batch of 0/1 masks over the candidate knots
@@ -219,15 +228,22 @@ class Curve(ABC):
             check_masks(masks, self.n_points, closed=self.closed, trust_integers=True),
             max_deviation)
 
-    @abstractmethod
     def _evaluate_masks(self, masks: np.ndarray, max_deviation: bool) -> BatchFit:
         """:meth:`evaluate_masks` of masks already checked (2-D, one column per candidate
         knot, booleans or integers 0 and 1: a problem's encoding has checked them)."""
+        if len(masks) > SERIAL_BATCH:
+            return self._evaluate_flat(*_kernel.masks_to_knots(
+                self.params, np.ascontiguousarray(masks, dtype=bool)), max_deviation)
+        sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
+        _kernel.evaluate_masks_serial(self.params, self.points, self.degree, self.closed, masks,
+                                      *out)
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
-    @abstractmethod
     def evaluate_indices(self, indices: np.ndarray, *, max_deviation: bool = True) -> BatchFit:
         """Fit a ``(B, K)`` batch of data indices (1..``max_index``): knots at those
         parameters; a repeated index makes its candidate infeasible."""
+        return self._evaluate_flat(*stack_indices(self.params, indices, closed=self.closed),
+                                   max_deviation)
 
     def evaluate_positions(self, positions: np.ndarray, *, max_deviation: bool = True,
                            nan_is_absent: bool = False, max_multiplicity: int = 1) -> BatchFit:
@@ -237,10 +253,19 @@ class Curve(ABC):
         return self._evaluate_positions(positions, max_deviation, nan_is_absent,
                                         check_multiplicity(max_multiplicity, self.degree))
 
-    @abstractmethod
     def _evaluate_positions(self, positions: np.ndarray, max_deviation: bool,
                             nan_is_absent: bool, max_multiplicity: int) -> BatchFit:
-        """:meth:`evaluate_positions` with its multiplicity checked."""
+        """:meth:`evaluate_positions` with its multiplicity checked: each row sorted; knots
+        outside the range, coincident knots and rank-deficient systems come back infeasible
+        with their reason, never raised."""
+        positions = as_positions(positions)
+        if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
+            return self._evaluate_flat(*stack_positions(positions, nan_is_absent=nan_is_absent),
+                                       max_deviation, max_multiplicity)
+        sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
+        _kernel.evaluate_positions_serial(self.params, self.points, self.degree, self.closed,
+                                          max_multiplicity, positions, nan_is_absent, *out)
+        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
     def fit(self, interior_knots: ArrayLike, *, max_multiplicity: int = 1) -> CurveFit:
         """The least-squares fit with these interior knots, each repeated at most
@@ -361,42 +386,6 @@ class OpenCurve(Curve):
     def max_interior_knots(self) -> int:
         return self.n_points - self.degree - 1
 
-    def _evaluate_flat(self, knots, offsets, max_deviation, max_multiplicity=1):
-        """The compiled fits of a flattened batch (a knot repeated more than
-        ``max_multiplicity`` times is infeasible): on the calling thread up to
-        :data:`SERIAL_BATCH` candidates, else on the kernel's threads."""
-        sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
-        knots = np.ascontiguousarray(knots, dtype=np.float64)
-        if sse.size <= SERIAL_BATCH:
-            _kernel.evaluate_batch_serial(self.params, self.points, self.degree,
-                                          max_multiplicity, knots, offsets, *out)
-        else:
-            _kernel.evaluate_batch(self.params, self.points, self.degree, False,
-                                   max_multiplicity, knots, offsets, *out,
-                                   8 * numba.get_num_threads())
-        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
-
-    def _evaluate_masks(self, masks, max_deviation):
-        if len(masks) > SERIAL_BATCH:
-            return self._evaluate_flat(*_kernel.masks_to_knots(
-                self.params, np.ascontiguousarray(masks, dtype=bool)), max_deviation)
-        sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
-        _kernel.evaluate_masks_serial(self.params, self.points, self.degree, masks, *out)
-        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
-
-    def evaluate_indices(self, indices, *, max_deviation=True):
-        return self._evaluate_flat(*stack_indices(self.params, indices), max_deviation)
-
-    def _evaluate_positions(self, positions, max_deviation, nan_is_absent, max_multiplicity):
-        positions = as_positions(positions)
-        if positions.ndim != 2 or len(positions) > SERIAL_BATCH:
-            return self._evaluate_flat(*stack_positions(positions, nan_is_absent=nan_is_absent),
-                                       max_deviation, max_multiplicity)
-        sse, max_dev, n_ctrl, reason = out = _outputs(len(positions), max_deviation)
-        _kernel.evaluate_positions_serial(self.params, self.points, self.degree,
-                                          max_multiplicity, positions, nan_is_absent, *out)
-        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
-
     def _fit(self, interior, max_multiplicity) -> SplineFit:
         return _fit_clamped(self.params, self.points, interior, self.degree, max_multiplicity)
 
@@ -468,47 +457,6 @@ class ClosedCurve(Curve):
     @property
     def max_interior_knots(self) -> int:
         return self.n_points - 1
-
-    def _evaluate_flat(self, knots, offsets, max_deviation, max_multiplicity=1):
-        return self._evaluate_positions(padded_rows(knots, offsets), max_deviation, True,
-                                        max_multiplicity)
-
-    def _evaluate_masks(self, masks, max_deviation):
-        """Masks over the data parameters after the first: sorted, distinct and inside (0, 1),
-        they go to the compiled fit as they are."""
-        masks = np.ascontiguousarray(masks, dtype=bool)
-        return self._fit_sorted(*_kernel.masks_to_knots(self.params, masks), max_deviation)
-
-    def evaluate_indices(self, indices, *, max_deviation=True):
-        # a repeated index gives coincident knots: reported infeasible
-        rows = self.params[check_indices(self.params, indices, closed=True)]
-        return self.evaluate_positions(rows, max_deviation=max_deviation, nan_is_absent=True)
-
-    def _evaluate_positions(self, positions, max_deviation, nan_is_absent, max_multiplicity):
-        """Positions are sorted per row; knots outside (0, 1), coincident knots and
-        rank-deficient systems come back infeasible with their reason, never raised."""
-        pos = as_positions(positions)
-        if pos.ndim != 2:  # the compiled loop trusts the offsets it is given: refused before
-            raise ValueError(f"positions must have shape (B, K); got {pos.shape}")
-        knots, offsets, refusal = _kernel.rows_to_knots(np.sort(pos, axis=1), nan_is_absent,
-                                                        max_multiplicity)
-        batch = self._fit_sorted(knots, offsets, max_deviation, max_multiplicity)
-        refused = refusal != 0  # the reasons the fit does not check itself
-        if refused.any():
-            batch.reason[refused] = refusal[refused]
-            batch.sse[refused] = np.inf
-            if batch.max_deviation is not None:
-                batch.max_deviation[refused] = np.inf
-        return batch
-
-    def _fit_sorted(self, knots: np.ndarray, offsets: np.ndarray, max_deviation: bool,
-                    max_multiplicity: int = 1) -> BatchFit:
-        """The compiled fits of a flattened batch whose knots lie inside (0, 1), each row
-        sorted (a knot repeated more than ``max_multiplicity`` times is refused)."""
-        sse, max_dev, n_ctrl, reason = out = _outputs(offsets.size - 1, max_deviation)
-        _kernel.evaluate_batch(self.params, self.points, self.degree, True, max_multiplicity,
-                               knots, offsets, *out, 8 * numba.get_num_threads())
-        return BatchFit(sse, max_dev if max_deviation else None, n_ctrl, reason)
 
     def _fit(self, interior, max_multiplicity) -> PeriodicFit:
         """The compiled kernel's fit: O(N p^2) time and O(m p) memory, for any number of

@@ -22,7 +22,6 @@ __all__ = [
     "clamped_knot_vector",
     "extra_control_points",
     "n_control_points",
-    "padded_rows",
     "periodic_knot_vector",
     "stack_indices",
     "stack_masks",
@@ -171,15 +170,6 @@ def stack_rows(rows: list[np.ndarray] | np.ndarray) -> tuple[np.ndarray, np.ndar
                              f"{np.shape(row)}")
     knots = np.concatenate(rows) if len(rows) else np.empty(0)
     return knots, _offsets(np.array([len(r) for r in rows], dtype=np.int64))
-
-
-def padded_rows(knots: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Rows ``knots[offsets[b]:offsets[b + 1]]`` NaN-padded to one ``(B, K)`` array (one
-    column at least): :func:`stack_rows` undone, as the periodic evaluator takes rows."""
-    counts = np.diff(offsets)
-    rows = np.full((counts.size, max(int(counts.max(initial=0)), 1)), np.nan)
-    rows[np.arange(rows.shape[1]) < counts[:, None]] = knots
-    return rows
 
 
 def check_masks(masks: ArrayLike, n_points: int, *, closed: bool = False,
