@@ -674,18 +674,17 @@ def test_integer_settings_agree_about_numpy_integers_and_bools():
     (np.where(np.arange(N - 2) == 3, 3, 0)[None, :], "only 0 and 1"),
     (np.where(np.arange(N - 2) == 3, -5, 0)[None, :], "only 0 and 1"),
 ])
-def test_masks_to_knots_checks_its_masks(masks, message):
+def test_stack_masks_checks_its_masks(masks, message):
     """Masks wider than the interior points made the compiled gathering read past the
     parameters; entries other than 0 and 1 sized the output by their sum, leaving
     uninitialised knots (or a negative size)."""
-    from metaknot.bspline.knots import masks_to_knots, stack_masks
+    from metaknot.bspline.knots import stack_masks
 
-    for call in (masks_to_knots, stack_masks):
-        with pytest.raises(ValueError, match=message):
-            call(U, masks)
+    with pytest.raises(ValueError, match=message):
+        stack_masks(U, masks)
     with pytest.raises(ValueError, match="parameter values must be a 1-D array"):
-        masks_to_knots(U[None, :], MASKS)
-    knots, offsets = masks_to_knots(U, MASKS)
+        stack_masks(U[None, :], MASKS)
+    knots, offsets = stack_masks(U, MASKS)
     assert offsets.tolist() == np.concatenate(([0], np.cumsum(MASKS.sum(axis=1)))).tolist()
     assert np.array_equal(knots, np.concatenate([U[1:-1][m] for m in MASKS]))
 

@@ -205,10 +205,6 @@ def stack_masks(u: ArrayLike, masks: ArrayLike) -> tuple[np.ndarray, np.ndarray]
     return _kernel.masks_to_knots(u, np.ascontiguousarray(check_masks(masks, u.size)))
 
 
-#: :func:`stack_masks`, by the compiled function's name (which takes no unchecked input here).
-masks_to_knots = stack_masks
-
-
 def check_offsets(knots: ArrayLike, offsets: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Flattened candidates (candidate ``b``: ``knots[offsets[b]:offsets[b + 1]]``) as float64
     knots and int64 offsets, or a ``ValueError`` naming what does not match: the compiled
