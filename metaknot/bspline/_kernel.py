@@ -824,14 +824,15 @@ def _closed_verdict(interior, max_mult):
             return KNOT_OUT_OF_RANGE, in_order
         if i > 0 and x < interior[i - 1]:
             in_order = False
-    repeated = _repeated_beyond(interior, max_mult) if in_order else \
-        _repeated_beyond(np.sort(interior), max_mult)
+    repeated = repeated_beyond(interior, max_mult) if in_order else \
+        repeated_beyond(np.sort(interior), max_mult)
     return (COINCIDENT_KNOTS if repeated else FEASIBLE), in_order
 
 
 @njit(cache=True)
-def _repeated_beyond(knots, max_mult):
-    """Whether a value of the sorted ``knots`` repeats more than ``max_mult`` times."""
+def repeated_beyond(knots, max_mult):
+    """Whether a value of the sorted ``knots`` repeats more than ``max_mult`` times (the rule
+    of every check of multiple knots)."""
     run = 1
     for i in range(1, knots.size):
         run = run + 1 if knots[i] == knots[i - 1] else 1

@@ -56,6 +56,7 @@ from ._kernel import (
     deviation_from_basis,
     extended_knots,
     periodic_distance2,
+    repeated_beyond,
     rotate_dense,
     solve_closed_into,
 )
@@ -795,12 +796,7 @@ def _runs_verdict(knots, lo, hi, max_mult, verdict):
     """``COINCIDENT_KNOTS`` if sorted knots ``knots[lo - 1:hi]`` repeat one more than
     ``max_mult`` times, else ``verdict`` (open and closed move checks; a caller keeps the range
     to interior knots)."""
-    run = 1
-    for i in range(lo, hi):
-        run = run + 1 if knots[i] == knots[i - 1] else 1
-        if run > max_mult:
-            return COINCIDENT_KNOTS
-    return verdict
+    return COINCIDENT_KNOTS if repeated_beyond(knots[lo - 1 : hi], max_mult) else verdict
 
 
 @njit(cache=True)

@@ -59,10 +59,10 @@ def check_multiplicity(max_multiplicity: Any, degree: int) -> int:
 
 
 def _repeated_beyond(inner: np.ndarray, max_multiplicity: int) -> bool:
-    """Whether the sorted knots ``inner`` hold a knot more than ``max_multiplicity`` times."""
-    if inner.size <= max_multiplicity:
-        return False
-    return bool((inner[max_multiplicity:] == inner[:-max_multiplicity]).any())
+    """Whether the sorted knots ``inner`` hold a knot more than ``max_multiplicity`` times (the
+    kernel's rule, :func:`._kernel.repeated_beyond`)."""
+    return bool(_kernel.repeated_beyond(np.ascontiguousarray(inner, dtype=np.float64),
+                                        max_multiplicity))
 
 
 def _multiplicity_error(max_multiplicity: int) -> str:
