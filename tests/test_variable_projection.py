@@ -12,6 +12,7 @@ import metaknot as mk
 from metaknot.algorithms.variable_projection import (
     knots_from_log_spans,
     log_spans_from_knots,
+    removal_knots,
     residual_jacobian,
 )
 from metaknot.problems import FreeKnots, KnotSelection, PointSet, get_curve
@@ -159,6 +160,7 @@ def test_problems_it_cannot_search_are_refused_by_name(problem, message):
     ("tolerance", float("nan"), "tolerance must be finite"),
     ("stall", 1.5, "stall must be <= 1"),
     ("stall", -0.1, "stall must be >= 0"),
+    ("removal_start", "no", "removal_start must be True or False"),
 ])
 def test_bad_options_are_named(option, value, message):
     with pytest.raises(ValueError, match=message):
@@ -241,17 +243,27 @@ def test_the_methods_own_fits_are_declared(monkeypatch):
         evaluations.append(len(X))
         return values
 
+    removal_fits = []
+    removal = module.removal_knots
+
+    def removed(*args, **kwargs):
+        knots, fits = removal(*args, **kwargs)
+        removal_fits.append(fits)
+        return knots, fits
+
     monkeypatch.setattr(module.Evaluator, "__call__", recorded)
     monkeypatch.setattr(module, "residual_jacobian", counted)
+    monkeypatch.setattr(module, "removal_knots", removed)
     problem = FreeKnots(get_curve("archimedean", n_points=60), n_knots=6, objective="rmse")
     result = mk.minimize(problem, "varpro", budget=300, seed=0)
-    assert calls[True] > 0
+    assert calls[True] > 0 and removal_fits == [6]  # 12 averaging knots down to 6
     # the residual's fit (a repeat of the evaluation's) declared; each Jacobian charged as
-    # 6 + 1 fits, but for what the budget could not take at the end (external): at most two
-    # Jacobians, one pending when a single evaluation is left (the charge leaves it to the
-    # evaluation) and one made after that evaluation
+    # 6 + 1 fits and the removal start's fits as fits, but for what the budget could not take
+    # at the end (external): at most two Jacobians, one pending when a single evaluation is
+    # left (the charge leaves it to the evaluation) and one made after that evaluation
     assert result.n_evaluations - result.charged_fits == sum(evaluations)
-    assert result.charged_fits + result.external_fits == calls[False] + (6 + 1) * calls[True]
+    assert result.charged_fits + result.external_fits == \
+        calls[False] + (6 + 1) * calls[True] + 6
     assert (6 + 1) * calls[True] - result.charged_fits <= 2 * (6 + 1)
     assert result.status == "ok" and result.record()["charged_fits"] == result.charged_fits
 
@@ -486,11 +498,63 @@ def test_knots_run_together_are_pulled_apart(monkeypatch):
 
 def test_a_start_and_its_repairs_keep_to_the_start_s_share(monkeypatch):
     """The solves on from knots that ran together are part of their start: with a share of
-    200 evaluations, the three deterministic starts on noisy humps (whose knots run together)
-    use 600 at most, repairs included."""
+    200 evaluations, the four deterministic starts on noisy humps (whose knots run together)
+    use 800 at most, repairs included, and the removal start's 7 fits."""
     import metaknot.algorithms.variable_projection as module
 
     monkeypatch.setattr(module, "start_evaluations", lambda n_knots: 200)
     result = mk.minimize(_noisy_humps(), "varpro", budget=3000, seed=0,
                          optimizer_kwargs={"restarts": 0})
-    assert 400 < result.n_evaluations <= 3 * 200
+    assert 600 < result.n_evaluations <= 4 * 200 + 7
+
+
+@pytest.mark.parametrize("closed", [False, True], ids=["open", "closed"])
+def test_removal_keeps_the_knots_the_data_s_spline_has(closed):
+    """Data of a spline whose knots are half of twice as many averaging knots: removing the
+    least significant one at a time leaves exactly its knots (the others move the fit by
+    rounding only), one fit per knot removed."""
+    from metaknot.bspline import periodic_knot_vector
+    from metaknot.bspline.curve import curve_model
+
+    rng = np.random.default_rng(3)
+    n, p, count = 200, 3, 6
+    u = np.linspace(0.0, 1.0, n, endpoint=not closed)
+    dense = np.sort(curve_model(closed)(u, np.zeros((n, 2)), p).start_knots(2 * count))
+    kept = np.sort(rng.choice(dense, count, replace=False))
+    if closed:
+        t = periodic_knot_vector(kept, p)
+        c = rng.normal(size=(count + 1, 2))
+        points = BSpline(t, np.vstack((c, c[:p])), p)(u)
+    else:
+        t = np.r_[[0.0] * (p + 1), kept, [1.0] * (p + 1)]
+        points = BSpline(t, rng.normal(size=(count + p + 1, 2)), p)(u)
+    knots, fits = removal_knots(u, points, p, count, closed=closed)
+    np.testing.assert_array_equal(knots, kept)
+    assert fits == count
+
+
+def test_the_removal_start_is_the_last_deterministic_one(monkeypatch):
+    """The knots :func:`removal_knots` leaves are a start, after the averaging, equally spaced
+    and jump knots, unless ``removal_start`` is off; none where it removes nothing."""
+    import metaknot.algorithms.variable_projection as module
+
+    starts = []
+    original = module.least_squares
+
+    def recorded(fun, z0, *args, **kwargs):
+        starts.append(z0.copy())
+        return original(fun, z0, *args, **kwargs)
+
+    monkeypatch.setattr(module, "least_squares", recorded)
+    problem = FreeKnots(get_curve("archimedean", n_points=60), n_knots=6, objective="rmse")
+    removed, _ = removal_knots(problem.params, problem.points, 3, 6)
+    expected = log_spans_from_knots(removed, problem.knot_bounds)
+    for removal_start in (True, False):
+        starts.clear()
+        mk.minimize(problem, "varpro", budget=3000, seed=0,
+                    optimizer_kwargs={"restarts": 0, "removal_start": removal_start})
+        assert any(np.allclose(z0, expected) for z0 in starts[3:]) == removal_start
+    from metaknot.bspline import parameterize
+
+    few = get_curve("archimedean", n_points=10).points  # 5 averaging knots at most: none
+    assert removal_knots(parameterize(few), few, 3, 6)[0].size == 0

@@ -206,10 +206,12 @@ class _Search:
         if not np.array_equal(problem.params, curve.params):
             return knots, float(err)
         # the start from these knots takes half the budget at most (varpro's rule), the
-        # averaging and equally spaced knots the rest
+        # averaging and equally spaced knots the rest (no removal start: its fits would come
+        # out of this small budget)
         budget = 2 * POLISH_ITERATIONS * (knots.size + 2)  # a step: an evaluation, a Jacobian
         result = mk.minimize(problem, "varpro", budget=budget, seed=0,
-                             optimizer_kwargs={"initial": knots, "restarts": 0})
+                             optimizer_kwargs={"initial": knots, "restarts": 0,
+                                               "removal_start": False})
         self.evaluations += result.n_evaluations
         found = np.sort(np.asarray(result.best_x, dtype=np.float64))
         if merge is not None:
