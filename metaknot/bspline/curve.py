@@ -232,8 +232,9 @@ class Curve(ABC):
         """:meth:`evaluate_masks` of masks already checked (2-D, one column per candidate
         knot, booleans or integers 0 and 1: a problem's encoding has checked them)."""
         if len(masks) > SERIAL_BATCH:
-            return self._evaluate_flat(*_kernel.masks_to_knots(
-                self.params, np.ascontiguousarray(masks, dtype=bool)), max_deviation)
+            knots, offsets = _kernel.masks_to_knots(self.params,
+                                                    np.ascontiguousarray(masks, dtype=bool))
+            return self._evaluate_flat(knots, offsets, max_deviation)
         sse, max_dev, n_ctrl, reason = out = _outputs(len(masks), max_deviation)
         _kernel.evaluate_masks_serial(self.params, self.points, self.degree, self.closed, masks,
                                       *out)
