@@ -143,6 +143,13 @@ class Encoding:
             distinct_sorted,
         )
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """An encoding read back (pickle, copy) is made without ``__post_init__``: its
+        kernels are compiled here too."""
+        self.__dict__.update(state)
+        if self.kind != "continuous":
+            _kernels()
+
     def __post_init__(self) -> None:
         # scalar bounds for the common case of equal bounds on every variable (fast checks);
         # whole numbers for a binary or integer encoding, whose candidates are

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -112,7 +113,8 @@ def test_fit_is_loaded_on_first_use():
 def test_the_encoding_kernels_are_compiled_when_first_needed():
     """The core's kernels (``Encoding.check``'s bounds check, ``Encoding.repair``'s) are
     numba's versions from the first encoding of whole numbers on, not on import; replaced once,
-    also when threads make encodings at the same time."""
+    also when threads make encodings at the same time; and in a process that only reads an
+    encoding back (pickled by another: made without ``__post_init__``)."""
     code = """
 import sys, threading
 import metaknot.problem as core
@@ -131,6 +133,14 @@ print(before, sorted({type(f).__name__ for f in compiled.values()}),
     shown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                            check=True, cwd=ROOT).stdout
     assert shown.split() == ["(False,", "True,", "False)", "['CPUDispatcher']", "True"]
+    read_back = ("import pickle, sys; import metaknot.problem as core; "
+                 "encoding = pickle.loads(sys.stdin.buffer.read()); "
+                 "print(type(core._within).__name__, encoding.check([[0, 1, 1]]).tolist())")
+    from metaknot.problem import Encoding
+
+    shown = subprocess.run([sys.executable, "-c", read_back], capture_output=True, check=True,
+                           cwd=ROOT, input=pickle.dumps(Encoding.binary(3))).stdout.decode()
+    assert shown.split(maxsplit=1) == ["CPUDispatcher", "[[0, 1, 1]]\n"]
 
 
 FITPACK_NAMES = {"splprep", "splrep", "splev", "make_splrep", "make_splprep", "UnivariateSpline"}
