@@ -162,7 +162,8 @@ def removal_knots(u: np.ndarray, points: np.ndarray, p: int, count: int, *,
         weights = removal_weights(spline.t, spline.c.reshape(spline.c.shape[0], -1), p,
                                   np.arange(knots.size) + p + 1)
         knots = np.delete(knots, int(np.argmin(weights)))
-    return (knots if dense > count else np.empty(0)), fits
+    # none if nothing was removed (the data carry too few knots for a denser start)
+    return (knots if fits else np.empty(0)), fits
 
 
 def _knot_vector(interior: np.ndarray, bounds: tuple[float, float], p: int, closed: bool

@@ -558,3 +558,9 @@ def test_the_removal_start_is_the_last_deterministic_one(monkeypatch):
 
     few = get_curve("archimedean", n_points=10).points  # 5 averaging knots at most: none
     assert removal_knots(parameterize(few), few, 3, 6)[0].size == 0
+    from metaknot.bspline import closed_parameterize
+
+    outline = get_curve("epitrochoid", n_points=30).points  # K knots, or none, never fewer
+    u = closed_parameterize(outline)
+    sizes = {k: removal_knots(u, outline, 3, k, closed=True)[0].size for k in range(2, 29)}
+    assert all(size in (0, k) for k, size in sizes.items()) and sizes[20] == 20
