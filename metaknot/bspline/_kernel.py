@@ -722,39 +722,23 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
 
 
 @njit(cache=True)
-def _breaks_into(interior: np.ndarray, max_mult: int, breaks: np.ndarray) -> int:
-    """Fill ``breaks[:m]`` with the ``m = interior.size + 1`` breakpoints 0 and ``interior``;
-    return COINCIDENT_KNOTS unless they increase, a knot repeated at most ``max_mult`` times
-    (0 never; NaN fails), else FEASIBLE."""
-    m = interior.size + 1
-    breaks[0] = 0.0
-    breaks[1:m] = interior
-    run = 1  # copies of the breakpoint so far
-    for k in range(1, m):
-        run = run + 1 if breaks[k] == breaks[k - 1] else 1
-        if not (breaks[k] > breaks[k - 1] or (breaks[k] == breaks[k - 1] and k > 1
-                                              and run <= max_mult)):
-            return COINCIDENT_KNOTS
-    return FEASIBLE
-
-
-@njit(cache=True)
 def periodic_knots(interior: np.ndarray, p: int, max_mult: int) -> tuple:
-    """The extended knot vector of the breakpoints 0 and ``interior`` (``m + 2p + 1`` knots,
-    :func:`extended_knots`) and the reason to refuse them: SINGULAR for fewer than ``p``
-    breakpoints, KNOT_OUT_OF_RANGE for a knot not in (0, 1) (NaN included), COINCIDENT_KNOTS
-    for knots that decrease or repeat more than ``max_mult`` times, else FEASIBLE."""
+    """The extended knot vector of the breakpoints 0 and the sorted ``interior`` (``m + 2p + 1``
+    knots, :func:`extended_knots`) and the reason to refuse them: SINGULAR for fewer than ``p``
+    breakpoints, then the batch fit's verdict (:func:`_closed_verdict`: a knot not in (0, 1),
+    NaN included, then one repeated more than ``max_mult`` times), then COINCIDENT_KNOTS for
+    knots out of order (an incumbent is taken as given, not sorted), else FEASIBLE."""
     m = interior.size + 1
     t = np.empty(m + 2 * p + 1)
     if m < p:
         return SINGULAR, t
-    breaks = np.empty(m)
-    code = _breaks_into(interior, max_mult, breaks)
-    if code == FEASIBLE and not breaks[m - 1] < 1.0:
-        code = KNOT_OUT_OF_RANGE
-    elif code == COINCIDENT_KNOTS and not (breaks[1] > 0.0):
-        code = KNOT_OUT_OF_RANGE  # the first knot at or below 0, or NaN
+    code, in_order = _closed_verdict(interior, max_mult)
+    if code == FEASIBLE and not in_order:
+        code = COINCIDENT_KNOTS
     if code == FEASIBLE:
+        breaks = np.empty(m)
+        breaks[0] = 0.0
+        breaks[1:] = interior
         extended_knots(breaks, p, t)
     return code, t
 
