@@ -297,7 +297,7 @@ def _counted_places(rng: np.random.Generator, n_var: int, rate: float, steps: in
 
 @njit(cache=True)
 def _flip_places(rng: np.random.Generator, n_var: int, rate: float, steps: int
-               ) -> tuple[np.ndarray, np.ndarray]:
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """The draws of ``steps`` consecutive one-child steps of ``flip_at_least_one``: how many
     bits each flips and which (step after step in one flat array)."""
     counts = np.empty(steps, np.int64)
@@ -312,7 +312,7 @@ def _flip_places(rng: np.random.Generator, n_var: int, rate: float, steps: int
 
 @njit(cache=True)
 def _step_places(rng: np.random.Generator, n_var: int, rate: float, max_step: int, steps: int
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The draws of ``steps`` consecutive one-child steps of ``step_at_least_one``: the
     places as :func:`_flip_places` gives them, each followed by every gene's step size in
     ``1..max_step`` (``sizes[i]``) and sign draw (``signs[i]``: 0 for -1)."""
@@ -332,7 +332,7 @@ def _step_places(rng: np.random.Generator, n_var: int, rate: float, max_step: in
 
 @njit(cache=True)
 def _flip_children(parent: np.ndarray, starts: np.ndarray, places: np.ndarray, first: int,
-                  count: int) -> np.ndarray:
+                   count: int) -> np.ndarray:
     """``count`` children (int64) of the 0/1 vector ``parent``, one per step drawn by
     :func:`_flip_places`: child ``r`` flips the bits ``places[starts[first + r]:starts[first + r +
     1]]`` (``starts``: where each step's places begin, and their end)."""

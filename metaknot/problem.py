@@ -17,7 +17,7 @@ __all__ = ["Encoding", "Problem"]
 EncodingKind = Literal["binary", "integer", "continuous"]
 
 _INT64 = np.dtype(np.int64)
-_compiled: list[bool] = []  # whether the kernels below were replaced by numba's versions
+_compiled = False  # whether the kernels below were replaced by numba's versions
 _compiling = threading.Lock()
 
 
@@ -27,6 +27,7 @@ def _kernels() -> None:
     first call and cached on disk: when the first encoding of whole numbers is made, so that
     importing metaknot does not import numba. All at once, so that one calling another finds
     it compiled; once, also when threads make encodings at the same time."""
+    global _compiled
     if _compiled:
         return
     from numba import njit
@@ -36,7 +37,7 @@ def _kernels() -> None:
             namespace = globals()
             for name in ("_within", "_distinct_nearest_rows", "_repair_sets"):
                 namespace[name] = njit(cache=True)(namespace[name])
-            _compiled.append(True)
+            _compiled = True
 
 
 def _within(X: np.ndarray, low: int, high: int) -> bool:

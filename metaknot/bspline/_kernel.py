@@ -725,14 +725,14 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
 def periodic_knots(interior: np.ndarray, p: int, max_mult: int) -> tuple:
     """The extended knot vector of the breakpoints 0 and the sorted ``interior`` (``m + 2p + 1``
     knots, :func:`extended_knots`) and the reason to refuse them: SINGULAR for fewer than ``p``
-    breakpoints, then the batch fit's verdict (:func:`_closed_verdict`: a knot not in (0, 1),
+    breakpoints, then the batch fit's verdict (:func:`closed_verdict`: a knot not in (0, 1),
     NaN included, then one repeated more than ``max_mult`` times), then COINCIDENT_KNOTS for
     knots out of order (an incumbent is taken as given, not sorted), else FEASIBLE."""
     m = interior.size + 1
     t = np.empty(m + 2 * p + 1)
     if m < p:
         return SINGULAR, t
-    code, in_order = _closed_verdict(interior, max_mult)
+    code, in_order = closed_verdict(interior, max_mult)
     if code == FEASIBLE and not in_order:
         code = COINCIDENT_KNOTS
     if code == FEASIBLE:
@@ -796,7 +796,7 @@ def _closed_score_workspaces(n_points, d, p, n_max, want_max_dev):
 
 
 @njit(cache=True)
-def _closed_verdict(interior, max_mult):
+def closed_verdict(interior, max_mult):
     """The reason to refuse the breakpoints 0 and ``interior`` (in any order) of a closed
     candidate: KNOT_OUT_OF_RANGE for a knot not in (0, 1) (NaN included) before
     COINCIDENT_KNOTS for one repeated more than ``max_mult`` times, else FEASIBLE; and whether
@@ -830,12 +830,12 @@ def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mu
     """:func:`_score` of a closed curve: candidate ``b``'s breakpoints are 0 and its
     ``interior`` knots, in any order (sorted here), each repeated at most ``max_mult`` times;
     its ``m = interior.size + 1`` control points periodic. Refused before a fit (and before a
-    workspace is touched): a knot outside (0, 1) (:func:`_closed_verdict`), then coincident
+    workspace is touched): a knot outside (0, 1) (:func:`closed_verdict`), then coincident
     knots, then fewer than ``p`` breakpoints (SINGULAR) or more than there are points."""
     ws_fit, basis, spans, breaks, t_ws, coef_ws = ws
     m = interior.size + 1
     n_ctrl[b] = m
-    code, in_order = _closed_verdict(interior, max_mult)
+    code, in_order = closed_verdict(interior, max_mult)
     if code == FEASIBLE and (m < p or m > u.size):
         code = SINGULAR if m < p else TOO_MANY_CONTROL_POINTS
     if code != FEASIBLE:

@@ -58,13 +58,6 @@ def check_multiplicity(max_multiplicity: Any, degree: int) -> int:
     return int(max_multiplicity)
 
 
-def _repeated_beyond(inner: np.ndarray, max_multiplicity: int) -> bool:
-    """Whether the sorted knots ``inner`` hold a knot more than ``max_multiplicity`` times (the
-    kernel's rule, :func:`._kernel.repeated_beyond`)."""
-    return bool(_kernel.repeated_beyond(np.ascontiguousarray(inner, dtype=np.float64),
-                                        max_multiplicity))
-
-
 def _multiplicity_error(max_multiplicity: int) -> str:
     return ("interior knots must be strictly increasing (coincident knots given)"
             if max_multiplicity == 1 else
@@ -92,7 +85,7 @@ def clamped_knot_vector(u: ArrayLike, interior: ArrayLike, degree: int = 3, *,
         raise ValueError(
             f"interior knots must lie strictly inside the parameter range ({u[0]}, {u[-1]})"
         )
-    if (np.diff(interior) < 0).any() or _repeated_beyond(interior, max_multiplicity):
+    if (np.diff(interior) < 0).any() or _kernel.repeated_beyond(interior, max_multiplicity):
         raise ValueError(_multiplicity_error(max_multiplicity))
     return np.concatenate((np.full(p + 1, u[0]), interior, np.full(p + 1, u[-1])))
 
@@ -117,9 +110,8 @@ def periodic_knot_vector(interior: ArrayLike, degree: int = 3, *,
 def _periodic_knots(interior: ArrayLike, p: int, max_multiplicity: int = 1) -> np.ndarray:
     """:func:`periodic_knot_vector` of a degree and a multiplicity already checked."""
     inner = np.sort(np.asarray(interior, dtype=np.float64).ravel())
-    # NaN sorts last and fails no comparison: checked by name
-    if inner.size and (inner[0] <= 0.0 or not inner[-1] < 1.0
-                       or _repeated_beyond(inner, max_multiplicity)):
+    # the batch fit's verdict (NaN included), then named here
+    if _kernel.closed_verdict(inner, max_multiplicity)[0] != _kernel.FEASIBLE:
         repeats = "distinct" if max_multiplicity == 1 else \
             f"each repeated at most max_multiplicity={max_multiplicity} times"
         raise ValueError(f"interior knots of a periodic spline must be finite, {repeats} and lie "
