@@ -290,6 +290,18 @@ def test_wide_changes_fall_back_to_the_full_fit():
     assert list(assert_same(me, *stack(rows))) == [PATH_FULL, PATH_FULL, PATH_DELTA]
 
 
+def test_moves_near_interpolation_merge_rows_that_barely_reached_their_columns():
+    """Near interpolation a frame's state holds rows that barely reached their column (huge
+    reciprocal weights, entries to match); merged into the window's rows as they are, their
+    products overflowed to NaN. Every removal of a knot from a knot at nearly every point."""
+    q = get_curve("epitrochoid", n_points=120).points
+    curve = make_curve(q, closed=True)
+    interior = curve.params[1:-1].copy()
+    me = PeriodicMoveEvaluator(curve.params, curve.points, interior, 3)
+    path = assert_same(me, *stack([np.delete(interior, i) for i in range(interior.size)]))
+    assert np.mean(path == PATH_DELTA) > 0.9
+
+
 # --------------------------------------------------------------------------------------------
 # in problems and runs
 

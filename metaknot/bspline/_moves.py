@@ -634,6 +634,9 @@ def mask_replacements(u, near, masks):
 # reported feasible on the delta path only when that bound keeps every pivot above
 # ``PIVOT_RATIO / CERTIFY`` times the largest; the full fit decides the rest.
 
+# A state's row with a larger reciprocal weight is rescaled before it is merged (_balanced).
+BALANCE = 1e10
+
 # _closed_candidate's verdict on knots given out of order (sorted there) but feasible so far.
 UNSORTED = -1
 
@@ -852,10 +855,12 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
     full_basis = np.empty((n if want_max_dev else 0, p + 1))  # the full fit's rows
     ws_full = closed_workspaces(m_max, p, d)
     full_spans = np.empty(n if want_max_dev else 0, dtype=np.int64)
-    window_basis = np.empty((n, p + 1))
-    window_span = np.empty(n, dtype=np.int64)
-    left = np.empty(p + 1)
-    right = np.empty(p + 1)
+    window_basis = np.empty((n if want_max_dev else 0, p + 1))  # the window's rows
+    window_span = np.empty(n if want_max_dev else 0, dtype=np.int64)
+    u_window = np.empty(n)
+    q_window = np.empty((n, d))
+    t_window = np.empty(m_max + 2 * p + 1)
+    iv_window = np.empty(p * (m_max + 2 * p + 1))
     replacing = starts.size > 0
     for b in range(n_cand):
         lo, hi = offsets[b], offsets[b + 1]
@@ -920,7 +925,28 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             empty_state(stm, ncol, width)
             farm[:ncol] = 0.0
             mcol[:nbm] = 0.0
-            res = 0.0
+            # the window first, into the empty merged band (no wrap-around entries yet): the
+            # rows between the unchanged spans under the candidate's knots, by the generated
+            # row loop on the window's own knots (local span p + i is frame span KL + i;
+            # the rows past the data's end are taken one period later)
+            spans_w = KR2 - KL
+            tw = t_window[: spans_w + 2 * p + 1]
+            first_break = s2 + KL - p
+            for i in range(tw.size):
+                period, index = divmod(first_break + i, m2)
+                tw[i] = br[index] + (period - (s2 + KL) // m2)
+            iv_w = iv_window[: p * tw.size]
+            reciprocals(tw, p, iv_w, 0, tw.size)
+            for i in range(window_rows):
+                r = rows_lo + i
+                wrapped = r >= n
+                r = r - n if wrapped else r
+                u_window[i] = u[r] + 1.0 if wrapped else u[r]
+                for c in range(d):
+                    q_window[i, c] = q[r, c]
+            res, _ = window(p, d, u_window, q_window, tw, iv_w, 0, window_rows, p,
+                            p + spans_w - 1, 0, stm, mcol,
+                            window_basis, window_span)
             # the forward state's active rows (merged columns 0 .. p - 1) and wrap triangle
             for a in range(p):
                 for c in range(d):
@@ -935,7 +961,8 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
                         row[a + k] = S_st[frame, 0, KL, a, k]
                 for k in range(p):
                     row[nbm + k] = S_far[frame, 0, KL, a, k]
-                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, a, ncol, big_w)
+                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, a, ncol,
+                                    _balanced(row, values, a, ncol, d, big_w))
             for a in range(2 * p):  # both wrap triangles
                 side = 0 if a < p else 1
                 K = KL if a < p else KR
@@ -949,34 +976,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
                 for c in range(d):
                     values[c] = S_st[frame, side, K, p + wa, p + 1 + c]
                 res += rotate_dense(stm, farm, width, p, d, ncol, row, values, nbm + wa, ncol,
-                                    big_w)
-            # the window: the rows between the unchanged spans, under the candidate's knots
-            j2 = s2 + KL
-            if j2 >= m2:
-                j2 -= m2
-            r = rows_lo
-            for _ in range(window_rows):
-                if r == n:
-                    r = 0
-                    j2 = 0
-                x = u[r]
-                while j2 < m2 - 1 and x >= tb[p + j2 + 1]:
-                    j2 += 1
-                hj = window_basis[r]
-                basis_at(tb, p + j2, x, p, hj, left, right)
-                k = j2 - s2
-                if k < 0:
-                    k += m2
-                window_span[r] = k
-                first = k - KL  # merged column of band column k - p
-                for i in range(p + 1):
-                    row[first + i] = hj[i]
-                    mcol[first + i] += hj[i]
-                for c in range(d):
-                    values[c] = q[r, c]
-                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, first,
-                                    min(first + p + 1, nbm), 1.0)
-                r += 1
+                                    _balanced(row, values, nbm + wa, ncol, d, big_w))
             # the backward state's active rows: mirrored band column nb - KR + a is band
             # column KR - 1 - a, merged column P; its entries lie leftwards
             for a in range(p):
@@ -997,7 +997,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
                 for c in range(d):
                     values[c] = S_st[frame, 1, KR, a, p + 1 + c]
                 res += rotate_dense(stm, farm, width, p, d, ncol, row, values, first, ncol,
-                                    big_w)
+                                    _balanced(row, values, first, ncol, d, big_w))
             # the certificate (see the notes above)
             inv_m = inverse_norm_bound(stm, p, d, ncol, v, w, farm, ncol)
             inv_s = inv_m + (inverse[frame, 0] + inverse[frame, 1]) * (1.0 + gram_norm * inv_m)
@@ -1013,8 +1013,8 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
                     _closed_coefficients(x_merged, nbm, final_st[frame], final_far[frame],
                                          entries, p, d, m, KL, KR, delta, m2, x_band, coef)
                     max_dev_out[b] = _closed_max_deviation(
-                        q, p, spans, basis, window_basis, window_span, cuts[frame], m, m2, KR,
-                        rows_lo, window_rows, coef)
+                        q, p, spans, basis, window_basis, window_span, cuts[frame], m, m2, KL,
+                        KR, rows_lo, window_rows, coef)
                 continue
         # the full fit decides
         path_out[b] = PATH_FULL
@@ -1025,6 +1025,23 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
             max_dev_out[b] = deviation_from_basis(q, p, m2, c2, full_basis, full_spans)
+
+
+@njit(cache=True, inline='always')
+def _balanced(row, values, lo, hi, d, big_w):
+    """The reciprocal weight of a state's row ``row[lo:hi]``, ``values[:d]`` to rotate it with:
+    ``big_w``, or 1 with the row scaled by ``1 / sqrt(big_w)`` (the same row) where ``big_w``
+    is large. A row that barely reached its column (the empty-column rule) has a huge
+    reciprocal weight and entries to match; rotated as it is into a column that rows already
+    fill, their products would overflow."""
+    if big_w <= BALANCE:
+        return big_w
+    scale = 1.0 / math.sqrt(big_w)
+    for i in range(lo, hi):
+        row[i] *= scale
+    for c in range(d):
+        values[c] *= scale
+    return 1.0
 
 
 @njit(cache=True)
@@ -1066,11 +1083,11 @@ def _closed_coefficients(x_merged, nbm, fst, ffar, entries, p, d, m, KL, KR, del
 
 
 @njit(cache=True)
-def _closed_max_deviation(q, p, spans, basis, window_basis, window_span, s, m, m2, KR, rows_lo,
-                          window_rows, coef):
+def _closed_max_deviation(q, p, spans, basis, window_basis, window_span, s, m, m2, KL, KR,
+                          rows_lo, window_rows, coef):
     """Largest distance of a data point to a merged periodic candidate with the coefficients
     ``coef`` (counted from the candidate's cut): every row's value from its basis (the window's
-    for rows in the window, the incumbent's elsewhere)."""
+    for rows in the window, by their place in it, the incumbent's elsewhere)."""
     n = q.shape[0]
     delta = m2 - m
     worst = 0.0
@@ -1079,8 +1096,8 @@ def _closed_max_deviation(q, p, spans, basis, window_basis, window_span, s, m, m
         if in_window < 0:
             in_window += n
         if in_window < window_rows:
-            k = window_span[r]
-            h = window_basis[r]
+            k = KL + window_span[in_window] - p  # the window's local span p is frame span KL
+            h = window_basis[in_window]
         else:
             k = spans[r] - s
             if k < 0:
