@@ -364,6 +364,8 @@ from numba import njit
 from ._rows import EMPTY, FASTMATH, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
 
 __all__ = ["EMPTY", "FASTMATH", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
+
+{constants}
 '''
 
 
@@ -478,6 +480,88 @@ def render_absorb(p: int, d: int) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _triangle_lines(p: int, d: int, indent: str) -> list[str]:
+    """Rotate what the band left of a row of a closed frame (its entries ``y0..y{p-1}`` in the
+    wrap-around columns, right-hand side ``y{p}..``) into the wrap triangle ``tri`` (``p``
+    columns of ``1 + p + d`` entries, the layout of ``_kernel.rotate_dense``)."""
+    width = 1 + p + d
+    out = []
+    for i in range(p):
+        o = i * width
+        out += [
+            f"{indent}di = tri[{o}]",
+            f"{indent}hd = y{i} * di",
+            f"{indent}bw = big_w + y{i} * hd",
+            f"{indent}inv = 1.0 / bw",
+            f"{indent}cb = big_w * inv",
+            f"{indent}sb = hd * inv",
+            f"{indent}tri[{o}] = di * cb",
+        ]
+        for a in range(1, p - i):
+            out += [
+                f"{indent}ra = tri[{o + a}]",
+                f"{indent}tri[{o + a}] = cb * ra + sb * y{i + a}",
+                f"{indent}y{i + a} = y{i + a} - y{i} * ra",
+            ]
+        for k in range(d):
+            out += [
+                f"{indent}zk = tri[{o + p + 1 + k}]",
+                f"{indent}tri[{o + p + 1 + k}] = cb * zk + sb * y{p + k}",
+                f"{indent}y{p + k} = y{p + k} - y{i} * zk",
+            ]
+        out.append(f"{indent}big_w = bw")
+    return out
+
+
+def render_frame(p: int, d: int) -> str:
+    """Source of ``frame_p{p}_d{d}``: the sweep of a closed curve's frame over its rows that
+    touch band columns only, the wrap-around columns carried as ``p`` more right-hand sides."""
+    ind = " " * 12
+    width = 1 + 2 * p + d
+    tri = p * (1 + p + d)
+    rotation = [*[f"{ind}y{k} = 0.0" for k in range(p)],
+                *[f"{ind}y{p + k} = q[j, {k}]" for k in range(d)], f"{ind}big_w = 1.0"]
+    for i in range(p + 1):
+        rotation += _rotation_lines(p, p + d, i, ind)
+    rotation += _triangle_lines(p, d, ind)
+    left_over = " + ".join(f"y{p + k} * y{p + k}" for k in range(d))
+    rotation.append(f"{ind}sse += ({left_over}) / big_w")
+    lines = [
+        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        f"def frame_p{p}_d{d}(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,",
+        "                   Scol, colsum, sse):",
+        f'    """The sweep of ``sweep_p{p}_d{d}`` over rows of a closed frame that touch its band',
+        "    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of",
+        f"    ``W = {width}`` entries per column: reciprocal weight, the band's ``p`` entries, the",
+        "    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is",
+        "    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).",
+        "    Returns the residual SSE, from ``sse``.",
+        '    """',
+        *[f"    o{j} = np.uint64({j - 1} * t.size)" for j in range(2, p + 1)],
+        "    steps = bounds.size - 1",
+        "    span = np.uint64(span)",
+        "    last = np.uint64(last)",
+        "    for s in range(steps + 1):",
+        "        b = blocks[s]",
+        f"        S[s, :] = st[b * {width} : (b + {p}) * {width}]",
+        f"        T[s, :] = tri[:{tri}]",
+        "        Ssse[s] = sse",
+        *[f"        Scol[s, {a}] = colsum[b + {a}]" for a in range(p)],
+        "        if s == steps:",
+        "            break",
+        "        for j in range(bounds[s], bounds[s + 1]):",
+        f"{ind}x = u[j]",
+        f"{ind}while t[span + U1] <= x and span < last:",
+        f"{ind}    span += U1",
+        *_basis_lines(p, ind),
+        f"{ind}first = span - U{p}",
+        *[f"{ind}colsum[first + U{i}] += h{i}" for i in range(p + 1)],
+        *rotation,
+        "    return sse",
+    ]
+    return "\n".join(lines) + "\n"
+
+
 def _moves_dispatch(name: str, params: str, doc: str) -> list[str]:
     """``name``: the loop of the right degree and dimension."""
     lines = ["@njit(cache=True, inline='always')", f"def {name}(p, d, {params}):",
@@ -494,24 +578,32 @@ def _moves_dispatch(name: str, params: str, doc: str) -> list[str]:
 
 
 def render_dispatch() -> str:
-    """Source of ``window`` and ``sweep``: the loops of the right degree and dimension."""
+    """Source of ``window``, ``sweep``, ``absorb`` and ``frame``: the loops of the right degree
+    and dimension."""
     doc = "``{}_p{{p}}_d{{d}}`` for the given degree and dimension."
     window = _moves_dispatch("window", "u, q, t, iv, j0, j1, span, last, col0, st, colsum, "
                              "basis, spans", doc.format("window"))
     sweep = _moves_dispatch("sweep", "u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, "
                             "colsum, basis, spans", doc.format("sweep"))
     absorb = _moves_dispatch("absorb", "st, first, G, c, unreached", doc.format("absorb"))
-    return "\n\n\n".join("\n".join(f) for f in (window, sweep, absorb)) + "\n"
+    frame = _moves_dispatch("frame", "u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, "
+                            "Ssse, Scol, colsum, sse", doc.format("frame"))
+    return "\n\n\n".join("\n".join(f) for f in (window, sweep, absorb, frame)) + "\n"
 
 
 def render_moves() -> str:
     """Source of the whole generated module of delta evaluation."""
-    parts = [MOVES_HEADER]
+    # the offsets of a closed frame's wider rows (render_frame) beyond the kernel's
+    constants = "\n".join(f"U{k} = np.uint64({k})"
+                           for k in range(MAX_DEGREE + MAX_DIMENSION + 2,
+                                          2 * MAX_DEGREE + MAX_DIMENSION + 2))
+    parts = [MOVES_HEADER.format(constants=constants)]
     for p in range(1, MAX_DEGREE + 1):
         for d in range(1, MAX_DIMENSION + 1):
             parts.append("\n" + render_window(p, d))
             parts.append("\n" + render_sweep(p, d))
             parts.append("\n" + render_absorb(p, d))
+            parts.append("\n" + render_frame(p, d))
     parts.append("\n" + render_dispatch())
     return "\n".join(parts)
 

@@ -60,7 +60,7 @@ from ._kernel import (
     rotate_dense,
     solve_closed_into,
 )
-from ._moves_rows import EMPTY, FASTMATH, absorb, sweep, window
+from ._moves_rows import EMPTY, FASTMATH, absorb, frame, sweep, window
 
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
@@ -655,62 +655,176 @@ def _row_entries(st, far, width, p, ncol, i, dense):
 
 
 @njit(cache=True)
-def _frame_sweep(q, basis, p, m, s, mirror, row_start, st, far, S_st, S_far, S_col, S_sse):
-    """One sweep of the frame cut at ``s``: forward (frame spans ``0 .. m - 1``, state ``K``
-    saved before span ``K``) or mirrored (spans ``m - 1 .. 0``, state ``K`` saved after span
-    ``K``). ``S_st[K, a]`` is active band row ``a`` (forward band column ``K - p + a``, mirrored
-    ``nb - K + a``; ``dinv = EMPTY`` outside the band) and ``S_st[K, p + a]`` wrap row ``a``,
-    ``S_far[K, a]`` the active rows' wrap entries. Leaves the final factor in ``st`` and
-    ``far``."""
-    d = q.shape[1]
+def _rotate_wide(ext, tri, p, d, nb, row, values, first, big_w):
+    """Rotate one row of a frame (``row[:nb]`` its band entries from ``first``, ``row[nb:nb +
+    p]`` its wrap-around entries, ``values[:d]`` its right-hand side, reciprocal weight
+    ``big_w``) into the frame's factor as :func:`._moves_rows.frame` keeps it: the band's
+    columns in ``ext`` (``1 + 2p + d`` entries per column: the wrap-around entries as ``p``
+    right-hand sides), then what is left of the row into the wrap triangle ``tri``. The rows
+    that touch the wrap-around columns themselves (the frame's first and last ``p`` spans);
+    returns what is left of the row."""
+    wide = 1 + 2 * p + d
     width = 1 + p + d
+    for col in range(first, min(first + p + 1, nb)):
+        hc = row[col]
+        o = col * wide
+        di = ext[o]
+        hd = hc * di
+        bw = big_w + hc * hd
+        inv = 1.0 / bw
+        cb = big_w * inv
+        sb = hd * inv
+        ext[o] = di * cb
+        for a in range(1, min(p, nb - 1 - col) + 1):
+            ra = ext[o + a]
+            ext[o + a] = cb * ra + sb * row[col + a]
+            row[col + a] -= hc * ra
+        for k in range(p):
+            ra = ext[o + 1 + p + k]
+            ext[o + 1 + p + k] = cb * ra + sb * row[nb + k]
+            row[nb + k] -= hc * ra
+        for c in range(d):
+            zk = ext[o + 1 + 2 * p + c]
+            ext[o + 1 + 2 * p + c] = cb * zk + sb * values[c]
+            values[c] -= hc * zk
+        row[col] = 0.0
+        big_w = bw
+    for i in range(p):
+        hc = row[nb + i]
+        o = i * width
+        di = tri[o]
+        hd = hc * di
+        bw = big_w + hc * hd
+        inv = 1.0 / bw
+        cb = big_w * inv
+        sb = hd * inv
+        tri[o] = di * cb
+        for a in range(1, p - i):
+            ra = tri[o + a]
+            tri[o + a] = cb * ra + sb * row[nb + i + a]
+            row[nb + i + a] -= hc * ra
+        for c in range(d):
+            zk = tri[o + p + 1 + c]
+            tri[o + p + 1 + c] = cb * zk + sb * values[c]
+            values[c] -= hc * zk
+        row[nb + i] = 0.0
+        big_w = bw
+    left_over = 0.0
+    for c in range(d):
+        left_over += values[c] * values[c]
+    return left_over / big_w
+
+
+@njit(cache=True, inline='always')
+def _narrow_row(ext, o, col, p, d, nb, st, so, far):
+    """Band row ``col`` of a frame's factor (``ext[o:]``, the layout of :func:`_rotate_wide`)
+    in the layout of :func:`._kernel.rotate_dense` (``st[so:]`` and ``far``: the wrap-around
+    entries within the band's reach among the band entries, the others in ``far``)."""
+    st[so] = ext[o]
+    for a in range(1, p + 1):
+        st[so + a] = ext[o + a] if col + a < nb else ext[o + p + 1 + col + a - nb]
+    for k in range(p):
+        far[k] = ext[o + 1 + p + k] if nb + k > col + p else 0.0
+    for c in range(d):
+        st[so + p + 1 + c] = ext[o + 1 + 2 * p + c]
+
+
+@njit(cache=True)
+def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, st, far, S_st, S_far, S_col,
+                 S_sse):
+    """One sweep of the frame cut at breakpoint ``s`` of the incumbent with extended knots
+    ``t``: forward (frame spans ``0 .. m - 1``, state ``K`` saved before span ``K``) or mirrored
+    (spans ``m - 1 .. 0``, state ``K`` saved after span ``K``), for ``p <= K <= nb`` (the states
+    a merge reads). ``S_st[K, a]`` is active band row ``a`` (forward band column ``K - p + a``,
+    mirrored ``nb - K + a``) and ``S_st[K, p + a]`` wrap row ``a``, ``S_far[K, a]`` the active
+    rows' wrap entries (the layout of :func:`._kernel.rotate_dense`). The rows of the spans that
+    touch the wrap-around columns by :func:`_rotate_wide`, the others by the generated
+    :func:`._moves_rows.frame` on the frame's own knots (mirrored for the mirrored sweep: the
+    band columns mirrored, ``nb - 1 - c``, the wrap columns in place). Leaves the final factor in
+    ``st`` and ``far``."""
+    n, d = q.shape
+    width = 1 + p + d
+    wide = 1 + 2 * p + d
     nb = m - p
-    empty_state(st, m, width)
-    far[:] = 0.0
+    ext = np.empty(nb * wide)
+    empty_state(ext, nb, wide)
+    tri = np.empty(p * width)
+    empty_state(tri, p, width)
+    colsum = np.zeros(nb)  # by (mirrored) band column
     row = np.zeros(m)
     values = np.empty(d)
-    colsum = np.zeros(max(nb, 1))  # by (mirrored) band column
+    # the frame's rows and knots, one period later past the data's end; local row i is data
+    # row (r0 + i) mod n, local knot k breakpoint s + k
+    r0 = row_start[s]
+    first_row = np.empty(m + 1, dtype=np.int64)
+    for k in range(m):
+        first_row[k] = row_start[s + k] - r0 if s + k < m else row_start[s + k - m] + n - r0
+    first_row[m] = n
+    u_f = np.empty(n)
+    q_f = np.empty((n, d))
+    for i in range(n):
+        r = r0 + i
+        local = i if not mirror else n - 1 - i
+        u_f[local] = u[r] if r < n else u[r - n] + 1.0
+        q_f[local] = q[r if r < n else r - n]
+        if mirror:
+            u_f[local] = -u_f[local]
+    t_f = np.empty(m + 1)
+    for k in range(m + 1):
+        index = s + k if not mirror else s + m - k
+        t_f[k] = t[p + index] if index <= m else t[p + index - m] + 1.0
+        if mirror:
+            t_f[k] = -t_f[k]
+    iv = np.zeros(p * (m + 1))
+    reciprocals(t_f, p, iv, 0, m + 1)
+    steps = nb - p
+    bounds = np.empty(steps + 1, dtype=np.int64)
+    for i in range(steps + 1):  # the first local row of (mirrored) frame span p + i
+        bounds[i] = first_row[p + i] if not mirror else n - first_row[m - p - i]
+    blocks = np.arange(steps + 1)
+    S = np.empty((steps + 1, p * wide))
+    T = np.empty((steps + 1, p * width))
+    Ssse = np.empty(steps + 1)
+    Scol = np.empty((steps + 1, p))
     sse = 0.0
-    for step in range(m + 1):
-        K = step if not mirror else m - step
-        lo = nb - K if mirror else K - p
+    for part in range(2):  # the spans before the band's, then those after it
+        for step in range(p):
+            k = step if part == 0 else nb + step
+            if mirror:
+                k = m - 1 - k
+            r_lo, r_hi = first_row[k], first_row[k + 1]
+            for i in range(r_hi - r_lo):
+                r = r0 + (r_lo + i if not mirror else r_hi - 1 - i)
+                if r >= n:
+                    r -= n
+                first = m
+                for e in range(p + 1):
+                    c = k - p + e
+                    if c < 0:
+                        c += m
+                    if c < nb:
+                        if mirror:
+                            c = nb - 1 - c
+                        colsum[c] += basis[r, e]
+                        first = min(first, c)
+                    row[c] += basis[r, e]
+                for c in range(d):
+                    values[c] = q[r, c]
+                sse += _rotate_wide(ext, tri, p, d, nb, row, values, first, 1.0)
+        if part == 0:
+            sse = frame(p, d, u_f, q_f, t_f, iv, p, nb - 1, bounds, blocks, ext, tri, S, T,
+                        Ssse, Scol, colsum, sse)
+    for i in range(steps + 1):  # state i is K = p + i, mirrored K = nb - i
+        K = p + i if not mirror else nb - i
         for a in range(p):
-            pos = lo + a
-            if 0 <= pos < nb:
-                S_st[K, a, :] = st[pos * width : (pos + 1) * width]
-                S_far[K, a, :] = far[pos]
-                S_col[K, a] = colsum[pos]
-            else:
-                S_st[K, a, :] = 0.0
-                S_st[K, a, 0] = EMPTY
-                S_far[K, a, :] = 0.0
-                S_col[K, a] = 0.0
-            S_st[K, p + a, :] = st[(nb + a) * width : (nb + a + 1) * width]
-        S_sse[K] = sse
-        if step == m:
-            break
-        k = K if not mirror else K - 1
-        j = s + k
-        if j >= m:
-            j -= m
-        r0, r1 = row_start[j], row_start[j + 1]
-        for i in range(r1 - r0):
-            r = r0 + i if not mirror else r1 - 1 - i
-            first = m
-            for e in range(p + 1):
-                c = k - p + e
-                if c < 0:
-                    c += m
-                if c < nb:
-                    if mirror:
-                        c = nb - 1 - c
-                    colsum[c] += basis[r, e]
-                    first = min(first, c)
-                row[c] += basis[r, e]
-            for c in range(d):
-                values[c] = q[r, c]
-            sse += rotate_dense(st, far, width, p, d, m, row, values, first,
-                                min(first + p + 1, nb), 1.0)
+            _narrow_row(S[i], a * wide, i + a, p, d, nb, S_st[K, a], 0, S_far[K, a])
+            S_st[K, p + a, :] = T[i, a * width : (a + 1) * width]
+            S_col[K, a] = Scol[i, a]
+        S_sse[K] = Ssse[i]
+    for col in range(nb):
+        _narrow_row(ext, col * wide, col, p, d, nb, st, col * width, far[col])
+    st[nb * width :] = tri
+    far[nb:] = 0.0
 
 
 @njit(cache=True)
@@ -757,7 +871,7 @@ def bind_closed(u, q, t, p, cuts):
     w = np.empty(m)
     for f in range(frames):
         for side in range(2):
-            _frame_sweep(q, basis, p, m, cuts[f], side == 1, row_start, final_st[f, side],
+            _frame_sweep(u, q, t, basis, p, m, cuts[f], side == 1, row_start, final_st[f, side],
                          final_far[f, side], S_st[f, side], S_far[f, side], S_col[f, side],
                          S_sse[f, side])
             inverse[f, side] = inverse_norm_bound(final_st[f, side], p, d, nb, v, w,
