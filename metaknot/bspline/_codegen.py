@@ -112,37 +112,53 @@ def _basis_lines(p: int, indent: str) -> list[str]:
     return lines
 
 
-def _rotation_lines(p: int, d: int, i: int, indent: str) -> list[str]:
-    """Rotate the row's entry ``h{i}`` (column ``first + i``) into the factor.
+def _givens_lines(array: str, offset: str, pivot: str, entries: list[tuple[str, str]],
+                  rhs: list[tuple[str, str]], indent: str) -> list[str]:
+    """Rotate the row's entry ``pivot`` into the column of the flat factor ``array`` that starts
+    at ``offset`` (its reciprocal weight, then its entries): each of the row's later
+    ``entries`` and right-hand sides ``rhs`` is a variable and its slot in the column.
 
     With ``big_w = 1 / w`` the row's reciprocal weight and ``di`` the column's, the new
     reciprocal weights are ``bw`` (row) and ``di * cb`` (column); the only division is off the
     chain from one row to the next in the same column.
     """
-    width = 1 + p + d
     out = [
-        f"{indent}o = (first + U{i}) * U{width}",
-        f"{indent}di = st[o]",
-        f"{indent}hd = h{i} * di",
-        f"{indent}bw = big_w + h{i} * hd",
+        f"{indent}o = {offset}",
+        f"{indent}di = {array}[o]",
+        f"{indent}hd = {pivot} * di",
+        f"{indent}bw = big_w + {pivot} * hd",
         f"{indent}inv = 1.0 / bw",
         f"{indent}cb = big_w * inv",
         f"{indent}sb = hd * inv",
-        f"{indent}st[o] = di * cb",
+        f"{indent}{array}[o] = di * cb",
     ]
-    for a in range(i + 1, p + 1):
+    for (name, slot), old in [*((e, "ra") for e in entries), *((e, "zk") for e in rhs)]:
         out += [
-            f"{indent}ra = st[o + U{a - i}]",
-            f"{indent}st[o + U{a - i}] = cb * ra + sb * h{a}",
-            f"{indent}h{a} = h{a} - h{i} * ra",
-        ]
-    for k in range(d):
-        out += [
-            f"{indent}zk = st[o + U{p + 1 + k}]",
-            f"{indent}st[o + U{p + 1 + k}] = cb * zk + sb * y{k}",
-            f"{indent}y{k} = y{k} - h{i} * zk",
+            f"{indent}{old} = {array}[o + {slot}]",
+            f"{indent}{array}[o + {slot}] = cb * {old} + sb * {name}",
+            f"{indent}{name} = {name} - {pivot} * {old}",
         ]
     out.append(f"{indent}big_w = bw")
+    return out
+
+
+def _rotation_lines(p: int, d: int, i: int, indent: str) -> list[str]:
+    """Rotate the row's entry ``h{i}`` (column ``first + i``) into the factor (``W = 1 + p + d``
+    entries per column)."""
+    return _givens_lines("st", f"(first + U{i}) * U{1 + p + d}", f"h{i}",
+                         [(f"h{a}", f"U{a - i}") for a in range(i + 1, p + 1)],
+                         [(f"y{k}", f"U{p + 1 + k}") for k in range(d)], indent)
+
+
+def _triangle_lines(p: int, d: int, indent: str) -> list[str]:
+    """Rotate what the band left of a row of a closed frame (its entries ``y0..y{p-1}`` in the
+    wrap-around columns, right-hand side ``y{p}..``) into the wrap triangle ``tri`` (``p``
+    columns of ``1 + p + d`` entries, the layout of ``_kernel.rotate_dense``)."""
+    out = []
+    for i in range(p):
+        out += _givens_lines("tri", f"np.uint64({i * (1 + p + d)})", f"y{i}",
+                             [(f"y{i + a}", f"U{a}") for a in range(1, p - i)],
+                             [(f"y{p + k}", f"U{p + 1 + k}") for k in range(d)], indent)
     return out
 
 
@@ -369,12 +385,21 @@ __all__ = ["EMPTY", "FASTMATH", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", 
 '''
 
 
-def _row_lines(p: int, d: int, indent: str, first: str, guarded: bool) -> list[str]:
+def _row_lines(p: int, d: int, indent: str, first: str, wrap: bool = False) -> list[str]:
     """One data row ``j``: its span (walking up to ``last``), basis values, column sums, the
-    stored basis and span (under ``if store:`` when ``guarded``), its rotation into ``st``."""
-    store = [f"{indent}spans[j] = span", *[f"{indent}basis[j, {i}] = h{i}" for i in range(p + 1)]]
-    if guarded:
-        store = [f"{indent}if store:", *("    " + line for line in store)]
+    stored basis and span (``if store:``), its rotation into ``st``: with ``wrap``, that of a
+    closed frame's row, the ``p`` wrap-around columns carried as more right-hand sides
+    (``y0..y{p-1}``, zero at first) and what the band leaves of the row rotated into the wrap
+    triangle ``tri`` (:func:`_triangle_lines`)."""
+    if wrap:
+        rotation = [*[f"{indent}y{k} = 0.0" for k in range(p)],
+                    *[f"{indent}y{p + k} = q[j, {k}]" for k in range(d)], f"{indent}big_w = 1.0"]
+        for i in range(p + 1):
+            rotation += _rotation_lines(p, p + d, i, indent)
+        left_over = " + ".join(f"y{p + k} * y{p + k}" for k in range(d))
+        rotation += [*_triangle_lines(p, d, indent), f"{indent}sse += ({left_over}) / big_w"]
+    else:
+        rotation = _row_rotation_lines(p, d, indent)
     return [
         f"{indent}x = u[j]",
         f"{indent}while t[span + U1] <= x and span < last:",
@@ -382,8 +407,10 @@ def _row_lines(p: int, d: int, indent: str, first: str, guarded: bool) -> list[s
         *_basis_lines(p, indent),
         f"{indent}first = {first}",
         *[f"{indent}colsum[first + U{i}] += h{i}" for i in range(p + 1)],
-        *store,
-        *_row_rotation_lines(p, d, indent),
+        f"{indent}if store:",
+        f"{indent}    spans[j] = span",
+        *[f"{indent}    basis[j, {i}] = h{i}" for i in range(p + 1)],
+        *rotation,
     ]
 
 
@@ -407,40 +434,48 @@ def render_window(p: int, d: int) -> str:
         "    col0 = np.uint64(col0)",
         "    sse = 0.0",
         "    for j in range(j0, j1):",
-        *_row_lines(p, d, ind, f"span - U{p} - col0", guarded=True),
+        *_row_lines(p, d, ind, f"span - U{p} - col0"),
         "    return sse, span",
     ]
     return "\n".join(lines) + "\n"
 
 
-def render_sweep(p: int, d: int) -> str:
-    """Source of ``sweep_p{p}_d{d}``: a whole sweep with its saved states."""
+def render_sweep(p: int, d: int, wrap: bool = False) -> str:
+    """Source of ``sweep_p{p}_d{d}`` (a whole sweep with its saved states) or, with ``wrap``,
+    ``frame_p{p}_d{d}`` (the same over a closed frame's rows that touch its band only, the
+    wrap-around columns carried along: :func:`_row_lines`)."""
     ind = " " * 12
-    width = 1 + p + d
+    width = 1 + p + d + (p if wrap else 0)
     lines = [
         "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
-        f"def sweep_p{p}_d{d}(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,",
-        "                   basis, spans):",
-        f'    """Rotate every data row into the flat factor ``st`` (degree {p}, dimension',
-        f"    {d}), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save",
-        "    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual",
-        "    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved",
-        "    after the last step. Stores every row's basis values and span.",
+        f"def {'frame' if wrap else 'sweep'}_p{p}_d{d}(u, q, t, iv, span, last, bounds, blocks,",
+        "                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):",
+        f'    """Rotate data rows into the flat factor ``st`` (degree {p}, dimension {d}; spans',
+        "    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..",
+        "    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in",
+        "    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums",
+        "    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not",
+        "    empty, stores every row's basis values and span. Returns the residual.",
+        *(["    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the",
+           "    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the",
+           "    wrap triangle ``tri`` is saved with the states (``T[s]``)."] if wrap else []),
         '    """',
+        "    store = basis.shape[0] > 0",
         *[f"    o{j} = np.uint64({j - 1} * t.size)" for j in range(2, p + 1)],
         "    steps = bounds.size - 1",
+        "    span = np.uint64(span)",
         "    last = np.uint64(last)",
-        "    sse = 0.0",
-        f"    span = U{p}",
         "    for s in range(steps + 1):",
         "        b = blocks[s]",
         f"        S[s, :] = st[b * {width} : (b + {p}) * {width}]",
+        *([f"        T[s, :] = tri[:{p * (1 + p + d)}]"] if wrap else []),
         "        Ssse[s] = sse",
         *[f"        Scol[s, {a}] = colsum[b + {a}]" for a in range(p)],
         "        if s == steps:",
         "            break",
         "        for j in range(bounds[s], bounds[s + 1]):",
-        *_row_lines(p, d, ind, f"span - U{p}", guarded=False),
+        *_row_lines(p, d, ind, f"span - U{p}", wrap),
+        "    return sse",
     ]
     return "\n".join(lines) + "\n"
 
@@ -480,91 +515,11 @@ def render_absorb(p: int, d: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _triangle_lines(p: int, d: int, indent: str) -> list[str]:
-    """Rotate what the band left of a row of a closed frame (its entries ``y0..y{p-1}`` in the
-    wrap-around columns, right-hand side ``y{p}..``) into the wrap triangle ``tri`` (``p``
-    columns of ``1 + p + d`` entries, the layout of ``_kernel.rotate_dense``)."""
-    width = 1 + p + d
-    out = []
-    for i in range(p):
-        o = i * width
-        out += [
-            f"{indent}di = tri[{o}]",
-            f"{indent}hd = y{i} * di",
-            f"{indent}bw = big_w + y{i} * hd",
-            f"{indent}inv = 1.0 / bw",
-            f"{indent}cb = big_w * inv",
-            f"{indent}sb = hd * inv",
-            f"{indent}tri[{o}] = di * cb",
-        ]
-        for a in range(1, p - i):
-            out += [
-                f"{indent}ra = tri[{o + a}]",
-                f"{indent}tri[{o + a}] = cb * ra + sb * y{i + a}",
-                f"{indent}y{i + a} = y{i + a} - y{i} * ra",
-            ]
-        for k in range(d):
-            out += [
-                f"{indent}zk = tri[{o + p + 1 + k}]",
-                f"{indent}tri[{o + p + 1 + k}] = cb * zk + sb * y{p + k}",
-                f"{indent}y{p + k} = y{p + k} - y{i} * zk",
-            ]
-        out.append(f"{indent}big_w = bw")
-    return out
-
-
-def render_frame(p: int, d: int) -> str:
-    """Source of ``frame_p{p}_d{d}``: the sweep of a closed curve's frame over its rows that
-    touch band columns only, the wrap-around columns carried as ``p`` more right-hand sides."""
-    ind = " " * 12
-    width = 1 + 2 * p + d
-    tri = p * (1 + p + d)
-    rotation = [*[f"{ind}y{k} = 0.0" for k in range(p)],
-                *[f"{ind}y{p + k} = q[j, {k}]" for k in range(d)], f"{ind}big_w = 1.0"]
-    for i in range(p + 1):
-        rotation += _rotation_lines(p, p + d, i, ind)
-    rotation += _triangle_lines(p, d, ind)
-    left_over = " + ".join(f"y{p + k} * y{p + k}" for k in range(d))
-    rotation.append(f"{ind}sse += ({left_over}) / big_w")
-    lines = [
-        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
-        f"def frame_p{p}_d{d}(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,",
-        "                   Scol, colsum, sse):",
-        f'    """The sweep of ``sweep_p{p}_d{d}`` over rows of a closed frame that touch its band',
-        "    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of",
-        f"    ``W = {width}`` entries per column: reciprocal weight, the band's ``p`` entries, the",
-        "    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is",
-        "    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).",
-        "    Returns the residual SSE, from ``sse``.",
-        '    """',
-        *[f"    o{j} = np.uint64({j - 1} * t.size)" for j in range(2, p + 1)],
-        "    steps = bounds.size - 1",
-        "    span = np.uint64(span)",
-        "    last = np.uint64(last)",
-        "    for s in range(steps + 1):",
-        "        b = blocks[s]",
-        f"        S[s, :] = st[b * {width} : (b + {p}) * {width}]",
-        f"        T[s, :] = tri[:{tri}]",
-        "        Ssse[s] = sse",
-        *[f"        Scol[s, {a}] = colsum[b + {a}]" for a in range(p)],
-        "        if s == steps:",
-        "            break",
-        "        for j in range(bounds[s], bounds[s + 1]):",
-        f"{ind}x = u[j]",
-        f"{ind}while t[span + U1] <= x and span < last:",
-        f"{ind}    span += U1",
-        *_basis_lines(p, ind),
-        f"{ind}first = span - U{p}",
-        *[f"{ind}colsum[first + U{i}] += h{i}" for i in range(p + 1)],
-        *rotation,
-        "    return sse",
-    ]
-    return "\n".join(lines) + "\n"
-
-
 def _moves_dispatch(name: str, params: str, doc: str) -> list[str]:
     """``name``: the loop of the right degree and dimension."""
-    lines = ["@njit(cache=True, inline='always')", f"def {name}(p, d, {params}):",
+    lines = ["@njit(cache=True, inline='always')",
+             *textwrap.wrap(f"def {name}(p, d, {params}):", 96,
+                            subsequent_indent=" " * (len(name) + 5)),
              f'    """{doc}"""']
     first = True
     for p in range(1, MAX_DEGREE + 1):
@@ -583,17 +538,17 @@ def render_dispatch() -> str:
     doc = "``{}_p{{p}}_d{{d}}`` for the given degree and dimension."
     window = _moves_dispatch("window", "u, q, t, iv, j0, j1, span, last, col0, st, colsum, "
                              "basis, spans", doc.format("window"))
-    sweep = _moves_dispatch("sweep", "u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, "
-                            "colsum, basis, spans", doc.format("sweep"))
+    params = ("u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol, colsum, "
+              "basis, spans, sse")
+    sweep = _moves_dispatch("sweep", params, doc.format("sweep"))
     absorb = _moves_dispatch("absorb", "st, first, G, c, unreached", doc.format("absorb"))
-    frame = _moves_dispatch("frame", "u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, "
-                            "Ssse, Scol, colsum, sse", doc.format("frame"))
+    frame = _moves_dispatch("frame", params, doc.format("frame"))
     return "\n\n\n".join("\n".join(f) for f in (window, sweep, absorb, frame)) + "\n"
 
 
 def render_moves() -> str:
     """Source of the whole generated module of delta evaluation."""
-    # the offsets of a closed frame's wider rows (render_frame) beyond the kernel's
+    # the offsets of a closed frame's wider rows (render_sweep) beyond the kernel's
     constants = "\n".join(f"U{k} = np.uint64({k})"
                            for k in range(MAX_DEGREE + MAX_DIMENSION + 2,
                                           2 * MAX_DEGREE + MAX_DIMENSION + 2))
@@ -603,7 +558,7 @@ def render_moves() -> str:
             parts.append("\n" + render_window(p, d))
             parts.append("\n" + render_sweep(p, d))
             parts.append("\n" + render_absorb(p, d))
-            parts.append("\n" + render_frame(p, d))
+            parts.append("\n" + render_sweep(p, d, wrap=True))
     parts.append("\n" + render_dispatch())
     return "\n".join(parts)
 

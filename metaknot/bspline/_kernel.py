@@ -502,6 +502,33 @@ def basis_at(t, span, x, p, out, left, right):
         out[j] = saved
 
 
+@njit(cache=True, inline='always')
+def givens(st, o, hc, big_w):
+    """The square-root-free Givens rotation of a row's entry ``hc`` (reciprocal weight
+    ``big_w``) into the column of the flat factor ``st`` at ``o`` (its reciprocal weight
+    ``dinv``, updated): returns ``(cb, sb, bw)``, the rotation and the row's new reciprocal
+    weight; :func:`rotate_entries` applies it to the entries. The rule of the generated loops
+    (:mod:`._codegen`), for the rows they do not take."""
+    di = st[o]
+    hd = hc * di
+    bw = big_w + hc * hd
+    inv = 1.0 / bw
+    cb = big_w * inv
+    sb = hd * inv
+    st[o] = di * cb
+    return cb, sb, bw
+
+
+@njit(cache=True, inline='always')
+def rotate_entries(st, o, row, r, count, hc, cb, sb):
+    """Apply a rotation of :func:`givens` to ``count`` entries: the factor's ``st[o:]`` and the
+    row's ``row[r:]``."""
+    for a in range(count):
+        ra = st[o + a]
+        st[o + a] = cb * ra + sb * row[r + a]
+        row[r + a] -= hc * ra
+
+
 @njit(cache=True)
 def rotate_dense(st, far, width, p, d, ncol, row, values, first, band_stop, big_w):
     """Rotate one row into a factor of ``ncol`` columns whose last ``p`` are wrap-around
@@ -545,26 +572,12 @@ def rotate_dense(st, far, width, p, d, ncol, row, values, first, band_stop, big_
                 st[o + p + 1 + c] = values[c] * inv
             row[col] = 0.0
             return 0.0
-        hd = hc * di
-        bw = big_w + hc * hd
-        inv = 1.0 / bw
-        cb = big_w * inv
-        sb = hd * inv
-        st[o] = di * cb
-        for a in range(1, min(p, ncol - 1 - col) + 1):
-            ra = st[o + a]
-            st[o + a] = cb * ra + sb * row[col + a]
-            row[col + a] -= hc * ra
-        for k in range(max(0, col + 2 * p + 1 - ncol), p):  # columns beyond the band
-            ra = far[col, k]
-            far[col, k] = cb * ra + sb * row[wrap0 + k]
-            row[wrap0 + k] -= hc * ra
-        for c in range(d):
-            zk = st[o + p + 1 + c]
-            st[o + p + 1 + c] = cb * zk + sb * values[c]
-            values[c] -= hc * zk
+        cb, sb, big_w = givens(st, o, hc, big_w)
+        rotate_entries(st, o + 1, row, col + 1, min(p, ncol - 1 - col), hc, cb, sb)
+        beyond = max(0, col + 2 * p + 1 - ncol)  # the wrap-around columns beyond the band
+        rotate_entries(far[col], beyond, row, wrap0 + beyond, p - beyond, hc, cb, sb)
+        rotate_entries(st, o + p + 1, values, 0, d, hc, cb, sb)
         row[col] = 0.0
-        big_w = bw
         col += 1
     left_over = 0.0
     for c in range(d):

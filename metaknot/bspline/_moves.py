@@ -55,9 +55,11 @@ from ._kernel import (
     closed_workspaces,
     deviation_from_basis,
     extended_knots,
+    givens,
     periodic_distance2,
     repeated_beyond,
     rotate_dense,
+    rotate_entries,
     solve_closed_into,
 )
 from ._moves_rows import EMPTY, FASTMATH, absorb, frame, sweep, window
@@ -77,8 +79,10 @@ CERTIFY = 0.5
 # A column whose reciprocal weight is still above this was reached by no row (see EMPTY).
 UNREACHED = EMPTY * 1e-10
 
-# The wrap-around entries of an open factor: none.
+# The wrap-around entries of an open factor: none; nor a wrap triangle, nor its states.
 NO_FAR = np.zeros((0, 1))
+NO_TRIANGLE = np.zeros(0)
+NO_TRIANGLES = np.zeros((0, 0))
 
 
 @njit(cache=True, inline='always')
@@ -520,8 +524,8 @@ def bind(u, q, u_mirror, q_mirror, t, p):
     st_f = np.empty(n * w)
     empty_state(st_f, n, w)
     column_sums = np.zeros(n)
-    sweep(p, d, u, q, t, iv, n - 1, row_start[p:], blocks, st_f, F[p:], Fsse[p:], Fcol[p:],
-          column_sums, basis, spans)
+    sweep(p, d, u, q, t, iv, p, n - 1, row_start[p:], blocks, st_f, NO_TRIANGLE, F[p:],
+          NO_TRIANGLES, Fsse[p:], Fcol[p:], column_sums, basis, spans, 0.0)
     # the backward sweep: the same loop on the mirrored problem (column c is the mirror's
     # n - 1 - c); state c, after the rows j >= row_start[c], is saved at step n - c, its
     # columns c - 1 .. c - p being the mirror's n - c .. n - c + p - 1
@@ -538,8 +542,9 @@ def bind(u, q, u_mirror, q_mirror, t, p):
     mirror_col = np.empty((steps, p))
     st_m = np.empty(n * w)
     empty_state(st_m, n, w)
-    sweep(p, d, u_mirror, q_mirror, t_mirror, iv_mirror, n - 1, bounds, blocks, st_m, states,
-          sse, mirror_col, np.zeros(n), np.empty((m, p + 1)), np.empty(m, dtype=np.int64))
+    sweep(p, d, u_mirror, q_mirror, t_mirror, iv_mirror, p, n - 1, bounds, blocks, st_m,
+          NO_TRIANGLE, states, NO_TRIANGLES, sse, mirror_col, np.zeros(n), basis[:0], spans[:0],
+          0.0)
     G = np.empty((n + 1, p * w))
     Gsse = np.empty(n + 1)
     Gcol = np.empty((n + 1, p))
@@ -668,47 +673,18 @@ def _rotate_wide(ext, tri, p, d, nb, row, values, first, big_w):
     for col in range(first, min(first + p + 1, nb)):
         hc = row[col]
         o = col * wide
-        di = ext[o]
-        hd = hc * di
-        bw = big_w + hc * hd
-        inv = 1.0 / bw
-        cb = big_w * inv
-        sb = hd * inv
-        ext[o] = di * cb
-        for a in range(1, min(p, nb - 1 - col) + 1):
-            ra = ext[o + a]
-            ext[o + a] = cb * ra + sb * row[col + a]
-            row[col + a] -= hc * ra
-        for k in range(p):
-            ra = ext[o + 1 + p + k]
-            ext[o + 1 + p + k] = cb * ra + sb * row[nb + k]
-            row[nb + k] -= hc * ra
-        for c in range(d):
-            zk = ext[o + 1 + 2 * p + c]
-            ext[o + 1 + 2 * p + c] = cb * zk + sb * values[c]
-            values[c] -= hc * zk
+        cb, sb, big_w = givens(ext, o, hc, big_w)
+        rotate_entries(ext, o + 1, row, col + 1, min(p, nb - 1 - col), hc, cb, sb)
+        rotate_entries(ext, o + 1 + p, row, nb, p, hc, cb, sb)
+        rotate_entries(ext, o + 1 + 2 * p, values, 0, d, hc, cb, sb)
         row[col] = 0.0
-        big_w = bw
     for i in range(p):
         hc = row[nb + i]
         o = i * width
-        di = tri[o]
-        hd = hc * di
-        bw = big_w + hc * hd
-        inv = 1.0 / bw
-        cb = big_w * inv
-        sb = hd * inv
-        tri[o] = di * cb
-        for a in range(1, p - i):
-            ra = tri[o + a]
-            tri[o + a] = cb * ra + sb * row[nb + i + a]
-            row[nb + i + a] -= hc * ra
-        for c in range(d):
-            zk = tri[o + p + 1 + c]
-            tri[o + p + 1 + c] = cb * zk + sb * values[c]
-            values[c] -= hc * zk
+        cb, sb, big_w = givens(tri, o, hc, big_w)
+        rotate_entries(tri, o + 1, row, nb + i + 1, p - 1 - i, hc, cb, sb)
+        rotate_entries(tri, o + p + 1, values, 0, d, hc, cb, sb)
         row[nb + i] = 0.0
-        big_w = bw
     left_over = 0.0
     for c in range(d):
         left_over += values[c] * values[c]
@@ -813,7 +789,7 @@ def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, st, far, S_st, S_fa
                 sse += _rotate_wide(ext, tri, p, d, nb, row, values, first, 1.0)
         if part == 0:
             sse = frame(p, d, u_f, q_f, t_f, iv, p, nb - 1, bounds, blocks, ext, tri, S, T,
-                        Ssse, Scol, colsum, sse)
+                        Ssse, Scol, colsum, basis[:0], row_start[:0], sse)
     for i in range(steps + 1):  # state i is K = p + i, mirrored K = nb - i
         K = p + i if not mirror else nb - i
         for a in range(p):

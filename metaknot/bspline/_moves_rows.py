@@ -83,18 +83,19 @@ def window_p1_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p1_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 1, dimension
-    1), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p1_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 1, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U1
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 3 : (b + 1) * 3]
@@ -115,9 +116,10 @@ def sweep_p1_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             first = span - U1
             colsum[first + U0] += h0
             colsum[first + U1] += h1
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
             y0 = q[j, 0]
             big_w = 1.0
             o = (first + U0) * U3
@@ -149,6 +151,7 @@ def sweep_p1_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -186,15 +189,19 @@ def absorb_p1_d1(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p1_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p1_d1`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 4`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p1_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 1, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     steps = bounds.size - 1
     span = np.uint64(span)
     last = np.uint64(last)
@@ -219,6 +226,10 @@ def frame_p1_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             first = span - U1
             colsum[first + U0] += h0
             colsum[first + U1] += h1
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
             y0 = 0.0
             y1 = q[j, 0]
             big_w = 1.0
@@ -255,15 +266,16 @@ def frame_p1_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U3] = cb * zk + sb * y1
             y1 = y1 - h1 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            zk = tri[2]
-            tri[2] = cb * zk + sb * y1
+            tri[o] = di * cb
+            zk = tri[o + U2]
+            tri[o + U2] = cb * zk + sb * y1
             y1 = y1 - y0 * zk
             big_w = bw
             sse += (y1 * y1) / big_w
@@ -343,18 +355,19 @@ def window_p1_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p1_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 1, dimension
-    2), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p1_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 1, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U1
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 4 : (b + 1) * 4]
@@ -375,9 +388,10 @@ def sweep_p1_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             first = span - U1
             colsum[first + U0] += h0
             colsum[first + U1] += h1
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
             y0 = q[j, 0]
             y1 = q[j, 1]
             big_w = 1.0
@@ -416,6 +430,7 @@ def sweep_p1_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -457,15 +472,19 @@ def absorb_p1_d2(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p1_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p1_d2`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 5`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p1_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 1, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     steps = bounds.size - 1
     span = np.uint64(span)
     last = np.uint64(last)
@@ -490,6 +509,10 @@ def frame_p1_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             first = span - U1
             colsum[first + U0] += h0
             colsum[first + U1] += h1
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
             y0 = 0.0
             y1 = q[j, 0]
             y2 = q[j, 1]
@@ -533,18 +556,19 @@ def frame_p1_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U4] = cb * zk + sb * y2
             y2 = y2 - h1 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            zk = tri[2]
-            tri[2] = cb * zk + sb * y1
+            tri[o] = di * cb
+            zk = tri[o + U2]
+            tri[o + U2] = cb * zk + sb * y1
             y1 = y1 - y0 * zk
-            zk = tri[3]
-            tri[3] = cb * zk + sb * y2
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y0 * zk
             big_w = bw
             sse += (y1 * y1 + y2 * y2) / big_w
@@ -631,18 +655,19 @@ def window_p1_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p1_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 1, dimension
-    3), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p1_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 1, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U1
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 5 : (b + 1) * 5]
@@ -663,9 +688,10 @@ def sweep_p1_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             first = span - U1
             colsum[first + U0] += h0
             colsum[first + U1] += h1
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
             y0 = q[j, 0]
             y1 = q[j, 1]
             y2 = q[j, 2]
@@ -711,6 +737,7 @@ def sweep_p1_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -756,15 +783,19 @@ def absorb_p1_d3(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p1_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p1_d3`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 6`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p1_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 1, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     steps = bounds.size - 1
     span = np.uint64(span)
     last = np.uint64(last)
@@ -789,6 +820,10 @@ def frame_p1_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             first = span - U1
             colsum[first + U0] += h0
             colsum[first + U1] += h1
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
             y0 = 0.0
             y1 = q[j, 0]
             y2 = q[j, 1]
@@ -839,21 +874,22 @@ def frame_p1_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U5] = cb * zk + sb * y3
             y3 = y3 - h1 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            zk = tri[2]
-            tri[2] = cb * zk + sb * y1
+            tri[o] = di * cb
+            zk = tri[o + U2]
+            tri[o + U2] = cb * zk + sb * y1
             y1 = y1 - y0 * zk
-            zk = tri[3]
-            tri[3] = cb * zk + sb * y2
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y0 * zk
-            zk = tri[4]
-            tri[4] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y0 * zk
             big_w = bw
             sse += (y1 * y1 + y2 * y2 + y3 * y3) / big_w
@@ -956,19 +992,20 @@ def window_p2_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p2_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 2, dimension
-    1), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p2_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 2, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U2
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 4 : (b + 2) * 4]
@@ -1000,10 +1037,11 @@ def sweep_p2_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U0] += h0
             colsum[first + U1] += h1
             colsum[first + U2] += h2
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
             y0 = q[j, 0]
             big_w = 1.0
             o = (first + U0) * U4
@@ -1053,6 +1091,7 @@ def sweep_p2_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -1149,15 +1188,19 @@ def absorb_p2_d1(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p2_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p2_d1`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 6`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p2_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 2, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     steps = bounds.size - 1
     span = np.uint64(span)
@@ -1194,6 +1237,11 @@ def frame_p2_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U0] += h0
             colsum[first + U1] += h1
             colsum[first + U2] += h2
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
             y0 = 0.0
             y1 = 0.0
             y2 = q[j, 0]
@@ -1261,29 +1309,31 @@ def frame_p2_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U5] = cb * zk + sb * y2
             y2 = y2 - h2 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            zk = tri[3]
-            tri[3] = cb * zk + sb * y2
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y0 * zk
             big_w = bw
-            di = tri[4]
+            o = np.uint64(4)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[4] = di * cb
-            zk = tri[7]
-            tri[7] = cb * zk + sb * y2
+            tri[o] = di * cb
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y1 * zk
             big_w = bw
             sse += (y2 * y2) / big_w
@@ -1396,19 +1446,20 @@ def window_p2_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p2_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 2, dimension
-    2), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p2_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 2, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U2
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 5 : (b + 2) * 5]
@@ -1440,10 +1491,11 @@ def sweep_p2_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U0] += h0
             colsum[first + U1] += h1
             colsum[first + U2] += h2
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
             y0 = q[j, 0]
             y1 = q[j, 1]
             big_w = 1.0
@@ -1503,6 +1555,7 @@ def sweep_p2_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -1613,15 +1666,19 @@ def absorb_p2_d2(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p2_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p2_d2`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 7`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p2_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 2, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     steps = bounds.size - 1
     span = np.uint64(span)
@@ -1658,6 +1715,11 @@ def frame_p2_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U0] += h0
             colsum[first + U1] += h1
             colsum[first + U2] += h2
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
             y0 = 0.0
             y1 = 0.0
             y2 = q[j, 0]
@@ -1735,35 +1797,37 @@ def frame_p2_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U6] = cb * zk + sb * y3
             y3 = y3 - h2 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            zk = tri[3]
-            tri[3] = cb * zk + sb * y2
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y0 * zk
-            zk = tri[4]
-            tri[4] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y0 * zk
             big_w = bw
-            di = tri[5]
+            o = np.uint64(5)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[5] = di * cb
-            zk = tri[8]
-            tri[8] = cb * zk + sb * y2
+            tri[o] = di * cb
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y1 * zk
-            zk = tri[9]
-            tri[9] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y1 * zk
             big_w = bw
             sse += (y2 * y2 + y3 * y3) / big_w
@@ -1886,19 +1950,20 @@ def window_p2_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p2_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 2, dimension
-    3), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p2_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 2, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U2
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 6 : (b + 2) * 6]
@@ -1930,10 +1995,11 @@ def sweep_p2_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U0] += h0
             colsum[first + U1] += h1
             colsum[first + U2] += h2
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
             y0 = q[j, 0]
             y1 = q[j, 1]
             y2 = q[j, 2]
@@ -2003,6 +2069,7 @@ def sweep_p2_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -2127,15 +2194,19 @@ def absorb_p2_d3(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p2_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p2_d3`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 8`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p2_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 2, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     steps = bounds.size - 1
     span = np.uint64(span)
@@ -2172,6 +2243,11 @@ def frame_p2_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U0] += h0
             colsum[first + U1] += h1
             colsum[first + U2] += h2
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
             y0 = 0.0
             y1 = 0.0
             y2 = q[j, 0]
@@ -2259,41 +2335,43 @@ def frame_p2_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U7] = cb * zk + sb * y4
             y4 = y4 - h2 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            zk = tri[3]
-            tri[3] = cb * zk + sb * y2
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y0 * zk
-            zk = tri[4]
-            tri[4] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y0 * zk
-            zk = tri[5]
-            tri[5] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y0 * zk
             big_w = bw
-            di = tri[6]
+            o = np.uint64(6)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[6] = di * cb
-            zk = tri[9]
-            tri[9] = cb * zk + sb * y2
+            tri[o] = di * cb
+            zk = tri[o + U3]
+            tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y1 * zk
-            zk = tri[10]
-            tri[10] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y1 * zk
-            zk = tri[11]
-            tri[11] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y1 * zk
             big_w = bw
             sse += (y2 * y2 + y3 * y3 + y4 * y4) / big_w
@@ -2432,20 +2510,21 @@ def window_p3_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p3_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 3, dimension
-    1), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p3_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 3, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U3
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 5 : (b + 3) * 5]
@@ -2491,11 +2570,12 @@ def sweep_p3_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U1] += h1
             colsum[first + U2] += h2
             colsum[first + U3] += h3
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
             y0 = q[j, 0]
             big_w = 1.0
             o = (first + U0) * U5
@@ -2566,6 +2646,7 @@ def sweep_p3_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -2768,15 +2849,19 @@ def absorb_p3_d1(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p3_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p3_d1`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 8`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p3_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 3, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     steps = bounds.size - 1
@@ -2828,6 +2913,12 @@ def frame_p3_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U1] += h1
             colsum[first + U2] += h2
             colsum[first + U3] += h3
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -2935,46 +3026,49 @@ def frame_p3_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U7] = cb * zk + sb * y3
             y3 = y3 - h3 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            zk = tri[4]
-            tri[4] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y0 * zk
             big_w = bw
-            di = tri[5]
+            o = np.uint64(5)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[5] = di * cb
-            ra = tri[6]
-            tri[6] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            zk = tri[9]
-            tri[9] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y1 * zk
             big_w = bw
-            di = tri[10]
+            o = np.uint64(10)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[10] = di * cb
-            zk = tri[14]
-            tri[14] = cb * zk + sb * y3
+            tri[o] = di * cb
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y2 * zk
             big_w = bw
             sse += (y3 * y3) / big_w
@@ -3126,20 +3220,21 @@ def window_p3_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p3_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 3, dimension
-    2), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p3_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 3, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U3
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 6 : (b + 3) * 6]
@@ -3185,11 +3280,12 @@ def sweep_p3_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U1] += h1
             colsum[first + U2] += h2
             colsum[first + U3] += h3
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
             y0 = q[j, 0]
             y1 = q[j, 1]
             big_w = 1.0
@@ -3273,6 +3369,7 @@ def sweep_p3_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -3505,15 +3602,19 @@ def absorb_p3_d2(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p3_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p3_d2`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 9`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p3_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 3, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     steps = bounds.size - 1
@@ -3565,6 +3666,12 @@ def frame_p3_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U1] += h1
             colsum[first + U2] += h2
             colsum[first + U3] += h3
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -3685,55 +3792,58 @@ def frame_p3_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U8] = cb * zk + sb * y4
             y4 = y4 - h3 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            zk = tri[4]
-            tri[4] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y0 * zk
-            zk = tri[5]
-            tri[5] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y0 * zk
             big_w = bw
-            di = tri[6]
+            o = np.uint64(6)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[6] = di * cb
-            ra = tri[7]
-            tri[7] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            zk = tri[10]
-            tri[10] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y1 * zk
-            zk = tri[11]
-            tri[11] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y1 * zk
             big_w = bw
-            di = tri[12]
+            o = np.uint64(12)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[12] = di * cb
-            zk = tri[16]
-            tri[16] = cb * zk + sb * y3
+            tri[o] = di * cb
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y2 * zk
-            zk = tri[17]
-            tri[17] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y2 * zk
             big_w = bw
             sse += (y3 * y3 + y4 * y4) / big_w
@@ -3898,20 +4008,21 @@ def window_p3_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p3_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 3, dimension
-    3), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p3_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 3, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U3
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 7 : (b + 3) * 7]
@@ -3957,11 +4068,12 @@ def sweep_p3_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U1] += h1
             colsum[first + U2] += h2
             colsum[first + U3] += h3
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
             y0 = q[j, 0]
             y1 = q[j, 1]
             y2 = q[j, 2]
@@ -4058,6 +4170,7 @@ def sweep_p3_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -4320,15 +4433,19 @@ def absorb_p3_d3(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p3_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p3_d3`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 10`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p3_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 3, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     steps = bounds.size - 1
@@ -4380,6 +4497,12 @@ def frame_p3_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U1] += h1
             colsum[first + U2] += h2
             colsum[first + U3] += h3
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -4513,64 +4636,67 @@ def frame_p3_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U9] = cb * zk + sb * y5
             y5 = y5 - h3 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            zk = tri[4]
-            tri[4] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y0 * zk
-            zk = tri[5]
-            tri[5] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y0 * zk
-            zk = tri[6]
-            tri[6] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y0 * zk
             big_w = bw
-            di = tri[7]
+            o = np.uint64(7)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[7] = di * cb
-            ra = tri[8]
-            tri[8] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            zk = tri[11]
-            tri[11] = cb * zk + sb * y3
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y1 * zk
-            zk = tri[12]
-            tri[12] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y1 * zk
-            zk = tri[13]
-            tri[13] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y1 * zk
             big_w = bw
-            di = tri[14]
+            o = np.uint64(14)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[14] = di * cb
-            zk = tri[18]
-            tri[18] = cb * zk + sb * y3
+            tri[o] = di * cb
+            zk = tri[o + U4]
+            tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y2 * zk
-            zk = tri[19]
-            tri[19] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y2 * zk
-            zk = tri[20]
-            tri[20] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y2 * zk
             big_w = bw
             sse += (y3 * y3 + y4 * y4 + y5 * y5) / big_w
@@ -4751,21 +4877,22 @@ def window_p4_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p4_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 4, dimension
-    1), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p4_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 4, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U4
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 6 : (b + 4) * 6]
@@ -4828,12 +4955,13 @@ def sweep_p4_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U2] += h2
             colsum[first + U3] += h3
             colsum[first + U4] += h4
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
-            basis[j, 4] = h4
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
             y0 = q[j, 0]
             big_w = 1.0
             o = (first + U0) * U6
@@ -4928,6 +5056,7 @@ def sweep_p4_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -5292,15 +5421,19 @@ def absorb_p4_d1(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p4_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p4_d1`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 10`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p4_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 4, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
@@ -5370,6 +5503,13 @@ def frame_p4_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U2] += h2
             colsum[first + U3] += h3
             colsum[first + U4] += h4
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -5526,66 +5666,70 @@ def frame_p4_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U9] = cb * zk + sb * y4
             y4 = y4 - h4 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            ra = tri[3]
-            tri[3] = cb * ra + sb * y3
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y3
             y3 = y3 - y0 * ra
-            zk = tri[5]
-            tri[5] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y0 * zk
             big_w = bw
-            di = tri[6]
+            o = np.uint64(6)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[6] = di * cb
-            ra = tri[7]
-            tri[7] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            ra = tri[8]
-            tri[8] = cb * ra + sb * y3
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y3
             y3 = y3 - y1 * ra
-            zk = tri[11]
-            tri[11] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y1 * zk
             big_w = bw
-            di = tri[12]
+            o = np.uint64(12)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[12] = di * cb
-            ra = tri[13]
-            tri[13] = cb * ra + sb * y3
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y3
             y3 = y3 - y2 * ra
-            zk = tri[17]
-            tri[17] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y2 * zk
             big_w = bw
-            di = tri[18]
+            o = np.uint64(18)
+            di = tri[o]
             hd = y3 * di
             bw = big_w + y3 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[18] = di * cb
-            zk = tri[23]
-            tri[23] = cb * zk + sb * y4
+            tri[o] = di * cb
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y3 * zk
             big_w = bw
             sse += (y4 * y4) / big_w
@@ -5782,21 +5926,22 @@ def window_p4_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p4_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 4, dimension
-    2), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p4_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 4, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U4
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 7 : (b + 4) * 7]
@@ -5859,12 +6004,13 @@ def sweep_p4_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U2] += h2
             colsum[first + U3] += h3
             colsum[first + U4] += h4
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
-            basis[j, 4] = h4
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
             y0 = q[j, 0]
             y1 = q[j, 1]
             big_w = 1.0
@@ -5975,6 +6121,7 @@ def sweep_p4_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -6391,15 +6538,19 @@ def absorb_p4_d2(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p4_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p4_d2`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 11`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p4_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 4, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
@@ -6469,6 +6620,13 @@ def frame_p4_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U2] += h2
             colsum[first + U3] += h3
             colsum[first + U4] += h4
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -6641,78 +6799,82 @@ def frame_p4_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U10] = cb * zk + sb * y5
             y5 = y5 - h4 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            ra = tri[3]
-            tri[3] = cb * ra + sb * y3
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y3
             y3 = y3 - y0 * ra
-            zk = tri[5]
-            tri[5] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y0 * zk
-            zk = tri[6]
-            tri[6] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y0 * zk
             big_w = bw
-            di = tri[7]
+            o = np.uint64(7)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[7] = di * cb
-            ra = tri[8]
-            tri[8] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            ra = tri[9]
-            tri[9] = cb * ra + sb * y3
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y3
             y3 = y3 - y1 * ra
-            zk = tri[12]
-            tri[12] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y1 * zk
-            zk = tri[13]
-            tri[13] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y1 * zk
             big_w = bw
-            di = tri[14]
+            o = np.uint64(14)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[14] = di * cb
-            ra = tri[15]
-            tri[15] = cb * ra + sb * y3
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y3
             y3 = y3 - y2 * ra
-            zk = tri[19]
-            tri[19] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y2 * zk
-            zk = tri[20]
-            tri[20] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y2 * zk
             big_w = bw
-            di = tri[21]
+            o = np.uint64(21)
+            di = tri[o]
             hd = y3 * di
             bw = big_w + y3 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[21] = di * cb
-            zk = tri[26]
-            tri[26] = cb * zk + sb * y4
+            tri[o] = di * cb
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y3 * zk
-            zk = tri[27]
-            tri[27] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y3 * zk
             big_w = bw
             sse += (y4 * y4 + y5 * y5) / big_w
@@ -6925,21 +7087,22 @@ def window_p4_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p4_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 4, dimension
-    3), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p4_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 4, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U4
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 8 : (b + 4) * 8]
@@ -7002,12 +7165,13 @@ def sweep_p4_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U2] += h2
             colsum[first + U3] += h3
             colsum[first + U4] += h4
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
-            basis[j, 4] = h4
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
             y0 = q[j, 0]
             y1 = q[j, 1]
             y2 = q[j, 2]
@@ -7134,6 +7298,7 @@ def sweep_p4_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -7602,15 +7767,19 @@ def absorb_p4_d3(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p4_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p4_d3`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 12`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p4_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 4, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
@@ -7680,6 +7849,13 @@ def frame_p4_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U2] += h2
             colsum[first + U3] += h3
             colsum[first + U4] += h4
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -7868,90 +8044,94 @@ def frame_p4_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U11] = cb * zk + sb * y6
             y6 = y6 - h4 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            ra = tri[3]
-            tri[3] = cb * ra + sb * y3
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y3
             y3 = y3 - y0 * ra
-            zk = tri[5]
-            tri[5] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y0 * zk
-            zk = tri[6]
-            tri[6] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y0 * zk
-            zk = tri[7]
-            tri[7] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y0 * zk
             big_w = bw
-            di = tri[8]
+            o = np.uint64(8)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[8] = di * cb
-            ra = tri[9]
-            tri[9] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            ra = tri[10]
-            tri[10] = cb * ra + sb * y3
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y3
             y3 = y3 - y1 * ra
-            zk = tri[13]
-            tri[13] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y1 * zk
-            zk = tri[14]
-            tri[14] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y1 * zk
-            zk = tri[15]
-            tri[15] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y1 * zk
             big_w = bw
-            di = tri[16]
+            o = np.uint64(16)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[16] = di * cb
-            ra = tri[17]
-            tri[17] = cb * ra + sb * y3
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y3
             y3 = y3 - y2 * ra
-            zk = tri[21]
-            tri[21] = cb * zk + sb * y4
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y2 * zk
-            zk = tri[22]
-            tri[22] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y2 * zk
-            zk = tri[23]
-            tri[23] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y2 * zk
             big_w = bw
-            di = tri[24]
+            o = np.uint64(24)
+            di = tri[o]
             hd = y3 * di
             bw = big_w + y3 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[24] = di * cb
-            zk = tri[29]
-            tri[29] = cb * zk + sb * y4
+            tri[o] = di * cb
+            zk = tri[o + U5]
+            tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y3 * zk
-            zk = tri[30]
-            tri[30] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y3 * zk
-            zk = tri[31]
-            tri[31] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y3 * zk
             big_w = bw
             sse += (y4 * y4 + y5 * y5 + y6 * y6) / big_w
@@ -8180,22 +8360,23 @@ def window_p5_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p5_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 5, dimension
-    1), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p5_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 5, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
     o5 = np.uint64(4 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U5
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 7 : (b + 5) * 7]
@@ -8278,13 +8459,14 @@ def sweep_p5_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U3] += h3
             colsum[first + U4] += h4
             colsum[first + U5] += h5
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
-            basis[j, 4] = h4
-            basis[j, 5] = h5
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
+                basis[j, 5] = h5
             y0 = q[j, 0]
             big_w = 1.0
             o = (first + U0) * U7
@@ -8406,6 +8588,7 @@ def sweep_p5_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -8997,15 +9180,19 @@ def absorb_p5_d1(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p5_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p5_d1`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 12`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p5_d1(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 5, dimension 1; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
@@ -9096,6 +9283,14 @@ def frame_p5_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U3] += h3
             colsum[first + U4] += h4
             colsum[first + U5] += h5
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
+                basis[j, 5] = h5
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -9310,89 +9505,94 @@ def frame_p5_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U11] = cb * zk + sb * y5
             y5 = y5 - h5 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            ra = tri[3]
-            tri[3] = cb * ra + sb * y3
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y3
             y3 = y3 - y0 * ra
-            ra = tri[4]
-            tri[4] = cb * ra + sb * y4
+            ra = tri[o + U4]
+            tri[o + U4] = cb * ra + sb * y4
             y4 = y4 - y0 * ra
-            zk = tri[6]
-            tri[6] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y0 * zk
             big_w = bw
-            di = tri[7]
+            o = np.uint64(7)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[7] = di * cb
-            ra = tri[8]
-            tri[8] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            ra = tri[9]
-            tri[9] = cb * ra + sb * y3
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y3
             y3 = y3 - y1 * ra
-            ra = tri[10]
-            tri[10] = cb * ra + sb * y4
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y4
             y4 = y4 - y1 * ra
-            zk = tri[13]
-            tri[13] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y1 * zk
             big_w = bw
-            di = tri[14]
+            o = np.uint64(14)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[14] = di * cb
-            ra = tri[15]
-            tri[15] = cb * ra + sb * y3
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y3
             y3 = y3 - y2 * ra
-            ra = tri[16]
-            tri[16] = cb * ra + sb * y4
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y4
             y4 = y4 - y2 * ra
-            zk = tri[20]
-            tri[20] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y2 * zk
             big_w = bw
-            di = tri[21]
+            o = np.uint64(21)
+            di = tri[o]
             hd = y3 * di
             bw = big_w + y3 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[21] = di * cb
-            ra = tri[22]
-            tri[22] = cb * ra + sb * y4
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y4
             y4 = y4 - y3 * ra
-            zk = tri[27]
-            tri[27] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y3 * zk
             big_w = bw
-            di = tri[28]
+            o = np.uint64(28)
+            di = tri[o]
             hd = y4 * di
             bw = big_w + y4 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[28] = di * cb
-            zk = tri[34]
-            tri[34] = cb * zk + sb * y5
+            tri[o] = di * cb
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y4 * zk
             big_w = bw
             sse += (y5 * y5) / big_w
@@ -9640,22 +9840,23 @@ def window_p5_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p5_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 5, dimension
-    2), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p5_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 5, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
     o5 = np.uint64(4 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U5
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 8 : (b + 5) * 8]
@@ -9738,13 +9939,14 @@ def sweep_p5_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U3] += h3
             colsum[first + U4] += h4
             colsum[first + U5] += h5
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
-            basis[j, 4] = h4
-            basis[j, 5] = h5
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
+                basis[j, 5] = h5
             y0 = q[j, 0]
             y1 = q[j, 1]
             big_w = 1.0
@@ -9885,6 +10087,7 @@ def sweep_p5_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -10556,15 +10759,19 @@ def absorb_p5_d2(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p5_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p5_d2`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 13`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p5_d2(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 5, dimension 2; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
@@ -10655,6 +10862,14 @@ def frame_p5_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U3] += h3
             colsum[first + U4] += h4
             colsum[first + U5] += h5
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
+                basis[j, 5] = h5
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -10888,104 +11103,109 @@ def frame_p5_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U12] = cb * zk + sb * y6
             y6 = y6 - h5 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            ra = tri[3]
-            tri[3] = cb * ra + sb * y3
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y3
             y3 = y3 - y0 * ra
-            ra = tri[4]
-            tri[4] = cb * ra + sb * y4
+            ra = tri[o + U4]
+            tri[o + U4] = cb * ra + sb * y4
             y4 = y4 - y0 * ra
-            zk = tri[6]
-            tri[6] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y0 * zk
-            zk = tri[7]
-            tri[7] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y0 * zk
             big_w = bw
-            di = tri[8]
+            o = np.uint64(8)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[8] = di * cb
-            ra = tri[9]
-            tri[9] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            ra = tri[10]
-            tri[10] = cb * ra + sb * y3
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y3
             y3 = y3 - y1 * ra
-            ra = tri[11]
-            tri[11] = cb * ra + sb * y4
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y4
             y4 = y4 - y1 * ra
-            zk = tri[14]
-            tri[14] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y1 * zk
-            zk = tri[15]
-            tri[15] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y1 * zk
             big_w = bw
-            di = tri[16]
+            o = np.uint64(16)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[16] = di * cb
-            ra = tri[17]
-            tri[17] = cb * ra + sb * y3
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y3
             y3 = y3 - y2 * ra
-            ra = tri[18]
-            tri[18] = cb * ra + sb * y4
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y4
             y4 = y4 - y2 * ra
-            zk = tri[22]
-            tri[22] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y2 * zk
-            zk = tri[23]
-            tri[23] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y2 * zk
             big_w = bw
-            di = tri[24]
+            o = np.uint64(24)
+            di = tri[o]
             hd = y3 * di
             bw = big_w + y3 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[24] = di * cb
-            ra = tri[25]
-            tri[25] = cb * ra + sb * y4
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y4
             y4 = y4 - y3 * ra
-            zk = tri[30]
-            tri[30] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y3 * zk
-            zk = tri[31]
-            tri[31] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y3 * zk
             big_w = bw
-            di = tri[32]
+            o = np.uint64(32)
+            di = tri[o]
             hd = y4 * di
             bw = big_w + y4 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[32] = di * cb
-            zk = tri[38]
-            tri[38] = cb * zk + sb * y5
+            tri[o] = di * cb
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y4 * zk
-            zk = tri[39]
-            tri[39] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y4 * zk
             big_w = bw
             sse += (y5 * y5 + y6 * y6) / big_w
@@ -11252,22 +11472,23 @@ def window_p5_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def sweep_p5_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
-                   basis, spans):
-    """Rotate every data row into the flat factor ``st`` (degree 5, dimension
-    3), in steps: before step ``s`` (rows ``bounds[s]..bounds[s + 1] - 1``), save
-    the factor's columns ``blocks[s] ..`` (``p`` of them) in ``S[s]``, the residual
-    so far in ``Ssse[s]`` and those columns' sums in ``Scol[s]``; a last state is saved
-    after the last step. Stores every row's basis values and span.
+def sweep_p5_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 5, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
     o5 = np.uint64(4 * t.size)
     steps = bounds.size - 1
+    span = np.uint64(span)
     last = np.uint64(last)
-    sse = 0.0
-    span = U5
     for s in range(steps + 1):
         b = blocks[s]
         S[s, :] = st[b * 9 : (b + 5) * 9]
@@ -11350,13 +11571,14 @@ def sweep_p5_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             colsum[first + U3] += h3
             colsum[first + U4] += h4
             colsum[first + U5] += h5
-            spans[j] = span
-            basis[j, 0] = h0
-            basis[j, 1] = h1
-            basis[j, 2] = h2
-            basis[j, 3] = h3
-            basis[j, 4] = h4
-            basis[j, 5] = h5
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
+                basis[j, 5] = h5
             y0 = q[j, 0]
             y1 = q[j, 1]
             y2 = q[j, 2]
@@ -11516,6 +11738,7 @@ def sweep_p5_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum,
             big_w = bw
             # what the rotations leave of the row, with its weight, is its residual
             sse += (y0 * y0 + y1 * y1 + y2 * y2) / big_w
+    return sse
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
@@ -12267,15 +12490,19 @@ def absorb_p5_d3(st, first, G, c, unreached):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model='numpy')
-def frame_p5_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
-                   Scol, colsum, sse):
-    """The sweep of ``sweep_p5_d3`` over rows of a closed frame that touch its band
-    columns only (spans from ``span`` to ``last``), into the flat factor ``st`` of
-    ``W = 14`` entries per column: reciprocal weight, the band's ``p`` entries, the
-    ``p`` wrap-around entries, the right-hand sides. What the band leaves of a row is
-    rotated into the wrap triangle ``tri``; it is saved with the states (``T[s]``).
-    Returns the residual SSE, from ``sse``.
+def frame_p5_d3(u, q, t, iv, span, last, bounds, blocks,
+                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
+    """Rotate data rows into the flat factor ``st`` (degree 5, dimension 3; spans
+    from ``span`` up to ``last``), in steps: before step ``s`` (rows ``bounds[s]..
+    bounds[s + 1] - 1``), save the factor's columns ``blocks[s] ..`` (``p`` of them) in
+    ``S[s]``, the residual so far (from ``sse``) in ``Ssse[s]`` and those columns' sums
+    in ``Scol[s]``; a last state is saved after the last step. If ``basis`` is not
+    empty, stores every row's basis values and span. Returns the residual.
+    The factor has ``W = 1 + 2p + d`` entries per column: reciprocal weight, the
+    band's ``p`` entries, the ``p`` wrap-around entries, the right-hand sides; the
+    wrap triangle ``tri`` is saved with the states (``T[s]``).
     """
+    store = basis.shape[0] > 0
     o2 = np.uint64(1 * t.size)
     o3 = np.uint64(2 * t.size)
     o4 = np.uint64(3 * t.size)
@@ -12366,6 +12593,14 @@ def frame_p5_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             colsum[first + U3] += h3
             colsum[first + U4] += h4
             colsum[first + U5] += h5
+            if store:
+                spans[j] = span
+                basis[j, 0] = h0
+                basis[j, 1] = h1
+                basis[j, 2] = h2
+                basis[j, 3] = h3
+                basis[j, 4] = h4
+                basis[j, 5] = h5
             y0 = 0.0
             y1 = 0.0
             y2 = 0.0
@@ -12618,119 +12853,124 @@ def frame_p5_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse,
             st[o + U13] = cb * zk + sb * y7
             y7 = y7 - h5 * zk
             big_w = bw
-            di = tri[0]
+            o = np.uint64(0)
+            di = tri[o]
             hd = y0 * di
             bw = big_w + y0 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[0] = di * cb
-            ra = tri[1]
-            tri[1] = cb * ra + sb * y1
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y1
             y1 = y1 - y0 * ra
-            ra = tri[2]
-            tri[2] = cb * ra + sb * y2
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y2
             y2 = y2 - y0 * ra
-            ra = tri[3]
-            tri[3] = cb * ra + sb * y3
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y3
             y3 = y3 - y0 * ra
-            ra = tri[4]
-            tri[4] = cb * ra + sb * y4
+            ra = tri[o + U4]
+            tri[o + U4] = cb * ra + sb * y4
             y4 = y4 - y0 * ra
-            zk = tri[6]
-            tri[6] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y0 * zk
-            zk = tri[7]
-            tri[7] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y0 * zk
-            zk = tri[8]
-            tri[8] = cb * zk + sb * y7
+            zk = tri[o + U8]
+            tri[o + U8] = cb * zk + sb * y7
             y7 = y7 - y0 * zk
             big_w = bw
-            di = tri[9]
+            o = np.uint64(9)
+            di = tri[o]
             hd = y1 * di
             bw = big_w + y1 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[9] = di * cb
-            ra = tri[10]
-            tri[10] = cb * ra + sb * y2
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y2
             y2 = y2 - y1 * ra
-            ra = tri[11]
-            tri[11] = cb * ra + sb * y3
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y3
             y3 = y3 - y1 * ra
-            ra = tri[12]
-            tri[12] = cb * ra + sb * y4
+            ra = tri[o + U3]
+            tri[o + U3] = cb * ra + sb * y4
             y4 = y4 - y1 * ra
-            zk = tri[15]
-            tri[15] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y1 * zk
-            zk = tri[16]
-            tri[16] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y1 * zk
-            zk = tri[17]
-            tri[17] = cb * zk + sb * y7
+            zk = tri[o + U8]
+            tri[o + U8] = cb * zk + sb * y7
             y7 = y7 - y1 * zk
             big_w = bw
-            di = tri[18]
+            o = np.uint64(18)
+            di = tri[o]
             hd = y2 * di
             bw = big_w + y2 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[18] = di * cb
-            ra = tri[19]
-            tri[19] = cb * ra + sb * y3
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y3
             y3 = y3 - y2 * ra
-            ra = tri[20]
-            tri[20] = cb * ra + sb * y4
+            ra = tri[o + U2]
+            tri[o + U2] = cb * ra + sb * y4
             y4 = y4 - y2 * ra
-            zk = tri[24]
-            tri[24] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y2 * zk
-            zk = tri[25]
-            tri[25] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y2 * zk
-            zk = tri[26]
-            tri[26] = cb * zk + sb * y7
+            zk = tri[o + U8]
+            tri[o + U8] = cb * zk + sb * y7
             y7 = y7 - y2 * zk
             big_w = bw
-            di = tri[27]
+            o = np.uint64(27)
+            di = tri[o]
             hd = y3 * di
             bw = big_w + y3 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[27] = di * cb
-            ra = tri[28]
-            tri[28] = cb * ra + sb * y4
+            tri[o] = di * cb
+            ra = tri[o + U1]
+            tri[o + U1] = cb * ra + sb * y4
             y4 = y4 - y3 * ra
-            zk = tri[33]
-            tri[33] = cb * zk + sb * y5
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y3 * zk
-            zk = tri[34]
-            tri[34] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y3 * zk
-            zk = tri[35]
-            tri[35] = cb * zk + sb * y7
+            zk = tri[o + U8]
+            tri[o + U8] = cb * zk + sb * y7
             y7 = y7 - y3 * zk
             big_w = bw
-            di = tri[36]
+            o = np.uint64(36)
+            di = tri[o]
             hd = y4 * di
             bw = big_w + y4 * hd
             inv = 1.0 / bw
             cb = big_w * inv
             sb = hd * inv
-            tri[36] = di * cb
-            zk = tri[42]
-            tri[42] = cb * zk + sb * y5
+            tri[o] = di * cb
+            zk = tri[o + U6]
+            tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y4 * zk
-            zk = tri[43]
-            tri[43] = cb * zk + sb * y6
+            zk = tri[o + U7]
+            tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y4 * zk
-            zk = tri[44]
-            tri[44] = cb * zk + sb * y7
+            zk = tri[o + U8]
+            tri[o + U8] = cb * zk + sb * y7
             y7 = y7 - y4 * zk
             big_w = bw
             sse += (y5 * y5 + y6 * y6 + y7 * y7) / big_w
@@ -12774,53 +13014,54 @@ def window(p, d, u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis, spans
 
 
 @njit(cache=True, inline='always')
-def sweep(p, d, u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis, spans):
+def sweep(p, d, u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol, colsum,
+          basis, spans, sse):
     """``sweep_p{p}_d{d}`` for the given degree and dimension."""
     if p == 1 and d == 1:
-        return sweep_p1_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p1_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 1 and d == 2:
-        return sweep_p1_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p1_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 1 and d == 3:
-        return sweep_p1_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p1_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 2 and d == 1:
-        return sweep_p2_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p2_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 2 and d == 2:
-        return sweep_p2_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p2_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 2 and d == 3:
-        return sweep_p2_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p2_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 3 and d == 1:
-        return sweep_p3_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p3_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 3 and d == 2:
-        return sweep_p3_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p3_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 3 and d == 3:
-        return sweep_p3_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p3_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 4 and d == 1:
-        return sweep_p4_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p4_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 4 and d == 2:
-        return sweep_p4_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p4_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 4 and d == 3:
-        return sweep_p4_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p4_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 5 and d == 1:
-        return sweep_p5_d1(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p5_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 5 and d == 2:
-        return sweep_p5_d2(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p5_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     elif p == 5 and d == 3:
-        return sweep_p5_d3(u, q, t, iv, last, bounds, blocks, st, S, Ssse, Scol, colsum, basis,
-                                spans)
+        return sweep_p5_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
+                                colsum, basis, spans, sse)
     raise ValueError('degree 1-5 and dimension 1-3 only')
 
 
@@ -12861,51 +13102,52 @@ def absorb(p, d, st, first, G, c, unreached):
 
 
 @njit(cache=True, inline='always')
-def frame(p, d, u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol, colsum, sse):
+def frame(p, d, u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol, colsum,
+          basis, spans, sse):
     """``frame_p{p}_d{d}`` for the given degree and dimension."""
     if p == 1 and d == 1:
         return frame_p1_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 1 and d == 2:
         return frame_p1_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 1 and d == 3:
         return frame_p1_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 2 and d == 1:
         return frame_p2_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 2 and d == 2:
         return frame_p2_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 2 and d == 3:
         return frame_p2_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 3 and d == 1:
         return frame_p3_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 3 and d == 2:
         return frame_p3_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 3 and d == 3:
         return frame_p3_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 4 and d == 1:
         return frame_p4_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 4 and d == 2:
         return frame_p4_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 4 and d == 3:
         return frame_p4_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 5 and d == 1:
         return frame_p5_d1(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 5 and d == 2:
         return frame_p5_d2(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     elif p == 5 and d == 3:
         return frame_p5_d3(u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol,
-                                colsum, sse)
+                                colsum, basis, spans, sse)
     raise ValueError('degree 1-5 and dimension 1-3 only')
