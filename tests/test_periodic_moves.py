@@ -292,8 +292,10 @@ def test_wide_changes_fall_back_to_the_full_fit():
 
 def test_moves_near_interpolation_merge_rows_that_barely_reached_their_columns():
     """Near interpolation a frame's state holds rows that barely reached their column (huge
-    reciprocal weights, entries to match); merged into the window's rows as they are, their
-    products overflowed to NaN. Every removal of a knot from a knot at nearly every point."""
+    reciprocal weights, entries to match) and fill-in that died out along the band; merged
+    after the window's rows in the wrong order (the active rows before the wrap triangles),
+    their products overflowed to NaN. Every removal of a knot from a knot at nearly every
+    point."""
     q = get_curve("epitrochoid", n_points=120).points
     curve = make_curve(q, closed=True)
     interior = curve.params[1:-1].copy()

@@ -639,9 +639,6 @@ def mask_replacements(u, near, masks):
 # reported feasible on the delta path only when that bound keeps every pivot above
 # ``PIVOT_RATIO / CERTIFY`` times the largest; the full fit decides the rest.
 
-# A state's row with a larger reciprocal weight is rescaled before it is merged (_balanced).
-BALANCE = 1e10
-
 # _closed_candidate's verdict on knots given out of order (sorted there) but feasible so far.
 UNSORTED = -1
 
@@ -1037,7 +1034,24 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             res, _ = window(p, d, u_window, q_window, tw, iv_w, 0, window_rows, p,
                             p + spans_w - 1, 0, stm, mcol,
                             window_basis, window_span)
-            # the forward state's active rows (merged columns 0 .. p - 1) and wrap triangle
+            # both wrap triangles, into the empty wrap-around columns before any row brings
+            # fill-in there (which dies out along the band: an empty column taking an entry
+            # that small would overflow)
+            for a in range(2 * p):
+                side = 0 if a < p else 1
+                K = KL if a < p else KR
+                wa = a % p
+                big_w = S_st[frame, side, K, p + wa, 0]
+                if big_w >= UNREACHED:
+                    continue
+                row[nbm + wa] = 1.0
+                for k in range(1, p - wa):
+                    row[nbm + wa + k] = S_st[frame, side, K, p + wa, k]
+                for c in range(d):
+                    values[c] = S_st[frame, side, K, p + wa, p + 1 + c]
+                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, nbm + wa, ncol,
+                                    big_w)
+            # the forward state's active rows (merged columns 0 .. p - 1)
             for a in range(p):
                 for c in range(d):
                     values[c] = S_st[frame, 0, KL, a, p + 1 + c]
@@ -1051,22 +1065,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
                         row[a + k] = S_st[frame, 0, KL, a, k]
                 for k in range(p):
                     row[nbm + k] = S_far[frame, 0, KL, a, k]
-                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, a, ncol,
-                                    _balanced(row, values, a, ncol, d, big_w))
-            for a in range(2 * p):  # both wrap triangles
-                side = 0 if a < p else 1
-                K = KL if a < p else KR
-                wa = a % p
-                big_w = S_st[frame, side, K, p + wa, 0]
-                if big_w >= UNREACHED:
-                    continue
-                row[nbm + wa] = 1.0
-                for k in range(1, p - wa):
-                    row[nbm + wa + k] = S_st[frame, side, K, p + wa, k]
-                for c in range(d):
-                    values[c] = S_st[frame, side, K, p + wa, p + 1 + c]
-                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, nbm + wa, ncol,
-                                    _balanced(row, values, nbm + wa, ncol, d, big_w))
+                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, a, ncol, big_w)
             # the backward state's active rows: mirrored band column nb - KR + a is band
             # column KR - 1 - a, merged column P; its entries lie leftwards
             for a in range(p):
@@ -1087,7 +1086,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
                 for c in range(d):
                     values[c] = S_st[frame, 1, KR, a, p + 1 + c]
                 res += rotate_dense(stm, farm, width, p, d, ncol, row, values, first, ncol,
-                                    _balanced(row, values, first, ncol, d, big_w))
+                                    big_w)
             # the certificate (see the notes above)
             inv_m = inverse_norm_bound(stm, p, d, ncol, v, w, farm, ncol)
             inv_s = inv_m + (inverse[frame, 0] + inverse[frame, 1]) * (1.0 + gram_norm * inv_m)
@@ -1115,23 +1114,6 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
             max_dev_out[b] = deviation_from_basis(q, p, m2, c2, full_basis, full_spans)
-
-
-@njit(cache=True, inline='always')
-def _balanced(row, values, lo, hi, d, big_w):
-    """The reciprocal weight of a state's row ``row[lo:hi]``, ``values[:d]`` to rotate it with:
-    ``big_w``, or 1 with the row scaled by ``1 / sqrt(big_w)`` (the same row) where ``big_w``
-    is large. A row that barely reached its column (the empty-column rule) has a huge
-    reciprocal weight and entries to match; rotated as it is into a column that rows already
-    fill, their products would overflow."""
-    if big_w <= BALANCE:
-        return big_w
-    scale = 1.0 / math.sqrt(big_w)
-    for i in range(lo, hi):
-        row[i] *= scale
-    for c in range(d):
-        values[c] *= scale
-    return 1.0
 
 
 @njit(cache=True)
