@@ -616,9 +616,13 @@ def mask_replacements(u, near, masks):
 # column ``(s + p + c) mod m``, so the ``nb = m - p`` *band columns* come first and the ``p``
 # *wrap columns* (natural ``s .. s + p - 1``) last; a row of frame span ``k`` (natural span
 # ``(s + k) mod m``) touches the frame columns ``(k - p .. k) mod m``. The factor is the one of
-# the fits: square-root-free rotations (:func:`._kernel.rotate_dense`), a band plus the entries
-# of each row in the wrap columns beyond it. The mirrored sweep runs the frame spans backwards
-# with the band columns mirrored (``nb - 1 - c``), the wrap columns in place.
+# the fits: square-root-free rotations, a band plus the entries of each row in the wrap columns
+# beyond it. A sweep carries those entries as ``p`` more right-hand sides and what the band
+# leaves of a row goes into the wrap triangle (the generated ``frame`` loop; the rows of the
+# first and last ``p`` spans, which touch the wrap columns themselves, by :func:`_rotate_wide`);
+# the merge takes the states in the layout of :func:`._kernel.rotate_dense`. The mirrored sweep
+# runs the frame spans backwards with the band columns mirrored (``nb - 1 - c``), the wrap
+# columns in place.
 #
 # *States* ``K`` of a frame: the forward state holds the rows of frame spans ``< K`` rotated,
 # the mirrored one those of spans ``>= K``; each keeps its ``p`` active band rows (band columns
