@@ -162,13 +162,20 @@ def _triangle_lines(p: int, d: int, indent: str) -> list[str]:
     return out
 
 
-def _row_rotation_lines(p: int, d: int, indent: str) -> list[str]:
+def _row_rotation_lines(p: int, d: int, indent: str, wrap: bool = False) -> list[str]:
     """Rotate data row ``j`` (entries ``h0..hp`` from column ``first``, right-hand side
-    ``q[j]``, weight 1) into the factor and add what is left of it to ``sse``."""
-    lines = [*[f"{indent}y{k} = q[j, {k}]" for k in range(d)], f"{indent}big_w = 1.0"]
+    ``q[j]``, weight 1) into the factor and add what is left of it to ``sse``. With ``wrap``, a
+    row of a closed frame: the ``p`` wrap-around columns are carried as more right-hand sides
+    (``y0..y{p-1}``, zero at first, before ``q[j]``'s) and what the band leaves of them is
+    rotated into the wrap triangle ``tri`` (:func:`_triangle_lines`)."""
+    w = p if wrap else 0
+    lines = [*[f"{indent}y{k} = 0.0" for k in range(w)],
+             *[f"{indent}y{w + k} = q[j, {k}]" for k in range(d)], f"{indent}big_w = 1.0"]
     for i in range(p + 1):
-        lines += _rotation_lines(p, d, i, indent)
-    left_over = " + ".join(f"y{k} * y{k}" for k in range(d))
+        lines += _rotation_lines(p, w + d, i, indent)
+    if wrap:
+        lines += _triangle_lines(p, d, indent)
+    left_over = " + ".join(f"y{w + k} * y{w + k}" for k in range(d))
     return [*lines,
             f"{indent}# what the rotations leave of the row, with its weight, is its residual",
             f"{indent}sse += ({left_over}) / big_w"]
@@ -387,19 +394,8 @@ __all__ = ["EMPTY", "FASTMATH", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", 
 
 def _row_lines(p: int, d: int, indent: str, first: str, wrap: bool = False) -> list[str]:
     """One data row ``j``: its span (walking up to ``last``), basis values, column sums, the
-    stored basis and span (``if store:``), its rotation into ``st``: with ``wrap``, that of a
-    closed frame's row, the ``p`` wrap-around columns carried as more right-hand sides
-    (``y0..y{p-1}``, zero at first) and what the band leaves of the row rotated into the wrap
-    triangle ``tri`` (:func:`_triangle_lines`)."""
-    if wrap:
-        rotation = [*[f"{indent}y{k} = 0.0" for k in range(p)],
-                    *[f"{indent}y{p + k} = q[j, {k}]" for k in range(d)], f"{indent}big_w = 1.0"]
-        for i in range(p + 1):
-            rotation += _rotation_lines(p, p + d, i, indent)
-        left_over = " + ".join(f"y{p + k} * y{p + k}" for k in range(d))
-        rotation += [*_triangle_lines(p, d, indent), f"{indent}sse += ({left_over}) / big_w"]
-    else:
-        rotation = _row_rotation_lines(p, d, indent)
+    stored basis and span (``if store:``), its rotation into ``st`` (with ``wrap``, that of a
+    closed frame's row: :func:`_row_rotation_lines`)."""
     return [
         f"{indent}x = u[j]",
         f"{indent}while t[span + U1] <= x and span < last:",
@@ -410,7 +406,7 @@ def _row_lines(p: int, d: int, indent: str, first: str, wrap: bool = False) -> l
         f"{indent}if store:",
         f"{indent}    spans[j] = span",
         *[f"{indent}    basis[j, {i}] = h{i}" for i in range(p + 1)],
-        *rotation,
+        *_row_rotation_lines(p, d, indent, wrap),
     ]
 
 

@@ -660,6 +660,28 @@ def _row_entries(st, far, width, p, ncol, i, dense):
     return st[o]
 
 
+@njit(cache=True, inline='always')
+def _periodic_rows(u, q, first, u_out, q_out):
+    """The data rows ``first, first + 1, ...`` (``u_out.size`` of them) counted on past the
+    last: a row past it is row ``r - n``, one period later (its parameter plus 1)."""
+    n = u.size
+    for i in range(u_out.size):
+        r = first + i
+        u_out[i] = u[r] if r < n else u[r - n] + 1.0
+        q_out[i] = q[r if r < n else r - n]
+
+
+@njit(cache=True, inline='always')
+def _periodic_breaks(breaks, first, base, out):
+    """The breakpoints ``first, first + 1, ...`` (``out.size`` of them) of a closed curve with
+    the ``breaks``, counted on past the last one period later each time round, from the period
+    of breakpoint ``base``."""
+    m = breaks.size
+    for i in range(out.size):
+        period, index = divmod(first + i, m)
+        out[i] = breaks[index] + (period - base // m)
+
+
 @njit(cache=True)
 def _rotate_wide(ext, tri, p, d, nb, row, values, first, big_w):
     """Rotate one row of a frame (``row[:nb]`` its band entries from ``first``, ``row[nb:nb +
@@ -739,19 +761,13 @@ def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, st, far, S_st, S_fa
     first_row[m] = n
     u_f = np.empty(n)
     q_f = np.empty((n, d))
-    for i in range(n):
-        r = r0 + i
-        local = i if not mirror else n - 1 - i
-        u_f[local] = u[r] if r < n else u[r - n] + 1.0
-        q_f[local] = q[r if r < n else r - n]
-        if mirror:
-            u_f[local] = -u_f[local]
+    _periodic_rows(u, q, r0, u_f, q_f)
     t_f = np.empty(m + 1)
-    for k in range(m + 1):
-        index = s + k if not mirror else s + m - k
-        t_f[k] = t[p + index] if index <= m else t[p + index - m] + 1.0
-        if mirror:
-            t_f[k] = -t_f[k]
+    _periodic_breaks(t[p : p + m], s, s, t_f)
+    if mirror:
+        u_f = -u_f[::-1]
+        q_f = q_f[::-1].copy()
+        t_f = -t_f[::-1]
     iv = np.zeros(p * (m + 1))
     reciprocals(t_f, p, iv, 0, m + 1)
     steps = nb - p
@@ -979,8 +995,6 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
         if code != FEASIBLE:
             reason_out[b] = code
             continue
-        tb = t2[: m2 + 2 * p + 1]
-        extended_knots(br, p, tb)
         if local and start == stop and inserted.size == 0:  # the incumbent itself
             reason_out[b] = FEASIBLE
             sse_out[b] = base_sse
@@ -1022,22 +1036,12 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             # the rows past the data's end are taken one period later)
             spans_w = KR2 - KL
             tw = t_window[: spans_w + 2 * p + 1]
-            first_break = s2 + KL - p
-            for i in range(tw.size):
-                period, index = divmod(first_break + i, m2)
-                tw[i] = br[index] + (period - (s2 + KL) // m2)
+            _periodic_breaks(br, s2 + KL - p, s2 + KL, tw)
             iv_w = iv_window[: p * tw.size]
             reciprocals(tw, p, iv_w, 0, tw.size)
-            for i in range(window_rows):
-                r = rows_lo + i
-                wrapped = r >= n
-                r = r - n if wrapped else r
-                u_window[i] = u[r] + 1.0 if wrapped else u[r]
-                for c in range(d):
-                    q_window[i, c] = q[r, c]
+            _periodic_rows(u, q, rows_lo, u_window[:window_rows], q_window[:window_rows])
             res, _ = window(p, d, u_window, q_window, tw, iv_w, 0, window_rows, p,
-                            p + spans_w - 1, 0, stm, mcol,
-                            window_basis, window_span)
+                            p + spans_w - 1, 0, stm, mcol, window_basis, window_span)
             # both wrap triangles, into the empty wrap-around columns before any row brings
             # fill-in there (which dies out along the band: an empty column taking an entry
             # that small would overflow)
@@ -1112,6 +1116,8 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
         # the full fit decides
         path_out[b] = PATH_FULL
         c2 = coef[:m2]
+        tb = t2[: m2 + 2 * p + 1]
+        extended_knots(br, p, tb)
         code, value = solve_closed_into(u, q, tb, p, c2, full_basis, full_spans, ws_full,
                                         PIVOT_RATIO)
         reason_out[b] = code

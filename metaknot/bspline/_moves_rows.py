@@ -278,6 +278,7 @@ def frame_p1_d1(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U2] = cb * zk + sb * y1
             y1 = y1 - y0 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y1 * y1) / big_w
     return sse
 
@@ -571,6 +572,7 @@ def frame_p1_d2(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y0 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y1 * y1 + y2 * y2) / big_w
     return sse
 
@@ -892,6 +894,7 @@ def frame_p1_d3(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y0 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y1 * y1 + y2 * y2 + y3 * y3) / big_w
     return sse
 
@@ -1336,6 +1339,7 @@ def frame_p2_d1(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U3] = cb * zk + sb * y2
             y2 = y2 - y1 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y2 * y2) / big_w
     return sse
 
@@ -1830,6 +1834,7 @@ def frame_p2_d2(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y1 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y2 * y2 + y3 * y3) / big_w
     return sse
 
@@ -2374,6 +2379,7 @@ def frame_p2_d3(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y1 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y2 * y2 + y3 * y3 + y4 * y4) / big_w
     return sse
 
@@ -3071,6 +3077,7 @@ def frame_p3_d1(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U4] = cb * zk + sb * y3
             y3 = y3 - y2 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y3 * y3) / big_w
     return sse
 
@@ -3846,6 +3853,7 @@ def frame_p3_d2(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y2 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y3 * y3 + y4 * y4) / big_w
     return sse
 
@@ -4699,6 +4707,7 @@ def frame_p3_d3(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y2 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y3 * y3 + y4 * y4 + y5 * y5) / big_w
     return sse
 
@@ -5732,6 +5741,7 @@ def frame_p4_d1(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U5] = cb * zk + sb * y4
             y4 = y4 - y3 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y4 * y4) / big_w
     return sse
 
@@ -6877,6 +6887,7 @@ def frame_p4_d2(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y3 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y4 * y4 + y5 * y5) / big_w
     return sse
 
@@ -8134,6 +8145,7 @@ def frame_p4_d3(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y3 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y4 * y4 + y5 * y5 + y6 * y6) / big_w
     return sse
 
@@ -9595,6 +9607,7 @@ def frame_p5_d1(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U6] = cb * zk + sb * y5
             y5 = y5 - y4 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y5 * y5) / big_w
     return sse
 
@@ -11208,6 +11221,7 @@ def frame_p5_d2(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U7] = cb * zk + sb * y6
             y6 = y6 - y4 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y5 * y5 + y6 * y6) / big_w
     return sse
 
@@ -12973,6 +12987,7 @@ def frame_p5_d3(u, q, t, iv, span, last, bounds, blocks,
             tri[o + U8] = cb * zk + sb * y7
             y7 = y7 - y4 * zk
             big_w = bw
+            # what the rotations leave of the row, with its weight, is its residual
             sse += (y5 * y5 + y6 * y6 + y7 * y7) / big_w
     return sse
 
