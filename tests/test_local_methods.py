@@ -416,8 +416,10 @@ def test_a_kick_onto_an_infeasible_candidate_kicks_again():
 def test_iterated_local_search_keeps_up_with_the_one_plus_one_ea_on_a_glyph_with_corners():
     """digit_1's tolerance task (1e-3 of the diagonal, 3,000 evaluations): the averaging
     knots need 188 control points; best improvement pays the whole neighbourhood (about 240
-    evaluations) per knot removed and ended at 177, the (1+1) EA at 52. First improvement
-    (the default) takes a knot in a few evaluations."""
+    evaluations) per knot removed and ended at 177, the (1+1) EA at 52 (its median over eight
+    seeds: from a random half-density mask it ends infeasible, above 200, in some runs, 2 of
+    16 seeds here, so one seed's run is no measure). First improvement (the default) takes a
+    knot in a few evaluations."""
     from metaknot.suite import get_instance
     from metaknot.suite.tasks import get_task
 
@@ -425,5 +427,6 @@ def test_iterated_local_search_keeps_up_with_the_one_plus_one_ea_on_a_glyph_with
     first = mk.minimize(task.problem(), "local_search", budget=3000, seed=0)
     best = mk.minimize(task.problem(), "local_search", budget=3000, seed=0,
                        optimizer_kwargs={"pivot": "best"})
-    ea = mk.minimize(task.problem(), "one_plus_one", budget=3000, seed=0)
-    assert first.best_f <= ea.best_f < 100 < best.best_f
+    ea = np.median([mk.minimize(task.problem(), "one_plus_one", budget=3000, seed=seed).best_f
+                    for seed in range(8)])
+    assert first.best_f <= ea < 100 < best.best_f

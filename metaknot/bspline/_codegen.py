@@ -24,7 +24,9 @@ predictor cannot guess:
 * the Schoenberg-Whitney conditions are checked on the way, by the greedy matching of data
   points to basis functions (in data order, each point to the first unmatched function whose
   open support holds it), from the span of each data point;
-* fused multiply-adds are allowed (``fastmath={"contract"}``, nothing else).
+* plain IEEE arithmetic, no fast-math flags at all: a fused multiply-add is formed (or not)
+  after inlining, which depends on which kernels were compiled in the same process, so with
+  contraction a result would depend on the compile order and the cache's history.
 
 Back substitution and the pass of the conditioning bound are generated too, with the band's
 last values in locals. A column never reached keeps ``dinv = EMPTY`` and fails the ``RCOND``
@@ -70,8 +72,6 @@ from numba import njit
 
 # An empty column of the factor: its reciprocal weight (see _codegen).
 EMPTY = 1e150
-# Fused multiply-adds only: no reassociation, no approximate reciprocals.
-FASTMATH = {{"contract"}}
 {constants}
 '''
 
@@ -185,7 +185,7 @@ def render_rows(p: int, d: int) -> str:
     """Source of ``rows_p{p}_d{d}``."""
     ind = " " * 8
     lines = [
-        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        "@njit(cache=True, error_model='numpy')",
         f"def rows_p{p}_d{d}(u, q, t, iv, n, st, basis, spans):",
         f'    """Rotate every data row into the factor (degree {p}, dimension {d}).',
         "",
@@ -237,7 +237,7 @@ def render_back(p: int, d: int) -> str:
     """
     width = 1 + p + d
     lines = [
-        "@njit(cache=True, fastmath=FASTMATH)",
+        "@njit(cache=True)",
         f"def back_p{p}_d{d}(st, n, coef):",
         f'    """Control points from the factor (degree {p}, dimension {d})."""',
         *[f"    c{a}_{k} = 0.0" for k in range(d) for a in range(1, p + 1)],
@@ -384,9 +384,9 @@ Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_move
 import numpy as np
 from numba import njit
 
-from ._rows import EMPTY, FASTMATH, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
+from ._rows import EMPTY, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
 
-__all__ = ["EMPTY", "FASTMATH", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
+__all__ = ["EMPTY", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
 
 {constants}
 '''
@@ -414,7 +414,7 @@ def render_window(p: int, d: int) -> str:
     """Source of ``window_p{p}_d{d}``."""
     ind = " " * 8
     lines = [
-        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        "@njit(cache=True, error_model='numpy')",
         f"def window_p{p}_d{d}(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,",
         "                    spans):",
         f'    """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree {p},',
@@ -443,7 +443,7 @@ def render_sweep(p: int, d: int, wrap: bool = False) -> str:
     ind = " " * 12
     width = 1 + p + d + (p if wrap else 0)
     lines = [
-        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        "@njit(cache=True, error_model='numpy')",
         f"def {'frame' if wrap else 'sweep'}_p{p}_d{d}(u, q, t, iv, span, last, bounds, blocks,",
         "                   st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):",
         f'    """Rotate data rows into the flat factor ``st`` (degree {p}, dimension {d}; spans',
@@ -481,7 +481,7 @@ def render_absorb(p: int, d: int) -> str:
     width = 1 + p + d
     ind = " " * 8
     lines = [
-        "@njit(cache=True, fastmath=FASTMATH, error_model='numpy')",
+        "@njit(cache=True, error_model='numpy')",
         f"def absorb_p{p}_d{d}(st, first, G, c, unreached):",
         f'    """Rotate the rows of the backward state ``G[c]`` (degree {p}, dimension {d}) into',
         "    the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the",

@@ -62,7 +62,7 @@ from ._kernel import (
     rotate_entries,
     solve_closed_into,
 )
-from ._moves_rows import EMPTY, FASTMATH, absorb, frame, sweep, window
+from ._moves_rows import EMPTY, absorb, frame, sweep, window
 
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
@@ -107,7 +107,7 @@ def reciprocals(t, p, iv, lo_start, lo_stop):
             iv[(j - 1) * size + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
-@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, inline='always', error_model='numpy')
 def candidate_reciprocals(t2, t, iv_t, p, iv, lo_start, lo_stop, e, tail, shift):
     """:func:`reciprocals` of the candidate's knots ``t2`` for ``lo_start <= lo < lo_stop``,
     copied from the incumbent's table ``iv_t`` where both knots are the incumbent's: below
@@ -126,7 +126,7 @@ def candidate_reciprocals(t2, t, iv_t, p, iv, lo_start, lo_stop, e, tail, shift)
                 iv[(j - 1) * size2 + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
-@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, inline='always', error_model='numpy')
 def empty_state(st, columns, width):
     """Mark ``columns`` columns of the flat factor ``st`` as reached by no row."""
     for c in range(columns):
@@ -135,7 +135,7 @@ def empty_state(st, columns, width):
             st[c * width + k] = 0.0
 
 
-@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, inline='always', error_model='numpy')
 def inverse_norm_bound(st, p, d, size, v, wv, far, ncol):
     """Upper bound of the 2-norm of ``R^-1`` for the flat factor's first ``size`` columns
     (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row); ``far`` holds
@@ -227,7 +227,7 @@ def sw_matching(u, t, p, n, match):
     return True
 
 
-@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, inline='always', error_model='numpy')
 def sw_local(u, t2, p, n2, match, first, tail, shift):
     """The Schoenberg-Whitney check of ``t2`` given the incumbent's matching ``match``.
 
@@ -254,7 +254,7 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
     return True
 
 
-@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, inline='always', error_model='numpy')
 def _order_verdict(t2, lo, hi, p, max_mult):
     """``COINCIDENT_KNOTS`` if a knot of the clamped knot vector ``t2`` compared with the one
     before it at ``lo .. hi - 1`` (interior knots) lies below it, or a run of equal interior
@@ -272,7 +272,7 @@ def _order_verdict(t2, lo, hi, p, max_mult):
                          min(hi + max_mult + 1, t2.size - p - 1), max_mult, FEASIBLE)
 
 
-@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, inline='always', error_model='numpy')
 def _candidate_knots(u, t, interior, p, t2, max_mult):
     """Fill ``t2`` with the candidate's clamped knot vector; return (reason, e, f): ``e`` the
     first index where it differs from the incumbent's ``t``, ``f`` the length of their common
@@ -319,7 +319,7 @@ def _candidate_knots(u, t, interior, p, t2, max_mult):
     return _order_verdict(t2, max(e, p + 2), min(stop + 1, n2 - p - 1), p, max_mult), e, f
 
 
-@njit(cache=True, inline='always', error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, inline='always', error_model='numpy')
 def _replacement_knots(u, t, n, start, stop, inserted, p, t2, max_mult):
     """Fill ``t2`` with the knots of the incumbent ``t`` whose interior knots ``start:stop``
     are replaced by ``inserted``; return (reason, e, f) as :func:`_candidate_knots` does, with
@@ -347,7 +347,7 @@ def _replacement_knots(u, t, n, start, stop, inserted, p, t2, max_mult):
     return _order_verdict(t2, max(e, p + 2), min(tail + 1, size - p - 1), p, max_mult), e, f
 
 
-@njit(cache=True, error_model='numpy', fastmath=FASTMATH)
+@njit(cache=True, error_model='numpy')
 def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse,
                    Gcol, st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
                    gram_norm, max_mult, knots, offsets, starts, stops, max_window_rows,

@@ -6,9 +6,9 @@ Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_move
 import numpy as np
 from numba import njit
 
-from ._rows import EMPTY, FASTMATH, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
+from ._rows import EMPTY, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
 
-__all__ = ["EMPTY", "FASTMATH", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
+__all__ = ["EMPTY", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
 
 U10 = np.uint64(10)
 U11 = np.uint64(11)
@@ -17,7 +17,7 @@ U13 = np.uint64(13)
 U14 = np.uint64(14)
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p1_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 1,
@@ -82,7 +82,7 @@ def window_p1_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p1_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 1, dimension 1; spans
@@ -154,7 +154,7 @@ def sweep_p1_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p1_d1(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 1, dimension 1) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -188,7 +188,7 @@ def absorb_p1_d1(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p1_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 1, dimension 1; spans
@@ -283,7 +283,7 @@ def frame_p1_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p1_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 1,
@@ -355,7 +355,7 @@ def window_p1_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p1_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 1, dimension 2; spans
@@ -434,7 +434,7 @@ def sweep_p1_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p1_d2(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 1, dimension 2) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -472,7 +472,7 @@ def absorb_p1_d2(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p1_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 1, dimension 2; spans
@@ -577,7 +577,7 @@ def frame_p1_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p1_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 1,
@@ -656,7 +656,7 @@ def window_p1_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p1_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 1, dimension 3; spans
@@ -742,7 +742,7 @@ def sweep_p1_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p1_d3(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 1, dimension 3) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -784,7 +784,7 @@ def absorb_p1_d3(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p1_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 1, dimension 3; spans
@@ -899,7 +899,7 @@ def frame_p1_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p2_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 2,
@@ -994,7 +994,7 @@ def window_p2_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p2_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 2, dimension 1; spans
@@ -1097,7 +1097,7 @@ def sweep_p2_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p2_d1(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 2, dimension 1) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -1190,7 +1190,7 @@ def absorb_p2_d1(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p2_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 2, dimension 1; spans
@@ -1344,7 +1344,7 @@ def frame_p2_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p2_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 2,
@@ -1449,7 +1449,7 @@ def window_p2_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p2_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 2, dimension 2; spans
@@ -1562,7 +1562,7 @@ def sweep_p2_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p2_d2(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 2, dimension 2) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -1669,7 +1669,7 @@ def absorb_p2_d2(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p2_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 2, dimension 2; spans
@@ -1839,7 +1839,7 @@ def frame_p2_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p2_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 2,
@@ -1954,7 +1954,7 @@ def window_p2_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p2_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 2, dimension 3; spans
@@ -2077,7 +2077,7 @@ def sweep_p2_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p2_d3(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 2, dimension 3) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -2198,7 +2198,7 @@ def absorb_p2_d3(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p2_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 2, dimension 3; spans
@@ -2384,7 +2384,7 @@ def frame_p2_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p3_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 3,
@@ -2515,7 +2515,7 @@ def window_p3_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p3_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 3, dimension 1; spans
@@ -2655,7 +2655,7 @@ def sweep_p3_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p3_d1(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 3, dimension 1) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -2854,7 +2854,7 @@ def absorb_p3_d1(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p3_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 3, dimension 1; spans
@@ -3082,7 +3082,7 @@ def frame_p3_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p3_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 3,
@@ -3226,7 +3226,7 @@ def window_p3_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p3_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 3, dimension 2; spans
@@ -3379,7 +3379,7 @@ def sweep_p3_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p3_d2(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 3, dimension 2) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -3608,7 +3608,7 @@ def absorb_p3_d2(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p3_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 3, dimension 2; spans
@@ -3858,7 +3858,7 @@ def frame_p3_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p3_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 3,
@@ -4015,7 +4015,7 @@ def window_p3_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p3_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 3, dimension 3; spans
@@ -4181,7 +4181,7 @@ def sweep_p3_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p3_d3(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 3, dimension 3) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -4440,7 +4440,7 @@ def absorb_p3_d3(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p3_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 3, dimension 3; spans
@@ -4712,7 +4712,7 @@ def frame_p3_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p4_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 4,
@@ -4885,7 +4885,7 @@ def window_p4_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p4_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 4, dimension 1; spans
@@ -5068,7 +5068,7 @@ def sweep_p4_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p4_d1(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 4, dimension 1) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -5429,7 +5429,7 @@ def absorb_p4_d1(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p4_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 4, dimension 1; spans
@@ -5746,7 +5746,7 @@ def frame_p4_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p4_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 4,
@@ -5935,7 +5935,7 @@ def window_p4_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p4_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 4, dimension 2; spans
@@ -6134,7 +6134,7 @@ def sweep_p4_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p4_d2(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 4, dimension 2) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -6547,7 +6547,7 @@ def absorb_p4_d2(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p4_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 4, dimension 2; spans
@@ -6892,7 +6892,7 @@ def frame_p4_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p4_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 4,
@@ -7097,7 +7097,7 @@ def window_p4_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p4_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 4, dimension 3; spans
@@ -7312,7 +7312,7 @@ def sweep_p4_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p4_d3(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 4, dimension 3) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -7777,7 +7777,7 @@ def absorb_p4_d3(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p4_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 4, dimension 3; spans
@@ -8150,7 +8150,7 @@ def frame_p4_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p5_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 5,
@@ -8371,7 +8371,7 @@ def window_p5_d1(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p5_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 5, dimension 1; spans
@@ -8603,7 +8603,7 @@ def sweep_p5_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p5_d1(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 5, dimension 1) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -9191,7 +9191,7 @@ def absorb_p5_d1(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p5_d1(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 5, dimension 1; spans
@@ -9612,7 +9612,7 @@ def frame_p5_d1(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p5_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 5,
@@ -9852,7 +9852,7 @@ def window_p5_d2(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p5_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 5, dimension 2; spans
@@ -10103,7 +10103,7 @@ def sweep_p5_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p5_d2(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 5, dimension 2) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -10771,7 +10771,7 @@ def absorb_p5_d2(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p5_d2(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 5, dimension 2; spans
@@ -11226,7 +11226,7 @@ def frame_p5_d2(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def window_p5_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
                     spans):
     """Rotate data rows ``j0..j1 - 1`` into the flat factor ``st`` (degree 5,
@@ -11485,7 +11485,7 @@ def window_p5_d3(u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis,
     return sse, span
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def sweep_p5_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 5, dimension 3; spans
@@ -11755,7 +11755,7 @@ def sweep_p5_d3(u, q, t, iv, span, last, bounds, blocks,
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def absorb_p5_d3(st, first, G, c, unreached):
     """Rotate the rows of the backward state ``G[c]`` (degree 5, dimension 3) into
     the flat factor ``st`` at columns ``first ..``: row ``a`` of the state is the
@@ -12503,7 +12503,7 @@ def absorb_p5_d3(st, first, G, c, unreached):
     return sse
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def frame_p5_d3(u, q, t, iv, span, last, bounds, blocks,
                    st, tri, S, T, Ssse, Scol, colsum, basis, spans, sse):
     """Rotate data rows into the flat factor ``st`` (degree 5, dimension 3; spans

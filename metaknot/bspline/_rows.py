@@ -8,8 +8,6 @@ from numba import njit
 
 # An empty column of the factor: its reciprocal weight (see _codegen).
 EMPTY = 1e150
-# Fused multiply-adds only: no reassociation, no approximate reciprocals.
-FASTMATH = {"contract"}
 U0 = np.uint64(0)
 U1 = np.uint64(1)
 U2 = np.uint64(2)
@@ -22,7 +20,7 @@ U8 = np.uint64(8)
 U9 = np.uint64(9)
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p1_d1(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 1, dimension 1).
 
@@ -95,7 +93,7 @@ def rows_p1_d1(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p1_d2(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 1, dimension 2).
 
@@ -175,7 +173,7 @@ def rows_p1_d2(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p1_d3(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 1, dimension 3).
 
@@ -262,7 +260,7 @@ def rows_p1_d3(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p2_d1(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 2, dimension 1).
 
@@ -364,7 +362,7 @@ def rows_p2_d1(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p2_d2(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 2, dimension 2).
 
@@ -476,7 +474,7 @@ def rows_p2_d2(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p2_d3(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 2, dimension 3).
 
@@ -598,7 +596,7 @@ def rows_p2_d3(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p3_d1(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 3, dimension 1).
 
@@ -735,7 +733,7 @@ def rows_p3_d1(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p3_d2(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 3, dimension 2).
 
@@ -885,7 +883,7 @@ def rows_p3_d2(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p3_d3(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 3, dimension 3).
 
@@ -1048,7 +1046,7 @@ def rows_p3_d3(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p4_d1(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 4, dimension 1).
 
@@ -1226,7 +1224,7 @@ def rows_p4_d1(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p4_d2(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 4, dimension 2).
 
@@ -1420,7 +1418,7 @@ def rows_p4_d2(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p4_d3(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 4, dimension 3).
 
@@ -1630,7 +1628,7 @@ def rows_p4_d3(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p5_d1(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 5, dimension 1).
 
@@ -1855,7 +1853,7 @@ def rows_p5_d1(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p5_d2(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 5, dimension 2).
 
@@ -2099,7 +2097,7 @@ def rows_p5_d2(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model='numpy')
+@njit(cache=True, error_model='numpy')
 def rows_p5_d3(u, q, t, iv, n, st, basis, spans):
     """Rotate every data row into the factor (degree 5, dimension 3).
 
@@ -2362,7 +2360,7 @@ def rows_p5_d3(u, q, t, iv, n, st, basis, spans):
     return sse, ok
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p1_d1(st, n, coef):
     """Control points from the factor (degree 1, dimension 1)."""
     c1_0 = 0.0
@@ -2374,7 +2372,7 @@ def back_p1_d1(st, n, coef):
         c1_0 = v0
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p1_d2(st, n, coef):
     """Control points from the factor (degree 1, dimension 2)."""
     c1_0 = 0.0
@@ -2390,7 +2388,7 @@ def back_p1_d2(st, n, coef):
         c1_1 = v1
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p1_d3(st, n, coef):
     """Control points from the factor (degree 1, dimension 3)."""
     c1_0 = 0.0
@@ -2410,7 +2408,7 @@ def back_p1_d3(st, n, coef):
         c1_2 = v2
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p2_d1(st, n, coef):
     """Control points from the factor (degree 2, dimension 1)."""
     c1_0 = 0.0
@@ -2425,7 +2423,7 @@ def back_p2_d1(st, n, coef):
         c1_0 = v0
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p2_d2(st, n, coef):
     """Control points from the factor (degree 2, dimension 2)."""
     c1_0 = 0.0
@@ -2446,7 +2444,7 @@ def back_p2_d2(st, n, coef):
         c1_1 = v1
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p2_d3(st, n, coef):
     """Control points from the factor (degree 2, dimension 3)."""
     c1_0 = 0.0
@@ -2473,7 +2471,7 @@ def back_p2_d3(st, n, coef):
         c1_2 = v2
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p3_d1(st, n, coef):
     """Control points from the factor (degree 3, dimension 1)."""
     c1_0 = 0.0
@@ -2491,7 +2489,7 @@ def back_p3_d1(st, n, coef):
         c1_0 = v0
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p3_d2(st, n, coef):
     """Control points from the factor (degree 3, dimension 2)."""
     c1_0 = 0.0
@@ -2517,7 +2515,7 @@ def back_p3_d2(st, n, coef):
         c1_1 = v1
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p3_d3(st, n, coef):
     """Control points from the factor (degree 3, dimension 3)."""
     c1_0 = 0.0
@@ -2551,7 +2549,7 @@ def back_p3_d3(st, n, coef):
         c1_2 = v2
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p4_d1(st, n, coef):
     """Control points from the factor (degree 4, dimension 1)."""
     c1_0 = 0.0
@@ -2572,7 +2570,7 @@ def back_p4_d1(st, n, coef):
         c1_0 = v0
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p4_d2(st, n, coef):
     """Control points from the factor (degree 4, dimension 2)."""
     c1_0 = 0.0
@@ -2603,7 +2601,7 @@ def back_p4_d2(st, n, coef):
         c1_1 = v1
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p4_d3(st, n, coef):
     """Control points from the factor (degree 4, dimension 3)."""
     c1_0 = 0.0
@@ -2644,7 +2642,7 @@ def back_p4_d3(st, n, coef):
         c1_2 = v2
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p5_d1(st, n, coef):
     """Control points from the factor (degree 5, dimension 1)."""
     c1_0 = 0.0
@@ -2668,7 +2666,7 @@ def back_p5_d1(st, n, coef):
         c1_0 = v0
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p5_d2(st, n, coef):
     """Control points from the factor (degree 5, dimension 2)."""
     c1_0 = 0.0
@@ -2704,7 +2702,7 @@ def back_p5_d2(st, n, coef):
         c1_1 = v1
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True)
 def back_p5_d3(st, n, coef):
     """Control points from the factor (degree 5, dimension 3)."""
     c1_0 = 0.0
