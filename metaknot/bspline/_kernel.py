@@ -561,7 +561,12 @@ def rotate_dense(st, far, width, p, d, ncol, row, values, first, band_stop, big_
         di = st[o]
         if di == EMPTY:  # an empty column takes the row, scaled: nothing of it is left
             inv = 1.0 / hc
-            st[o] = big_w * inv * inv
+            taken = big_w * inv * inv
+            if not taken < EMPTY:  # an entry too small to reach the column (its weight
+                row[col] = 0.0     # would overflow): dropped, the row goes on
+                col += 1
+                continue
+            st[o] = taken
             for a in range(1, min(p, ncol - 1 - col) + 1):
                 st[o + a] = row[col + a] * inv
                 row[col + a] = 0.0
