@@ -100,21 +100,21 @@ import sys
 import numpy as np
 from metaknot.bspline.curve import make_curve
 
-def batch(curve, rng):
-    masks = rng.random((600, curve.n_points - 2)) < 0.2
+def scores(moves_first):
+    t = np.linspace(0.0, 1.0, 150)
+    curve = make_curve(np.c_[np.cos(5 * t), t * np.sin(3 * t)], degree=3)
+    if moves_first:
+        knots = np.sort(np.random.default_rng(9).uniform(0.05, 0.95, 10))
+        curve.move_evaluator(knots).evaluate(knots.copy(), np.array([0, 10]),
+                                             max_deviation=True)
+    masks = np.random.default_rng(5).random((600, curve.n_points - 2)) < 0.2
     fits = [curve.evaluate_masks(masks[i : i + 16], max_deviation=True)  # on this thread
             for i in range(0, len(masks), 16)]
     return np.concatenate([np.r_[fit.sse, fit.max_deviation] for fit in fits])
 
-t = np.linspace(0.0, 1.0, 150)
-curve = make_curve(np.c_[np.cos(5 * t), t * np.sin(3 * t)], degree=3)
-if sys.argv[1] == "moves first":
-    knots = np.sort(np.random.default_rng(9).uniform(0.05, 0.95, 10))
-    curve.move_evaluator(knots).evaluate(knots.copy(), np.array([0, 10]), max_deviation=True)
-rng = np.random.default_rng(5)
-np.save(sys.argv[2], batch(curve, rng))
+if __name__ == "__main__":
+    np.save(sys.argv[1], scores(moves_first=True))
 """
-
 
 @pytest.mark.slow
 def test_results_do_not_depend_on_which_kernels_compiled_first(tmp_path) -> None:
@@ -131,16 +131,9 @@ def test_results_do_not_depend_on_which_kernels_compiled_first(tmp_path) -> None
     script.write_text(COMPILE_ORDER_SCRIPT)
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"))  # an empty cache
     out = tmp_path / "moves_first.npy"
-    subprocess.run([sys.executable, str(script), "moves first", str(out)], env=env, check=True,
-                   timeout=900)
-    here = tmp_path / "here.npy"
-    namespace = {"__name__": "order"}
-    sys_argv = sys.argv
-    try:
-        sys.argv = [str(script), "batch only", str(here)]
-        exec(compile(COMPILE_ORDER_SCRIPT, str(script), "exec"), namespace)
-    finally:
-        sys.argv = sys_argv
-    moves_first, batch_only = np.load(out), np.load(here)
-    assert np.isfinite(batch_only).sum() > 0.9 * batch_only.size
-    np.testing.assert_array_equal(moves_first, batch_only)
+    subprocess.run([sys.executable, str(script), str(out)], env=env, check=True, timeout=900)
+    namespace: dict = {"__name__": "order"}
+    exec(compile(COMPILE_ORDER_SCRIPT, str(script), "exec"), namespace)
+    here = namespace["scores"](moves_first=False)
+    assert np.isfinite(here).sum() > 0.9 * here.size
+    np.testing.assert_array_equal(np.load(out), here)

@@ -24,9 +24,9 @@ predictor cannot guess:
 * the Schoenberg-Whitney conditions are checked on the way, by the greedy matching of data
   points to basis functions (in data order, each point to the first unmatched function whose
   open support holds it), from the span of each data point;
-* plain IEEE arithmetic, no fast-math flags at all: a fused multiply-add is formed (or not)
-  after inlining, which depends on which kernels were compiled in the same process, so with
-  contraction a result would depend on the compile order and the cache's history.
+* plain IEEE arithmetic, no fast-math flags at all: whether the compiler contracts a
+  multiply-add depends on what it inlined, which turned out to depend on the kernels compiled
+  before in the same process, so results depended on the compile order and the cache.
 
 Back substitution and the pass of the conditioning bound are generated too, with the band's
 last values in locals. A column never reached keeps ``dinv = EMPTY`` and fails the ``RCOND``

@@ -1043,8 +1043,8 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             res, _ = window(p, d, u_window, q_window, tw, iv_w, 0, window_rows, p,
                             p + spans_w - 1, 0, stm, mcol, window_basis, window_span)
             # both wrap triangles, into the empty wrap-around columns before any row brings
-            # fill-in there (which dies out along the band: an empty column taking an entry
-            # that small would overflow)
+            # fill-in there (fill-in that died out along the band would otherwise be the first
+            # to reach them, and rotate_dense drops an entry too small to reach a column)
             for a in range(2 * p):
                 side = 0 if a < p else 1
                 K = KL if a < p else KR
