@@ -477,37 +477,46 @@ def test_a_move_evaluator_refuses_an_incumbent_beyond_its_multiplicity():
 @pytest.mark.parametrize("closed", [False, True])
 @pytest.mark.parametrize(("encoding", "optimizer"), [("mask", "one_plus_one"),
                                                       ("indices", "one_plus_one")])
-def test_runs_over_multiplicities_use_delta_evaluation_and_end_as_full_evaluation(
+def test_runs_over_multiplicities_use_delta_evaluation_and_score_as_full_evaluation(
         closed, encoding, optimizer):
     """A search over knots of multiplicity up to 3 scores its moves by delta evaluation (most
-    of them) and ends, value for value, where the same run with every candidate fitted in
-    full ends."""
+    of them), and every candidate it scored has the value a full fit gives it.
+
+    The run is not compared step for step with a run fitting every candidate in full: ties are
+    common (on index sets a child whose moved indices swap places is its parent's knot set),
+    and a tie is decided by the last bit of two values computed along different paths."""
     import metaknot as mk
     from metaknot.problems import KnotIndices, KnotSelection
 
     _, points = wavy(160, 2, seed=3)
     if closed:
         points = points[:-1]
-    results = {}
-    for delta in (True, False):
+
+    def make(delta: bool):
         problem = KnotSelection(points, objective="bic", max_multiplicity=3, closed=closed) \
             if encoding == "mask" else \
             KnotIndices(points, objective="bic", n_knots=12, max_multiplicity=3, closed=closed)
         problem.delta_evaluation = delta
-        results[delta] = mk.minimize(problem, optimizer, budget=1500, seed=2)
-    fast, full = results[True], results[False]
-    assert full.delta_evaluations == 0
+        return problem
+
+    problem, scored = make(True), []
+    evaluate_near = problem.evaluate_near
+
+    def recording(X, near):
+        values, metrics, delta = evaluate_near(X, near)
+        scored.append((X.copy(), values.copy()))
+        return values, metrics, delta
+
+    problem.evaluate_near = recording
+    fast = mk.minimize(problem, optimizer, budget=1500, seed=2)
+    assert fast.n_evaluations == 1500
     assert fast.delta_evaluations > 0.5 * fast.n_evaluations
-    assert fast.n_evaluations == full.n_evaluations
-    np.testing.assert_allclose(fast.best_f, full.best_f, rtol=1e-9)
-    np.testing.assert_array_equal(fast.best_x, full.best_x)
-    # the best value after every evaluation (a tie broken by rounding is no improvement that
-    # counts: the traces may list different rows)
-    every = np.arange(1, fast.n_evaluations + 1)
-    np.testing.assert_allclose(best_after(fast.trace, every), best_after(full.trace, every),
+    X = np.concatenate([x for x, _ in scored])
+    assert len(X) >= 0.5 * fast.n_evaluations
+    full_problem = make(False)
+    np.testing.assert_allclose(np.concatenate([f for _, f in scored]),
+                               full_problem.evaluate(X), rtol=1e-9)
+    np.testing.assert_allclose(fast.best_f, full_problem.evaluate(fast.best_x[None])[0],
                                rtol=1e-9)
-
-
-def best_after(trace, evaluations: np.ndarray) -> np.ndarray:
-    """The best value of a run after each of ``evaluations`` (its trace as a step function)."""
-    return trace.best_f[np.searchsorted(trace.evaluations, evaluations, side="right") - 1]
+    full = mk.minimize(full_problem, optimizer, budget=200, seed=2)
+    assert full.delta_evaluations == 0

@@ -24,9 +24,12 @@ predictor cannot guess:
 * the Schoenberg-Whitney conditions are checked on the way, by the greedy matching of data
   points to basis functions (in data order, each point to the first unmatched function whose
   open support holds it), from the span of each data point;
-* plain IEEE arithmetic, no fast-math flags at all: whether the compiler contracts a
-  multiply-add depends on what it inlined, which turned out to depend on the kernels compiled
-  before in the same process, so results depended on the compile order and the cache.
+* no fast-math flags: whether the compiler contracts a multiply-add under
+  ``fastmath={"contract"}`` depends on what it inlined, which turned out to depend on the
+  kernels compiled before in the same process, so results depended on the compile order and
+  the cache. The multiply-adds of the rotations and of the basis recurrence are written as
+  ``fma`` (an intrinsic rendered into the header: LLVM's fused multiply-add, rounded once),
+  which gives the same bits wherever it is inlined and is as fast as the contracted loop.
 
 Back substitution and the pass of the conditioning bound are generated too, with the band's
 last values in locals. A column never reached keeps ``dinv = EMPTY`` and fails the ``RCOND``
@@ -68,10 +71,21 @@ Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_kern
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
 
 # An empty column of the factor: its reciprocal weight (see _codegen).
 EMPTY = 1e150
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """``a * b + c`` rounded once (IEEE fused multiply-add), the same bits wherever inlined."""
+    def codegen(context, builder, signature, args):
+        return builder.fma(*args)
+    return types.float64(types.float64, types.float64, types.float64), codegen
+
+
 {constants}
 '''
 
@@ -99,9 +113,8 @@ def _basis_lines(p: int, indent: str) -> list[str]:
             factor = "" if prev[r] == "1.0" else f"{prev[r]} * "
             lines.append(f"{indent}tmp = {factor}iv[{index}]")
             name = f"b{j}_{r}" if j < p else f"h{r}"
-            term = f"r{r + 1} * tmp"
-            lines.append(f"{indent}{name} = {term}" if saved is None
-                         else f"{indent}{name} = {saved} + {term}")
+            lines.append(f"{indent}{name} = r{r + 1} * tmp" if saved is None
+                         else f"{indent}{name} = fma(r{r + 1}, tmp, {saved})")
             lines.append(f"{indent}s{j}_{r} = l{j - r} * tmp")
             saved = f"s{j}_{r}"
             cur.append(name)
@@ -126,7 +139,7 @@ def _givens_lines(array: str, offset: str, pivot: str, entries: list[tuple[str, 
         f"{indent}o = {offset}",
         f"{indent}di = {array}[o]",
         f"{indent}hd = {pivot} * di",
-        f"{indent}bw = big_w + {pivot} * hd",
+        f"{indent}bw = fma({pivot}, hd, big_w)",
         f"{indent}inv = 1.0 / bw",
         f"{indent}cb = big_w * inv",
         f"{indent}sb = hd * inv",
@@ -135,8 +148,8 @@ def _givens_lines(array: str, offset: str, pivot: str, entries: list[tuple[str, 
     for (name, slot), old in [*((e, "ra") for e in entries), *((e, "zk") for e in rhs)]:
         out += [
             f"{indent}{old} = {array}[o + {slot}]",
-            f"{indent}{array}[o + {slot}] = cb * {old} + sb * {name}",
-            f"{indent}{name} = {name} - {pivot} * {old}",
+            f"{indent}{array}[o + {slot}] = fma(cb, {old}, sb * {name})",
+            f"{indent}{name} = fma(-{pivot}, {old}, {name})",
         ]
     out.append(f"{indent}big_w = bw")
     return out
@@ -384,9 +397,9 @@ Rendered by ``python -m metaknot.bspline._codegen``; see that module and ``_move
 import numpy as np
 from numba import njit
 
-from ._rows import EMPTY, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9
+from ._rows import EMPTY, U0, U1, U2, U3, U4, U5, U6, U7, U8, U9, fma
 
-__all__ = ["EMPTY", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9"]
+__all__ = ["EMPTY", "U0", "U1", "U2", "U3", "U4", "U5", "U6", "U7", "U8", "U9", "fma"]
 
 {constants}
 '''

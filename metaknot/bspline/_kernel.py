@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._rows import EMPTY, back, bound, deviation, rows
+from ._rows import EMPTY, back, bound, deviation, fma, rows
 
 FEASIBLE = 0
 TOO_MANY_CONTROL_POINTS = 1
@@ -511,7 +511,7 @@ def givens(st, o, hc, big_w):
     (:mod:`._codegen`), for the rows they do not take."""
     di = st[o]
     hd = hc * di
-    bw = big_w + hc * hd
+    bw = fma(hc, hd, big_w)
     inv = 1.0 / bw
     cb = big_w * inv
     sb = hd * inv
@@ -525,8 +525,8 @@ def rotate_entries(st, o, row, r, count, hc, cb, sb):
     row's ``row[r:]``."""
     for a in range(count):
         ra = st[o + a]
-        st[o + a] = cb * ra + sb * row[r + a]
-        row[r + a] -= hc * ra
+        st[o + a] = fma(cb, ra, sb * row[r + a])
+        row[r + a] = fma(-hc, ra, row[r + a])
 
 
 @njit(cache=True)
