@@ -30,8 +30,7 @@ from .preset import expand_preset
 from .run import ENCODINGS, RunSpec
 from .spec import (
     CONFIG_KEYS,
-    objective_defaults,
-    optimizer_defaults,
+    config_node,
     plain_config,
     run_spec,
 )
@@ -72,8 +71,7 @@ def register_signature_configs() -> None:
     """Fill the config groups ``optimizer`` and ``objective`` in Hydra's config store: every
     registered optimizer, built-in or an entry-point plugin, is ``optimizer=<name>`` and every
     objective ``objective=<name>``, with their settings and defaults read from their
-    signatures (:func:`~.spec.optimizer_defaults`, :func:`~.spec.objective_defaults`). No
-    YAML restates them."""
+    signatures (:func:`~.spec.config_node`). No YAML restates them."""
     from hydra.core.config_store import ConfigStore
 
     from metaknot.problems import OBJECTIVES
@@ -82,12 +80,12 @@ def register_signature_configs() -> None:
     store = ConfigStore.instance()
     for name in available_optimizers():
         try:
-            node = optimizer_defaults(name)
+            node = config_node("optimizer", name)
         except ConfigError:
             continue
         store.store(group="optimizer", name=name, node=node, provider="metaknot")
     for name in OBJECTIVES:
-        store.store(group="objective", name=name, node=objective_defaults(name),
+        store.store(group="objective", name=name, node=config_node("objective", name),
                     provider="metaknot")
 
 

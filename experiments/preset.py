@@ -8,10 +8,10 @@ A preset names a method, as ``metaknot tune`` writes its best configuration::
 
 It is read as plain YAML data and becomes command-line overrides placed before the user's
 (``optimizer=dolphin ++optimizer.population=32 ...``), so the user's own overrides win. It can
-hold nothing but these settings: no Hydra ``defaults`` or ``hydra`` keys, no ``_target_``,
-no interpolation. A Hydra config directory
-(``--config-dir``) is code instead: its ``hydra.callbacks`` and ``_target_`` keys call any
-Python function. See ``docs/tuning.md``.
+hold nothing but these settings, checked by the run schema (:mod:`.spec`): a Hydra
+``defaults`` or ``hydra`` key or a ``_target_`` is an unknown setting; no interpolation. A
+Hydra config directory (``--config-dir``) is code instead: its ``hydra.callbacks`` and
+``_target_`` keys call any Python function. See ``docs/tuning.md``.
 """
 
 from __future__ import annotations
@@ -71,7 +71,6 @@ def check_preset(data: Any, where: str) -> dict[str, Any]:
         raise ConfigError(f"{where}: a preset is a mapping of optimizer, encoding, objective "
                           f"and label; got {short(repr(data))}")
     with naming(where, ConfigError):
-        _refuse_directives(data, "")
         preset = check_section("", data, PRESET)
         for section in SECTIONS:
             for key, value in preset[section].items():
@@ -81,20 +80,6 @@ def check_preset(data: Any, where: str) -> dict[str, Any]:
         run_spec({"study": "preset", "results_dir": ".", "problem": {"curve": "epitrochoid"},
                   **preset, "budget": 1, "seed": 0}, check_build=False)
     return data
-
-
-def _refuse_directives(node: dict[Any, Any], prefix: str) -> None:
-    """Refuse keys that make Hydra compose configs or call code, at any depth."""
-    for key, value in node.items():
-        name = short(f"{prefix}{key}")
-        if not isinstance(key, str):
-            raise ConfigError(f"{name}: keys are names, got {short(repr(key))}")
-        if key in ("_target_", "hydra") or key.startswith(("hydra.", "hydra/")) \
-                or name == "defaults":
-            raise ConfigError(f"{name}: not allowed in a preset, which is data (Hydra "
-                              "directives and _target_ run code)")
-        if isinstance(value, dict):
-            _refuse_directives(value, f"{name}.")
 
 
 def preset_overrides(preset: dict[str, Any]) -> list[str]:

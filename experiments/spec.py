@@ -27,12 +27,10 @@ from metaknot.validate import is_integer, is_real
 from .errors import ConfigError, naming, short
 from .run import ENCODINGS, RUN_KEYS, RunSpec, run_id
 
-__all__ = ["ConfigError", "objective_defaults", "optimizer_defaults", "plain_config",
-           "run_spec", "signature_defaults"]
+__all__ = ["ConfigError", "config_node", "plain_config", "run_spec"]
 
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 STUDY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=,+-]*")  # matched in full (fullmatch)
-FITPACK_COUNT = re.compile(r"^fitpack:(.+)$")
 
 
 # --------------------------------------------------------------------------------------------
@@ -165,10 +163,11 @@ def _unknown(key: str, given: Mapping[str, Any], known: AbstractSet[str]) -> Non
 # optimizers and objectives: their settings from their signatures
 
 
-def _optimizer_class(name: str) -> Any:  # a registered optimizer class
+def _optimizer_class(name: str, key: str = "optimizer._name_") -> Any:
+    """The registered optimizer class ``name``, the setting ``key``'s value."""
     from metaknot.registry import _lookup
 
-    with naming("optimizer._name_"):
+    with naming(key):
         return _lookup("optimizer", name)
 
 
@@ -199,26 +198,18 @@ def _admitted(hint: Any) -> tuple[tuple[type, ...], tuple[Any, ...]]:
     return ((hint,) if isinstance(hint, type) and hint is not Any else (object,)), ()
 
 
-def signature_defaults(cls: type[Any]) -> dict[str, Any]:
-    """The keyword arguments of ``cls.__init__`` with their defaults (``"???"``: required; a
-    default that is not a plain value as its ``repr``): the settings of a config node."""
-    plain = NULL | bool | int | float | str
-    return {name: s.default if isinstance(s.default, plain) else repr(s.default)
-            for name, s in signature_settings(cls).items()}
-
-
-def optimizer_defaults(name: str) -> dict[str, Any]:
-    """Hyperparameters of a registered optimizer with their defaults, read from its
-    signature (:func:`signature_defaults`): the config node ``optimizer=<name>``."""
-    return {"_name_": name, **signature_defaults(_optimizer_class(name))}
-
-
-def objective_defaults(name: str) -> dict[str, Any]:
-    """Settings of an objective with their defaults, read from its signature
-    (:func:`signature_defaults`): the config node ``objective=<name>``."""
+def config_node(group: str, name: str) -> dict[str, Any]:
+    """The config node ``<group>=<name>``: a registered optimizer (``group="optimizer"``: its
+    ``_name_``) or an objective (``"objective"``: its ``name``) and the keyword arguments of its
+    class with their defaults, read from its signature (``"???"``: required; a default that is
+    not a plain value as its ``repr``)."""
     from metaknot.problems import OBJECTIVES
 
-    return {"name": name, **signature_defaults(OBJECTIVES[name])}
+    key, cls = ("_name_", _optimizer_class(name)) if group == "optimizer" else \
+        ("name", OBJECTIVES[name])
+    plain = NULL | bool | int | float | str
+    return {key: name, **{setting: s.default if isinstance(s.default, plain) else repr(s.default)
+                          for setting, s in signature_settings(cls).items()}}
 
 
 def _named(section: str, given: Mapping[str, Any], name_key: str, name: Setting,
@@ -251,12 +242,12 @@ def _usable_dir(path: str) -> bool:
 
 def _fitpack_factor(text: str) -> float | None:
     """The factor of a knot count ``"fitpack:<factor>"`` (a finite number > 0), else None."""
-    match = FITPACK_COUNT.match(text)
+    head, _, factor = text.partition(":")
     try:
-        factor = float(match.group(1)) if match else None
+        value = float(factor)
     except ValueError:
         return None
-    return factor if factor is not None and np.isfinite(factor) and factor > 0 else None
+    return value if head == "fitpack" and np.isfinite(value) and value > 0 else None
 
 
 #: Where a study is stored (a run's and a tuning study's settings).

@@ -31,7 +31,7 @@ from metaknot import registry
 from metaknot.bspline import parameterize
 from metaknot.experiments.app import CONFIG_DIR, register_hydra_plugins
 from metaknot.experiments.run import ENCODINGS
-from metaknot.experiments.spec import ConfigError, optimizer_defaults, run_spec
+from metaknot.experiments.spec import ConfigError, config_node, run_spec
 from metaknot.experiments.store import Store
 from metaknot.experiments.sweep import _Composer, expand, plan
 from metaknot.problems import OBJECTIVES, FreeKnots, KnotIndices, add_noise, get_curve
@@ -244,7 +244,7 @@ def test_config_error_is_a_value_error_hydra_reports_compactly():
 
 def test_unknown_optimizer_suggests_the_closest_name():
     with pytest.raises(ConfigError, match=r"^optimizer\._name_: .*dolphin") as info:
-        optimizer_defaults("dolfin")
+        config_node("optimizer", "dolfin")
     assert "\n" not in str(info.value)
 
 
@@ -393,12 +393,12 @@ class _Probe(mk.Optimizer):
 def test_plugin_optimizer_settings_from_its_signature(monkeypatch):
     monkeypatch.setitem(registry._REGISTRY, "optimizer", dict(registry._REGISTRY["optimizer"]))
     registry._REGISTRY["optimizer"]["spec_probe"] = _Probe
-    assert optimizer_defaults("spec_probe") == {"_name_": "spec_probe", "steps": "???",
+    assert config_node("optimizer", "spec_probe") == {"_name_": "spec_probe", "steps": "???",
                                                 "shape": "(1, 2)", "scale": 1.0}
     with pytest.raises(ConfigError, match=r"^optimizer\.steps: required"):
         run_spec(plain_cfg(optimizer={"_name_": "spec_probe"}))
     with pytest.raises(ConfigError, match=r"^optimizer\.steps: required"):
-        run_spec(plain_cfg(optimizer=optimizer_defaults("spec_probe")))
+        run_spec(plain_cfg(optimizer=config_node("optimizer", "spec_probe")))
     with pytest.raises(ConfigError, match=r"^optimizer\.steps: expected an integer"):
         run_spec(plain_cfg(optimizer={"_name_": "spec_probe", "steps": "x"}))
     spec = run_spec(plain_cfg(optimizer={"_name_": "spec_probe", "steps": 3, "scale": 2}))
@@ -505,7 +505,7 @@ def test_a_value_given_at_its_default_on_the_command_line_is_the_same_run():
 @pytest.mark.parametrize("name", sorted(mk.available_optimizers()))
 def test_hyperparameters_left_out_or_given_at_their_defaults_are_the_same_run(name):
     bare = run_spec(plain_cfg(optimizer={"_name_": name}), check_build=False)
-    full = run_spec(plain_cfg(optimizer=optimizer_defaults(name)), check_build=False)
+    full = run_spec(plain_cfg(optimizer=config_node("optimizer", name)), check_build=False)
     assert bare.run_id == full.run_id and bare.config == full.config
     for pname, default in signature_defaults(type(mk.get_optimizer(name))).items():
         one = run_spec(plain_cfg(optimizer={"_name_": name, pname: default}), check_build=False)

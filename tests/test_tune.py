@@ -188,7 +188,9 @@ def test_trial_setting_turns_space_values_into_a_problem(tmp_path) -> None:
     ("test.instances=[{curve: vivaldi, noise: 0.0}]", "also a training instance"),
     ("train.instances=[]", "non-empty list"),
     ("sampler=cmaes", "sampler"),
-    ("reference=nothing", "nothing"),
+    ("reference=nothing", "reference: unknown optimizer 'nothing'"),
+    ("compare_with=[ga,gaa]", "compare_with: unknown optimizer 'gaa'. Did you mean 'ga'?"),
+    ("tune.optimizer=dolfin", "tune.optimizer: unknown optimizer 'dolfin'"),
     ("workers=2|storage=sqlite:///x.db", "not safe for several workers"),
     ("grace_period=5", "longer than heartbeat_interval"),
 ])

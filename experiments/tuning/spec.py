@@ -101,7 +101,7 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     top = check_section("", raw, TUNE)
     tune = check_section("tune", top["tune"], TUNE_SECTION)
     optimizer = tune["optimizer"]
-    names = set(signature_settings(_optimizer_class(optimizer)))
+    names = set(signature_settings(_optimizer_class(optimizer, "tune.optimizer")))
     space = SearchSpace(tune["space"], names, optimizer)
     fixed = tune["fixed"] or {}
     both = set(fixed) & set(space.names())
@@ -137,14 +137,14 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
     compare = top["compare_with"] or []
     compare = [compare] if isinstance(compare, str) else compare
     for name in compare:
-        _optimizer_class(name)
+        _optimizer_class(name, "compare_with")
     settings = {key: top[key] for key in TUNE if key in TuneSpec.__dataclass_fields__}
     spec = TuneSpec(**{**settings, "results_dir": Path(top["results_dir"]),
                        "optimizer": optimizer, "space": space, "fixed": dict(fixed),
                        "encoding": encoding, "objective": objective, "train": train,
                        "train_seeds": tuple(TRAIN_SEED_OFFSET + i for i in range(n_train)),
                        "test": test, "test_seeds": tuple(range(n_test)),
-                       "reference": _optimizer_class(top["reference"]).name,
+                       "reference": _optimizer_class(top["reference"], "reference").name,
                        "compare_with": tuple(compare), "raw": raw})
     if spec.grace_period <= spec.heartbeat_interval:
         raise ConfigError(f"grace_period: longer than heartbeat_interval "
