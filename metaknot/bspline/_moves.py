@@ -50,7 +50,6 @@ from ._kernel import (
     TOO_MANY_CONTROL_POINTS,
     _fit_into,
     _max_deviation,
-    back_substitute,
     basis_at,
     closed_workspaces,
     deviation_from_basis,
@@ -58,7 +57,6 @@ from ._kernel import (
     givens,
     periodic_distance2,
     repeated_beyond,
-    rotate_dense,
     rotate_entries,
     solve_closed_into,
 )
@@ -79,8 +77,7 @@ CERTIFY = 0.5
 # A column whose reciprocal weight is still above this was reached by no row (see EMPTY).
 UNREACHED = EMPTY * 1e-10
 
-# The wrap-around entries of an open factor: none; nor a wrap triangle, nor its states.
-NO_FAR = np.zeros((0, 1))
+# An open factor has no wrap triangle, nor states of one.
 NO_TRIANGLE = np.zeros(0)
 NO_TRIANGLES = np.zeros((0, 0))
 
@@ -136,42 +133,59 @@ def empty_state(st, columns, width):
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def inverse_norm_bound(st, p, d, size, v, wv, far, ncol):
+def inverse_norm_bound(st, width, p, size, v, wv, tri):
     """Upper bound of the 2-norm of ``R^-1`` for the flat factor's first ``size`` columns
-    (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row); ``far`` holds
-    the wrap-around entries of a factor of :func:`._kernel.rotate_dense` with ``ncol`` columns
-    (none: an open factor).
+    (``R = diag(1 / sqrt(dinv)) rb``; ``inf`` if a column was reached by no row), ``width``
+    entries per column. With ``tri`` not empty, a closed factor in the layout of the frames
+    (:func:`_rotate_wide`): each column's ``p`` wrap-around entries after its band entries, and
+    the wrap triangle ``tri`` (``p`` more columns of ``width - p`` entries) after the band;
+    without it, the band alone.
 
     ``|rb^-1| <= M^-1`` elementwise for the comparison matrix ``M`` of the unit triangular
     ``rb``, so its infinity and 1-norms are at most the largest entries of ``M^-1 e`` and
     ``M^-T e``; ``||A||_2 <= sqrt(||A||_1 ||A||_inf)``, and the diagonal scaling adds at most
-    ``max sqrt(dinv)``. ``v`` and ``wv`` are workspaces of at least ``size`` entries.
+    ``max sqrt(dinv)``. ``v`` and ``wv`` are workspaces of at least ``size + p`` entries.
     """
-    w = 1 + p + d
+    wrap = p if tri.size > 0 else 0
+    tw = width - p  # a triangle column's entries
     v_max = 0.0
     w_max = 0.0
     d_max = 0.0
-    for i in range(size - 1, -1, -1):  # v = M^-1 e
-        di = st[i * w]
+    for k in range(wrap - 1, -1, -1):  # v = M^-1 e: the triangle's rows, then the band's
+        di = tri[k * tw]
+        if di >= UNREACHED:
+            return np.inf
+        d_max = max(d_max, di)
+        acc = 1.0
+        for a in range(p - 1 - k, 0, -1):
+            acc += abs(tri[k * tw + a]) * v[size + k + a]
+        v[size + k] = acc
+        v_max = max(v_max, acc)
+    for i in range(size - 1, -1, -1):
+        di = st[i * width]
         if di >= UNREACHED:
             return np.inf
         d_max = max(d_max, di)
         acc = 1.0
         for a in range(min(p, size - 1 - i), 0, -1):
-            acc += abs(st[i * w + a]) * v[i + a]
-        for k in range(max(0, i + 2 * p + 1 - ncol), p if far.shape[0] > 0 else 0):
-            if ncol - p + k < size:
-                acc += abs(far[i, k]) * v[ncol - p + k]
+            acc += abs(st[i * width + a]) * v[i + a]
+        for k in range(wrap):
+            acc += abs(st[i * width + 1 + p + k]) * v[size + k]
         v[i] = acc
         v_max = max(v_max, acc)
     for j in range(size):  # w = M^-T e
         acc = 1.0
         for a in range(min(p, j), 0, -1):
-            acc += abs(st[(j - a) * w + a]) * wv[j - a]
-        if far.shape[0] > 0 and j >= ncol - p:
-            for i in range(j - p):  # the rows that hold column j beyond their band
-                acc += abs(far[i, j - ncol + p]) * wv[i]
+            acc += abs(st[(j - a) * width + a]) * wv[j - a]
         wv[j] = acc
+        w_max = max(w_max, acc)
+    for k in range(wrap):
+        acc = 1.0
+        for i in range(size):
+            acc += abs(st[i * width + 1 + p + k]) * wv[i]
+        for a in range(1, k + 1):
+            acc += abs(tri[(k - a) * tw + a]) * wv[size + k - a]
+        wv[size + k] = acc
         w_max = max(w_max, acc)
     return math.sqrt(v_max * w_max * d_max)
 
@@ -446,7 +460,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
             # [left final rows; merged rows; right final rows] is a square factor S of the
             # candidate's normal matrix, block triangular around the merged block, with the
             # left and right blocks parts of the incumbent's factors (see the module notes)
-            inv_m = inverse_norm_bound(stl, p, d, size, bound_v, bound_w, NO_FAR, size)
+            inv_m = inverse_norm_bound(stl, w, p, size, bound_v, bound_w, NO_TRIANGLE)
             inv_s = inv_m + inverse_left * (1.0 + gram_norm * inv_m) \
                 + inverse_right * (1.0 + gram_norm * inv_m)
             # ||B'||_2^2 <= largest column sum (entries >= 0, rows summing to 1); the columns
@@ -556,8 +570,8 @@ def bind(u, q, u_mirror, q_mirror, t, p):
             Gcol[c, a] = mirror_col[s, p - 1 - a]
     work_v = np.empty(n)
     work_w = np.empty(n)
-    inverse_left = inverse_norm_bound(st_f, p, d, n, work_v, work_w, NO_FAR, n)
-    inverse_right = inverse_norm_bound(st_m, p, d, n, work_v, work_w, NO_FAR, n)
+    inverse_left = inverse_norm_bound(st_f, w, p, n, work_v, work_w, NO_TRIANGLE)
+    inverse_right = inverse_norm_bound(st_m, w, p, n, work_v, work_w, NO_TRIANGLE)
     return (spans, basis, row_start, match, iv, F, Fsse, Fcol, st_f, G, Gsse, Gcol, st_m,
             inverse_left, inverse_right, column_sums)
 
@@ -619,8 +633,9 @@ def mask_replacements(u, near, masks):
 # the fits: square-root-free rotations, a band plus the entries of each row in the wrap columns
 # beyond it. A sweep carries those entries as ``p`` more right-hand sides and what the band
 # leaves of a row goes into the wrap triangle (the generated ``frame`` loop; the rows of the
-# first and last ``p`` spans, which touch the wrap columns themselves, by :func:`_rotate_wide`);
-# the merge takes the states in the layout of :func:`._kernel.rotate_dense`. The mirrored sweep
+# first and last ``p`` spans, which touch the wrap columns themselves, by :func:`_rotate_wide`).
+# The merge continues a forward state's sweep over the window and takes in the backward
+# state's rows in the same layout, as the open merge does. The mirrored sweep
 # runs the frame spans backwards with the band columns mirrored (``nb - 1 - c``), the wrap
 # columns in place.
 #
@@ -645,19 +660,6 @@ def mask_replacements(u, near, masks):
 
 # _closed_candidate's verdict on knots given out of order (sorted there) but feasible so far.
 UNSORTED = -1
-
-
-@njit(cache=True)
-def _row_entries(st, far, width, p, ncol, i, dense):
-    """Row ``i`` of a factor of :func:`._kernel.rotate_dense` as ``dense[:ncol]`` (its entries
-    right of the diagonal: zero elsewhere); returns its reciprocal weight."""
-    dense[:ncol] = 0.0
-    o = i * width
-    for a in range(1, min(p, ncol - 1 - i) + 1):
-        dense[i + a] = st[o + a]
-    for k in range(max(0, i + 2 * p + 1 - ncol), p):
-        dense[ncol - p + k] = far[i, k]
-    return st[o]
 
 
 @njit(cache=True, inline='always')
@@ -703,6 +705,8 @@ def _rotate_wide(ext, tri, p, d, nb, row, values, first, big_w):
         row[col] = 0.0
     for i in range(p):
         hc = row[nb + i]
+        if hc == 0.0:  # a rotation by a zero entry changes nothing
+            continue
         o = i * width
         cb, sb, big_w = givens(tri, o, hc, big_w)
         rotate_entries(tri, o + 1, row, nb + i + 1, p - 1 - i, hc, cb, sb)
@@ -714,40 +718,24 @@ def _rotate_wide(ext, tri, p, d, nb, row, values, first, big_w):
     return left_over / big_w
 
 
-@njit(cache=True, inline='always')
-def _narrow_row(ext, o, col, p, d, nb, st, so, far):
-    """Band row ``col`` of a frame's factor (``ext[o:]``, the layout of :func:`_rotate_wide`)
-    in the layout of :func:`._kernel.rotate_dense` (``st[so:]`` and ``far``: the wrap-around
-    entries within the band's reach among the band entries, the others in ``far``)."""
-    st[so] = ext[o]
-    for a in range(1, p + 1):
-        st[so + a] = ext[o + a] if col + a < nb else ext[o + p + 1 + col + a - nb]
-    for k in range(p):
-        far[k] = ext[o + 1 + p + k] if nb + k > col + p else 0.0
-    for c in range(d):
-        st[so + p + 1 + c] = ext[o + 1 + 2 * p + c]
-
-
 @njit(cache=True)
-def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, st, far, S_st, S_far, S_col,
-                 S_sse):
+def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, ext, tri, S, T, Ssse, Scol):
     """One sweep of the frame cut at breakpoint ``s`` of the incumbent with extended knots
     ``t``: forward (frame spans ``0 .. m - 1``, state ``K`` saved before span ``K``) or mirrored
     (spans ``m - 1 .. 0``, state ``K`` saved after span ``K``), for ``p <= K <= nb`` (the states
-    a merge reads). ``S_st[K, a]`` is active band row ``a`` (forward band column ``K - p + a``,
-    mirrored ``nb - K + a``) and ``S_st[K, p + a]`` wrap row ``a``, ``S_far[K, a]`` the active
-    rows' wrap entries (the layout of :func:`._kernel.rotate_dense`). The rows of the spans that
-    touch the wrap-around columns by :func:`_rotate_wide`, the others by the generated
-    :func:`._moves_rows.frame` on the frame's own knots (mirrored for the mirrored sweep: the
-    band columns mirrored, ``nb - 1 - c``, the wrap columns in place). Leaves the final factor in
-    ``st`` and ``far``."""
+    a merge reads), as step ``i = K - p`` (mirrored ``i = nb - K``). ``S[i]`` holds the active
+    band rows (forward band columns ``K - p ..``, mirrored ``nb - K ..``) in the layout of
+    :func:`_rotate_wide`, ``T[i]`` the wrap triangle, ``Ssse[i]`` the residual so far and
+    ``Scol[i]`` the active columns' sums. The rows of the spans that touch the wrap-around
+    columns by :func:`_rotate_wide`, the others by the generated :func:`._moves_rows.frame` on
+    the frame's own knots (mirrored for the mirrored sweep: the band columns mirrored, ``nb - 1
+    - c``, the wrap columns in place). Leaves the final factor in ``ext`` (band columns) and
+    ``tri`` (the wrap triangle)."""
     n, d = q.shape
     width = 1 + p + d
     wide = 1 + 2 * p + d
     nb = m - p
-    ext = np.empty(nb * wide)
     empty_state(ext, nb, wide)
-    tri = np.empty(p * width)
     empty_state(tri, p, width)
     colsum = np.zeros(nb)  # by (mirrored) band column
     row = np.zeros(m)
@@ -775,10 +763,6 @@ def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, st, far, S_st, S_fa
     for i in range(steps + 1):  # the first local row of (mirrored) frame span p + i
         bounds[i] = first_row[p + i] if not mirror else n - first_row[m - p - i]
     blocks = np.arange(steps + 1)
-    S = np.empty((steps + 1, p * wide))
-    T = np.empty((steps + 1, p * width))
-    Ssse = np.empty(steps + 1)
-    Scol = np.empty((steps + 1, p))
     sse = 0.0
     for part in range(2):  # the spans before the band's, then those after it
         for step in range(p):
@@ -807,17 +791,6 @@ def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, st, far, S_st, S_fa
         if part == 0:
             sse = frame(p, d, u_f, q_f, t_f, iv, p, nb - 1, bounds, blocks, ext, tri, S, T,
                         Ssse, Scol, colsum, basis[:0], row_start[:0], sse)
-    for i in range(steps + 1):  # state i is K = p + i, mirrored K = nb - i
-        K = p + i if not mirror else nb - i
-        for a in range(p):
-            _narrow_row(S[i], a * wide, i + a, p, d, nb, S_st[K, a], 0, S_far[K, a])
-            S_st[K, p + a, :] = T[i, a * width : (a + 1) * width]
-            S_col[K, a] = Scol[i, a]
-        S_sse[K] = Ssse[i]
-    for col in range(nb):
-        _narrow_row(ext, col * wide, col, p, d, nb, st, col * width, far[col])
-    st[nb * width :] = tri
-    far[nb:] = 0.0
 
 
 @njit(cache=True)
@@ -853,24 +826,25 @@ def bind_closed(u, q, t, p, cuts):
         row_start[j] = n
     row_start[m] = n
     frames = cuts.size
-    S_st = np.zeros((frames, 2, m + 1, 2 * p, width))
-    S_far = np.zeros((frames, 2, m + 1, p, p))
-    S_col = np.zeros((frames, 2, m + 1, p))
-    S_sse = np.zeros((frames, 2, m + 1))
-    final_st = np.zeros((frames, 2, m * width))
-    final_far = np.zeros((frames, 2, m, p))
+    wide = 1 + 2 * p + d
+    steps = max(nb - p + 1, 0)  # the states K = p .. nb of each sweep
+    S = np.zeros((frames, 2, steps, p * wide))
+    T = np.zeros((frames, 2, steps, p * width))
+    Ssse = np.zeros((frames, 2, steps))
+    Scol = np.zeros((frames, 2, steps, p))
+    final_ext = np.zeros((frames, 2, nb * wide))
+    final_tri = np.zeros((frames, 2, p * width))
     inverse = np.zeros((frames, 2))
     v = np.empty(m)
     w = np.empty(m)
     for f in range(frames):
         for side in range(2):
-            _frame_sweep(u, q, t, basis, p, m, cuts[f], side == 1, row_start, final_st[f, side],
-                         final_far[f, side], S_st[f, side], S_far[f, side], S_col[f, side],
-                         S_sse[f, side])
-            inverse[f, side] = inverse_norm_bound(final_st[f, side], p, d, nb, v, w,
-                                                  final_far[f, side], m)
-    return (spans, basis, row_start, column_sums, S_st, S_far, S_col, S_sse, final_st,
-            final_far, inverse)
+            _frame_sweep(u, q, t, basis, p, m, cuts[f], side == 1, row_start, final_ext[f, side],
+                         final_tri[f, side], S[f, side], T[f, side], Ssse[f, side],
+                         Scol[f, side])
+            inverse[f, side] = inverse_norm_bound(final_ext[f, side], wide, p, nb, v, w,
+                                                  NO_TRIANGLE)
+    return (spans, basis, row_start, column_sums, S, T, Ssse, Scol, final_ext, inverse)
 
 
 @njit(cache=True)
@@ -925,8 +899,8 @@ def _changed_block(interior, knots, lo, hi):
 
 
 @njit(cache=True)
-def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st, S_far, S_col,
-                          S_sse, final_st, final_far, inverse, gram_norm, base_sse,
+def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T, Ssse, Scol,
+                          final_ext, inverse, gram_norm, base_sse,
                           base_max_dev, max_mult, knots, offsets, starts, stops,
                           max_window_rows, want_max_dev, sse_out, max_dev_out, n_ctrl_out,
                           reason_out, path_out):
@@ -948,17 +922,20 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
     breaks = np.empty(max(m_max, m + widest))
     t2 = np.empty(m_max + 2 * p + 1)
     coef = np.zeros((m_max, d))
+    wide = 1 + 2 * p + d
     cols_max = m_max + 2 * p
-    stm = np.empty(cols_max * width)  # the merged factor
-    farm = np.zeros((cols_max, p))
+    stm = np.empty(cols_max * wide)  # the merged factor: its band, then its wrap triangle
+    trim = np.empty(p * width)
     mcol = np.zeros(cols_max)
     row = np.zeros(cols_max)
-    entries = np.zeros(m)
     values = np.empty(d)
     v = np.empty(cols_max)
     w = np.empty(cols_max)
-    x_band = np.zeros((m_max, d))
-    x_merged = np.zeros((cols_max, d))
+    # the window's rows go in as one step of the frame loop (its saved states unused)
+    bounds_w = np.zeros(2, dtype=np.int64)
+    blocks_w = np.zeros(2, dtype=np.int64)
+    S_w, T_w, Ssse_w, Scol_w = (np.empty((2, p * wide)), np.empty((2, p * width)),
+                                np.empty(2), np.empty((2, p)))
     full_basis = np.empty((n if want_max_dev else 0, p + 1))  # the full fit's rows
     ws_full = closed_workspaces(m_max, p, d)
     full_spans = np.empty(n if want_max_dev else 0, dtype=np.int64)
@@ -1004,7 +981,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             continue
         # the frame that holds the change: breakpoints start (natural) and stop + 1 are the
         # last and first unchanged ones; rows of frame spans < KL and >= KR keep their basis
-        frame = -1
+        held = -1
         KL = KR = s2 = 0
         for f in range(cuts.size if local else 0):
             s = cuts[f]
@@ -1015,102 +992,83 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             KL = A - p + 1
             KR = B + p - 1
             if KL >= p and KR <= nb:
-                frame = f
+                held = f
                 s2 = s if s <= start else s + delta
                 break
-        rows_lo = row_start[(cuts[frame] + KL) % m] if frame >= 0 else 0
-        rows_hi = row_start[(cuts[frame] + KR) % m] if frame >= 0 else 0
+        rows_lo = row_start[(cuts[held] + KL) % m] if held >= 0 else 0
+        rows_hi = row_start[(cuts[held] + KR) % m] if held >= 0 else 0
         window_rows = rows_hi - rows_lo
         if window_rows < 0:
             window_rows += n
-        if frame >= 0 and window_rows <= max_window_rows:
+        if held >= 0 and window_rows <= max_window_rows:
             KR2 = KR + delta
             nbm = KR2 - KL + p  # merged band columns: band columns KL - p .. KR2 - 1
-            ncol = nbm + p
-            empty_state(stm, ncol, width)
-            farm[:ncol] = 0.0
-            mcol[:nbm] = 0.0
-            # the window first, into the empty merged band (no wrap-around entries yet): the
-            # rows between the unchanged spans under the candidate's knots, by the generated
-            # row loop on the window's own knots (local span p + i is frame span KL + i;
-            # the rows past the data's end are taken one period later)
+            iL, iR = KL - p, nb - KR  # the states' steps (forward, mirrored)
+            # the forward state's active rows are the merged band's first p columns and its
+            # wrap triangle the merged one: the sweep goes on from there, over the rows between
+            # the unchanged spans under the candidate's knots, by the generated row loop on the
+            # window's own knots (local span p is frame span KL; the rows past the data's end
+            # are taken one period later)
+            stm[: p * wide] = S[held, 0, iL]
+            empty_state(stm[p * wide :], nbm - p, wide)
+            trim[:] = T[held, 0, iL]
+            mcol[:p] = Scol[held, 0, iL]
+            mcol[p:nbm] = 0.0
             spans_w = KR2 - KL
             tw = t_window[: spans_w + 2 * p + 1]
             _periodic_breaks(br, s2 + KL - p, s2 + KL, tw)
             iv_w = iv_window[: p * tw.size]
             reciprocals(tw, p, iv_w, 0, tw.size)
             _periodic_rows(u, q, rows_lo, u_window[:window_rows], q_window[:window_rows])
-            res, _ = window(p, d, u_window, q_window, tw, iv_w, 0, window_rows, p,
-                            p + spans_w - 1, 0, stm, mcol, window_basis, window_span)
-            # both wrap triangles, into the empty wrap-around columns before any row brings
-            # fill-in there (fill-in that died out along the band would otherwise be the first
-            # to reach them, and rotate_dense drops an entry too small to reach a column)
-            for a in range(2 * p):
-                side = 0 if a < p else 1
-                K = KL if a < p else KR
-                wa = a % p
-                big_w = S_st[frame, side, K, p + wa, 0]
-                if big_w >= UNREACHED:
-                    continue
-                row[nbm + wa] = 1.0
-                for k in range(1, p - wa):
-                    row[nbm + wa + k] = S_st[frame, side, K, p + wa, k]
-                for c in range(d):
-                    values[c] = S_st[frame, side, K, p + wa, p + 1 + c]
-                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, nbm + wa, ncol,
-                                    big_w)
-            # the forward state's active rows (merged columns 0 .. p - 1)
-            for a in range(p):
-                for c in range(d):
-                    values[c] = S_st[frame, 0, KL, a, p + 1 + c]
-                big_w = S_st[frame, 0, KL, a, 0]
-                mcol[a] += S_col[frame, 0, KL, a]
-                if big_w >= UNREACHED:
-                    continue
-                row[a] = 1.0
-                for k in range(1, p + 1):  # band entries (columns below KL only)
-                    if KL - p + a + k < KL:
-                        row[a + k] = S_st[frame, 0, KL, a, k]
-                for k in range(p):
-                    row[nbm + k] = S_far[frame, 0, KL, a, k]
-                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, a, ncol, big_w)
+            bounds_w[1] = window_rows
+            res = frame(p, d, u_window, q_window, tw, iv_w, p, p + spans_w - 1, bounds_w,
+                        blocks_w, stm, trim, S_w, T_w, Ssse_w, Scol_w, mcol, window_basis,
+                        window_span, 0.0)
             # the backward state's active rows: mirrored band column nb - KR + a is band
-            # column KR - 1 - a, merged column P; its entries lie leftwards
+            # column KR - 1 - a, merged column P; its entries lie leftwards, within the last
+            # p columns (the active ones)
             for a in range(p):
-                big_w = S_st[frame, 1, KR, a, 0]
-                mcol[nbm - 1 - a] += S_col[frame, 1, KR, a]
+                o = a * wide
+                big_w = S[held, 1, iR, o]
+                mcol[nbm - 1 - a] += Scol[held, 1, iR, a]
                 if big_w >= UNREACHED:
                     continue
                 P = nbm - 1 - a
                 row[P] = 1.0
-                first = P
-                for k in range(1, p + 1):
-                    value = S_st[frame, 1, KR, a, k]
-                    if value != 0.0 and P - k >= 0:
-                        row[P - k] = value
-                        first = P - k
+                for k in range(1, p - a):
+                    row[P - k] = S[held, 1, iR, o + k]
                 for k in range(p):
-                    row[nbm + k] = S_far[frame, 1, KR, a, k]
+                    row[nbm + k] = S[held, 1, iR, o + 1 + p + k]
                 for c in range(d):
-                    values[c] = S_st[frame, 1, KR, a, p + 1 + c]
-                res += rotate_dense(stm, farm, width, p, d, ncol, row, values, first, ncol,
-                                    big_w)
+                    values[c] = S[held, 1, iR, o + 1 + 2 * p + c]
+                res += _rotate_wide(stm, trim, p, d, nbm, row, values, nbm - p, big_w)
+            # and its wrap triangle's rows
+            for a in range(p):
+                o = a * width
+                big_w = T[held, 1, iR, o]
+                if big_w >= UNREACHED:
+                    continue
+                row[nbm + a] = 1.0
+                for k in range(1, p - a):
+                    row[nbm + a + k] = T[held, 1, iR, o + k]
+                for c in range(d):
+                    values[c] = T[held, 1, iR, o + p + 1 + c]
+                res += _rotate_wide(stm, trim, p, d, nbm, row, values, nbm, big_w)
             # the certificate (see the notes above)
-            inv_m = inverse_norm_bound(stm, p, d, ncol, v, w, farm, ncol)
-            inv_s = inv_m + (inverse[frame, 0] + inverse[frame, 1]) * (1.0 + gram_norm * inv_m)
+            inv_m = inverse_norm_bound(stm, wide, p, nbm, v, w, trim)
+            inv_s = inv_m + (inverse[held, 0] + inverse[held, 1]) * (1.0 + gram_norm * inv_m)
             largest_sum = gram_norm * gram_norm
             for i in range(nbm):
                 largest_sum = max(largest_sum, mcol[i])
             if inv_s * math.sqrt(largest_sum) * PIVOT_RATIO <= CERTIFY:
                 reason_out[b] = FEASIBLE
-                sse_out[b] = S_sse[frame, 0, KL] + S_sse[frame, 1, KR] + res
+                sse_out[b] = Ssse[held, 0, iL] + Ssse[held, 1, iR] + res
                 path_out[b] = PATH_DELTA
                 if want_max_dev:
-                    back_substitute(stm, farm, width, p, d, ncol, x_merged)
-                    _closed_coefficients(x_merged, nbm, final_st[frame], final_far[frame],
-                                         entries, p, d, m, KL, KR, delta, m2, x_band, coef)
+                    _closed_coefficients(stm, trim, nbm, final_ext[held], p, d, m, KL, KR,
+                                         delta, coef[:m2])
                     max_dev_out[b] = _closed_max_deviation(
-                        q, p, spans, basis, window_basis, window_span, cuts[frame], m, m2, KL,
+                        q, p, spans, basis, window_basis, window_span, cuts[held], m, m2, KL,
                         KR, rows_lo, window_rows, coef)
                 continue
         # the full fit decides
@@ -1126,42 +1084,45 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S_st
             max_dev_out[b] = deviation_from_basis(q, p, m2, c2, full_basis, full_spans)
 
 
+@njit(cache=True, inline='always')
+def _substitute(st, o, p, d, reach, step, x, at):
+    """Back substitution of one row of a closed factor (``st[o:]``, the layout of
+    :func:`_rotate_wide`): ``x[at]`` from the row's right-hand side, its ``reach`` band
+    entries (entry ``a`` the unknown ``x[at + a * step]``) and its wrap-around entries (the
+    unknowns ``x[:p]``)."""
+    for c in range(d):
+        acc = st[o + 1 + 2 * p + c]
+        for a in range(1, reach + 1):
+            acc -= st[o + a] * x[at + a * step, c]
+        for k in range(p):
+            acc -= st[o + 1 + p + k] * x[k, c]
+        x[at, c] = acc
+
+
 @njit(cache=True)
-def _closed_coefficients(x_merged, nbm, fst, ffar, entries, p, d, m, KL, KR, delta, m2, x_band,
-                         coef):
-    """Control points of a merged periodic candidate in natural order: the merged block's
-    solution ``x_merged`` (band columns ``KL - p ..``, then the wrap columns), the incumbent's
-    final forward rows (``fst[0]``, ``ffar[0]``) leftwards and its final mirrored rows
-    rightwards (band columns counted in the candidate: ``+ delta`` right of the change)."""
+def _closed_coefficients(stm, trim, nbm, final, p, d, m, KL, KR, delta, coef):
+    """Control points ``coef`` of a merged periodic candidate, counted from its cut (the wrap
+    columns, then the band): the merged factor's (``stm``, ``trim``: band columns ``KL - p ..``
+    and the wrap columns), then the incumbent's final forward rows (``final[0]``) leftwards and
+    its final mirrored rows (``final[1]``) rightwards (band columns counted in the candidate:
+    ``+ delta`` right of the change)."""
     nb = m - p
     width = 1 + p + d
+    wide = width + p
+    for k in range(p - 1, -1, -1):  # the wrap triangle
+        for c in range(d):
+            acc = trim[k * width + p + 1 + c]
+            for a in range(1, p - k):
+                acc -= trim[k * width + a] * coef[k + a, c]
+            coef[k, c] = acc
     base = KL - p
-    for i in range(nbm):
-        for c in range(d):
-            x_band[base + i, c] = x_merged[i, c]
+    for i in range(nbm - 1, -1, -1):
+        _substitute(stm, i * wide, p, d, min(p, nbm - 1 - i), 1, coef, p + base + i)
     for pos in range(base - 1, -1, -1):  # the final forward rows
-        _row_entries(fst[0], ffar[0], width, p, m, pos, entries)
-        for c in range(d):
-            acc = fst[0][pos * width + p + 1 + c]
-            for k in range(1, p + 1):
-                acc -= entries[pos + k] * x_band[pos + k, c]
-            for k in range(p):
-                acc -= entries[nb + k] * x_merged[nbm + k, c]
-            x_band[pos, c] = acc
+        _substitute(final[0], pos * wide, p, d, min(p, nb - 1 - pos), 1, coef, p + pos)
     for P in range(KR, nb):  # the final mirrored rows (mirrored column nb - 1 - P)
         mp = nb - 1 - P
-        _row_entries(fst[1], ffar[1], width, p, m, mp, entries)
-        for c in range(d):
-            acc = fst[1][mp * width + p + 1 + c]
-            for k in range(1, p + 1):
-                if mp + k < nb:
-                    acc -= entries[mp + k] * x_band[P - k + delta, c]
-            for k in range(p):
-                acc -= entries[nb + k] * x_merged[nbm + k, c]
-            x_band[P + delta, c] = acc
-    for fc in range(m2):  # natural column s2 + fc: the wrap columns, then the band
-        for c in range(d):
-            coef[fc, c] = x_merged[nbm + fc, c] if fc < p else x_band[fc - p, c]
+        _substitute(final[1], mp * wide, p, d, min(p, nb - 1 - mp), -1, coef, p + P + delta)
 
 
 @njit(cache=True)
