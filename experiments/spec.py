@@ -152,7 +152,7 @@ def check_section(key: str, given: Any, schema: Mapping[str, Setting]) -> dict[s
 
 
 def _unknown(key: str, given: Mapping[str, Any], known: AbstractSet[str]) -> None:
-    extra = sorted(set(given) - known)
+    extra = sorted(set(given) - known, key=str)  # keys of a YAML file need not be strings
     if extra:
         name = f"{key}.{extra[0]}" if key else extra[0]
         known_names = ", ".join(sorted(known)) or "none"
@@ -377,13 +377,11 @@ def plain_config(cfg: Mapping[str, Any]) -> dict[str, Any]:
     if not isinstance(cfg, DictConfig):
         return {key: value for key, value in _deep_copy(cfg).items() if key != "hydra"}
     try:  # each value resolved in the context of the whole configuration
-        out: dict[Any, Any] = {
-            key: OmegaConf.to_container(value, resolve=True, throw_on_missing=True)
-            if OmegaConf.is_config(value) else value
-            for key, value in cfg.items() if key != "hydra"}
+        return {key: OmegaConf.to_container(value, resolve=True, throw_on_missing=True)
+                if OmegaConf.is_config(value) else value
+                for key, value in cfg.items() if key != "hydra"}
     except MissingMandatoryValue as exc:
         raise ConfigError(f"{exc.full_key}: required, no value given") from None
-    return out
 
 
 def _deep_copy(value: Any) -> Any:

@@ -377,6 +377,7 @@ def test_a_preset_runs_as_its_overrides_and_the_command_line_wins(tmp_path):
     ("defaults: [{override /optimizer: ga}]\noptimizer: {population: 20}\n", "defaults"),
     ("optimizer: {_name_: ga}\nproblem: {curve: vivaldi}\n", "problem: unknown setting"),
     ("optimizer: {_name_: ga, speed: 3}\n", "optimizer.speed: unknown setting"),
+    ("{1: 2, speed: 3, optimizer: {_name_: ga}}\n", "1: unknown setting"),
     ("optimizer: {_name_: ga, population: [10, 20]}\n", "optimizer.population"),
     ("optimizer: {_name_: ga}\nlabel: '${oc.env:HOME}'\n", "label"),
     ("optimizer: {_name_: warp}\n", "optimizer._name_"),
