@@ -377,11 +377,13 @@ def plain_config(cfg: Mapping[str, Any]) -> dict[str, Any]:
     if not isinstance(cfg, DictConfig):
         return {key: value for key, value in _deep_copy(cfg).items() if key != "hydra"}
     try:  # each value resolved in the context of the whole configuration
-        return {key: OmegaConf.to_container(value, resolve=True, throw_on_missing=True)
-                if OmegaConf.is_config(value) else value
-                for key, value in cfg.items() if key != "hydra"}
+        out: dict[Any, Any] = {
+            key: OmegaConf.to_container(value, resolve=True, throw_on_missing=True)
+            if OmegaConf.is_config(value) else value
+            for key, value in cfg.items() if key != "hydra"}
     except MissingMandatoryValue as exc:
         raise ConfigError(f"{exc.full_key}: required, no value given") from None
+    return out
 
 
 def _deep_copy(value: Any) -> Any:
