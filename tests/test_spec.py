@@ -393,8 +393,8 @@ class _Probe(mk.Optimizer):
 def test_plugin_optimizer_settings_from_its_signature(monkeypatch):
     monkeypatch.setitem(registry._REGISTRY, "optimizer", dict(registry._REGISTRY["optimizer"]))
     registry._REGISTRY["optimizer"]["spec_probe"] = _Probe
-    assert config_node("optimizer", "spec_probe") == {"_name_": "spec_probe", "steps": "???",
-                                                "shape": "(1, 2)", "scale": 1.0}
+    assert config_node("optimizer", "spec_probe") == {
+        "_name_": "spec_probe", "steps": "???", "shape": "(1, 2)", "scale": 1.0}
     with pytest.raises(ConfigError, match=r"^optimizer\.steps: required"):
         run_spec(plain_cfg(optimizer={"_name_": "spec_probe"}))
     with pytest.raises(ConfigError, match=r"^optimizer\.steps: required"):

@@ -833,15 +833,14 @@ def bind_closed(u, q, t, p, cuts):
     Ssse = np.zeros((frames, 2, steps))
     Scol = np.zeros((frames, 2, steps, p))
     final_ext = np.zeros((frames, 2, nb * wide))
-    final_tri = np.zeros((frames, 2, p * width))
+    tri = np.empty(p * width)  # a sweep's final wrap triangle: no merge reads it
     inverse = np.zeros((frames, 2))
     v = np.empty(m)
     w = np.empty(m)
     for f in range(frames):
         for side in range(2):
             _frame_sweep(u, q, t, basis, p, m, cuts[f], side == 1, row_start, final_ext[f, side],
-                         final_tri[f, side], S[f, side], T[f, side], Ssse[f, side],
-                         Scol[f, side])
+                         tri, S[f, side], T[f, side], Ssse[f, side], Scol[f, side])
             inverse[f, side] = inverse_norm_bound(final_ext[f, side], wide, p, nb, v, w,
                                                   NO_TRIANGLE)
     return (spans, basis, row_start, column_sums, S, T, Ssse, Scol, final_ext, inverse)
