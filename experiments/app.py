@@ -28,12 +28,7 @@ from .errors import ConfigError
 from .interrupt import Interrupted, interrupt_on_signals, leave_ctrl_c_to_the_leader
 from .preset import expand_preset
 from .run import ENCODINGS, RunSpec
-from .spec import (
-    CONFIG_KEYS,
-    config_node,
-    plain_config,
-    run_spec,
-)
+from .spec import RUN, config_node, plain_config, run_spec
 from .store import (
     DEFAULT_STUDY,
     Store,
@@ -319,7 +314,7 @@ def check_choices(args: list[str]) -> str | None:
         except HydraException as exc:
             return unreadable(arg, exc)
     groups = set(loader.list_groups(""))
-    roots = groups | CONFIG_KEYS
+    roots = groups | RUN.keys()
     chosen = {o.key_or_group: o for o in overrides}
     problem = chosen.get("problem")
     if "suite" in chosen and problem is not None and problem.input_line is not None \
@@ -330,11 +325,11 @@ def check_choices(args: list[str]) -> str | None:
         top = override.key_or_group.partition(".")[0]
         if top not in roots and not (override.is_add() or override.is_force_add()
                                      or override.is_delete() or top == "hydra"):
-            close = difflib.get_close_matches(top, sorted(CONFIG_KEYS), n=1)
+            close = difflib.get_close_matches(top, sorted(RUN), n=1)
             hint = f"; did you mean {close[0]}?" if close else ""
             return (f"{top}: unknown setting{hint} (known: "
-                    f"{', '.join(sorted(CONFIG_KEYS))})")
-        if top in groups - CONFIG_KEYS - {"hydra"} and "." in override.key_or_group \
+                    f"{', '.join(sorted(RUN))})")
+        if top in groups - RUN.keys() - {"hydra"} and "." in override.key_or_group \
                 and not (override.is_add() or override.is_force_add() or override.is_delete()):
             return (f"{override.key_or_group}: unknown setting; {top} is a choice of config "
                     f"({top}={', '.join(loader.get_group_options(top))}), not a group of "

@@ -227,8 +227,7 @@ def _named(section: str, given: Mapping[str, Any], name_key: str, name: Setting,
 
 
 def _usable_dir(path: str) -> bool:
-    """Whether ``path`` names a folder, or nothing yet (made when the first run is stored);
-    a file or a folder that cannot be used is a one-line error."""
+    """Whether ``path`` names a usable folder or nothing yet (made when the first run is stored)."""
     try:
         if path and not os.path.isdir(os.path.realpath(path, strict=True)):
             raise ConfigError(f"results_dir: {path} is not a folder")
@@ -254,15 +253,13 @@ def _fitpack_factor(text: str) -> float | None:
 STUDY = {"study": Setting((str,), test=STUDY_NAME.fullmatch,
                           expect="a name of letters, digits and _.=,+- (no slashes)"),
          "results_dir": Setting((str,), test=_usable_dir, expect="a directory path")}
-#: The settings of a run; the run id hashes those of :data:`~.run.RUN_KEYS`, as checked.
+#: The settings of a run (others are refused); the run id hashes those of :data:`~.run.RUN_KEYS`.
 RUN = {**STUDY, "threads": Setting((int,), "auto", 1, values=("auto",)),
        "progress": Setting((bool,), "auto", values=("auto",), expect="auto, true or false"),
        "problem": SECTION, "encoding": SECTION, "objective": SECTION, "optimizer": SECTION,
        "budget": Setting((int,), low=1), "seed": Setting((int,), low=0),
        "checkpoints_per_decade": Setting((int,), 10, 1),
        "label": Setting((str, NULL), None, expect="a name for reports")}
-#: Every top-level key of a run configuration (others are refused, not ignored).
-CONFIG_KEYS = frozenset(RUN)
 PROBLEM = {"name": Setting((str, NULL), None, expect="a label"),
            "curve": Setting((object,), None),  # checked when it is used
            "points": Setting((str, NULL), None, expect="a .csv or .npy file"),

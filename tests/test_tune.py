@@ -192,7 +192,7 @@ def test_trial_setting_turns_space_values_into_a_problem(tmp_path) -> None:
     ("compare_with=[ga,gaa]", "compare_with: unknown optimizer 'gaa'. Did you mean 'ga'?"),
     ("tune.optimizer=dolfin", "tune.optimizer: unknown optimizer 'dolfin'"),
     ("workers=2|storage=sqlite:///x.db", "not safe for several workers"),
-    ("grace_period=5", "longer than heartbeat_interval"),
+    ("grace_period=5", "grace_period: must be >= 11, got 5"),
 ])
 def test_bad_configurations_are_refused_before_a_trial(tmp_path, override, message) -> None:
     done = subprocess.run([sys.executable, "-m", "metaknot.cli", "tune",

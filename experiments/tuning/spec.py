@@ -1,5 +1,4 @@
-"""The validated configuration of a tuning study (``metaknot tune``): :func:`tune_spec` checks
-it and returns a :class:`~.study.TuneSpec`."""
+""":func:`tune_spec`: a tuning study's configuration (``metaknot tune``), validated."""
 
 from __future__ import annotations
 
@@ -47,7 +46,8 @@ TUNE = {**STUDY, "tune": SECTION, "n_trials": Setting((int,), low=1),
         "train": SPLIT, "test": SPLIT,
         "compare_with": Setting((str, list, NULL), None, expect="an optimizer's name or a list"),
         "evaluate": Setting((bool,), True), "heartbeat_interval": Setting((int,), 10, 1),
-        "grace_period": Setting((int,), 30, 1), "max_retry": Setting((int,), 2, 0),
+        "grace_period": Setting((int,), 30, lambda top: top["heartbeat_interval"] + 1),
+        "max_retry": Setting((int,), 2, 0),
         "degree": PROBLEM["degree"], "parameterization": PROBLEM["parameterization"]}
 TUNE_SECTION = {"optimizer": Setting((str,), expect="an optimizer's name"),
                 "encoding": Setting((dict, NULL), None), "space": Setting((object,), None),
@@ -146,9 +146,6 @@ def tune_spec(cfg: Mapping[str, Any]) -> TuneSpec:
                        "test": test, "test_seeds": tuple(range(n_test)),
                        "reference": _optimizer_class(top["reference"], "reference").name,
                        "compare_with": tuple(compare), "raw": raw})
-    if spec.grace_period <= spec.heartbeat_interval:
-        raise ConfigError(f"grace_period: longer than heartbeat_interval "
-                          f"({spec.heartbeat_interval} s), got {spec.grace_period}")
     # every setting must build: defaults and the fixed values, on every instance
     for instance in (*train, *test):
         run_spec(spec.run_config(instance, 0))
