@@ -27,7 +27,8 @@ def test_generated_basis_matches_scipy(degree: int) -> None:
     interior = np.sort(rng.choice(u[1:-1], size=8, replace=False))
     t = clamped_knot_vector(u, interior, degree)
     n = t.size - degree - 1
-    iv = _kernel.reciprocal_differences(t, degree)
+    iv = np.empty(t.size * degree)
+    _kernel.reciprocals_into(t, degree, iv)
     assert iv[degree] == pytest.approx(1.0 / (t[degree + 1] - t[degree]))
     basis = np.empty((u.size, degree + 1))
     spans = np.empty(u.size, dtype=np.int64)
@@ -87,8 +88,10 @@ def test_row_loop_matching_is_schoenberg_whitney(degree: int) -> None:
             continue
         st = np.zeros((n, 1 + degree + 1))
         st[:, 0] = _rows.EMPTY
-        _, matched = _rows.rows(u, q, t, _kernel.reciprocal_differences(t, degree), degree, n,
-                                st.ravel(), np.empty((0, degree + 1)), np.empty(0, np.int64))
+        iv = np.empty(t.size * degree)
+        _kernel.reciprocals_into(t, degree, iv)
+        _, matched = _rows.rows(u, q, t, iv, degree, n, st.ravel(), np.empty((0, degree + 1)),
+                                np.empty(0, np.int64))
         expected = _schoenberg_whitney(u, t, degree, n)
         assert matched == expected, (case, interior)
         verdicts.add(expected)

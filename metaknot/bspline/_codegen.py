@@ -295,7 +295,7 @@ def render_deviation(p: int, d: int) -> str:
 
 
 def render_bound(p: int) -> str:
-    """Source of ``bound_p{p}``: one backward pass over the factor for ``_conditioning_bound``.
+    """Source of ``bound_p{p}``: one backward pass over the factor for ``_kernel._bound_from``.
 
     Returns the smallest and largest ``dinv``, the largest row sum of ``|rb|`` and the largest
     entry of ``M^-1 e``, in the order of operations of a loop over the band (the locals standing
@@ -332,21 +332,28 @@ def render_bound(p: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _dispatch(name: str, args: str, doc: str, fallback: str, by_dimension: bool) -> list[str]:
-    lines = ["@njit(cache=True)", f"def {name}({args}):", f'    """{doc}"""']
-    if by_dimension:
+def _dispatch(name: str, params: str, doc: str, fallback: str, inline: bool = False,
+              by_dimension: bool = True) -> list[str]:
+    """Source of ``name``: a call of the generated ``{name}_p{p}_d{d}`` (``_p{p}`` unless
+    ``by_dimension``) of the degree ``p`` and dimension ``d`` among ``params`` (``d`` read from
+    the points, ``coef`` for ``back``, where ``params`` lacks it), else the line ``fallback``."""
+    args = params.split(", ")
+    inner = ", ".join(arg for arg in args if arg not in ("p", "d"))
+    lines = [f"@njit(cache=True{', inline=' + repr('always') if inline else ''})",
+             *textwrap.wrap(f"def {name}({params}):", 96, subsequent_indent=" " * (len(name) + 5)),
+             f'    """{doc}"""']
+    if by_dimension and "d" not in args:
         lines.append("    d = coef.shape[1]" if name == "back" else "    d = q.shape[1]")
-    first = True
-    inner = args.replace("p, ", "")
+    keyword = "if"
     for p in range(1, MAX_DEGREE + 1):
         for d in (range(1, MAX_DIMENSION + 1) if by_dimension else [None]):
-            kw = "if" if first else "elif"
-            first = False
-            cond = f"p == {p} and d == {d}" if by_dimension else f"p == {p}"
-            suffix = f"_p{p}_d{d}" if by_dimension else f"_p{p}"
-            lines += [f"    {kw} {cond}:", f"        return {name}{suffix}({inner})"]
-    lines.append(f"    return {fallback}")
-    return lines
+            cond, suffix = (f"p == {p} and d == {d}", f"_p{p}_d{d}") if by_dimension else \
+                (f"p == {p}", f"_p{p}")
+            call = textwrap.wrap(f"return {name}{suffix}({inner})", 88,
+                                 subsequent_indent=" " * (len(name) + 19))
+            lines += [f"    {keyword} {cond}:", *(" " * 8 + c for c in call)]
+            keyword = "elif"
+    return [*lines, f"    {fallback}"]
 
 
 def render() -> str:
@@ -363,16 +370,16 @@ def render() -> str:
     dispatch = [
         *_dispatch("rows", "u, q, t, iv, p, n, st, basis, spans",
                    "Dispatch on the degree and dimension: (SSE, Schoenberg-Whitney holds).",
-                   "np.nan, False", True),
+                   "return np.nan, False"),
         "", "",
-        *_dispatch("back", "st, p, n, coef", "Dispatch on the degree and dimension.", "None",
-                   True),
+        *_dispatch("back", "st, p, n, coef", "Dispatch on the degree and dimension.",
+                   "return None"),
         "", "",
         *_dispatch("deviation", "q, p, coef, basis, spans",
-                   "Dispatch on the degree and dimension.", "np.nan", True),
+                   "Dispatch on the degree and dimension.", "return np.nan"),
         "", "",
         *_dispatch("bound", "st, p, width, n", "Dispatch on the degree.",
-                   "np.nan, np.nan, np.nan, np.nan", False),
+                   "return np.nan, np.nan, np.nan, np.nan", by_dimension=False),
     ]
     return (HEADER.format(constants=constants) + "\n\n" + body + "\n\n" + "\n".join(dispatch)
             + "\n")
@@ -524,35 +531,18 @@ def render_absorb(p: int, d: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _moves_dispatch(name: str, params: str, doc: str) -> list[str]:
-    """``name``: the loop of the right degree and dimension."""
-    lines = ["@njit(cache=True, inline='always')",
-             *textwrap.wrap(f"def {name}(p, d, {params}):", 96,
-                            subsequent_indent=" " * (len(name) + 5)),
-             f'    """{doc}"""']
-    first = True
-    for p in range(1, MAX_DEGREE + 1):
-        for d in range(1, MAX_DIMENSION + 1):
-            keyword = "if" if first else "elif"
-            first = False
-            call = textwrap.wrap(f"return {name}_p{p}_d{d}({params})", 88,
-                                 subsequent_indent=" " * (len(name) + 19))
-            lines += [f"    {keyword} p == {p} and d == {d}:", *(" " * 8 + c for c in call)]
-    return [*lines, "    raise ValueError('degree 1-5 and dimension 1-3 only')"]
-
-
 def render_dispatch() -> str:
     """Source of ``window``, ``sweep``, ``absorb`` and ``frame``: the loops of the right degree
     and dimension."""
-    doc = "``{}_p{{p}}_d{{d}}`` for the given degree and dimension."
-    window = _moves_dispatch("window", "u, q, t, iv, j0, j1, span, last, col0, st, colsum, "
-                             "basis, spans", doc.format("window"))
-    params = ("u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol, colsum, "
-              "basis, spans, sse")
-    sweep = _moves_dispatch("sweep", params, doc.format("sweep"))
-    absorb = _moves_dispatch("absorb", "st, first, G, c, unreached", doc.format("absorb"))
-    frame = _moves_dispatch("frame", params, doc.format("frame"))
-    return "\n\n\n".join("\n".join(f) for f in (window, sweep, absorb, frame)) + "\n"
+    params = {"window": "u, q, t, iv, j0, j1, span, last, col0, st, colsum, basis, spans",
+              "sweep": "u, q, t, iv, span, last, bounds, blocks, st, tri, S, T, Ssse, Scol, "
+                       "colsum, basis, spans, sse",
+              "absorb": "st, first, G, c, unreached"}
+    params["frame"] = params["sweep"]
+    return "\n\n\n".join("\n".join(_dispatch(
+        name, f"p, d, {args}", f"``{name}_p{{p}}_d{{d}}`` for the given degree and dimension.",
+        "raise ValueError('degree 1-5 and dimension 1-3 only')", inline=True))
+        for name, args in params.items()) + "\n"
 
 
 def render_moves() -> str:

@@ -105,14 +105,6 @@ def reciprocals_into(t, p, iv):
 
 
 @njit(cache=True)
-def reciprocal_differences(t, p):
-    """The table of :func:`reciprocals_into`, allocated."""
-    iv = np.empty(t.size * p)
-    reciprocals_into(t, p, iv)
-    return iv
-
-
-@njit(cache=True)
 def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st, max_mult=1):
     """Least-squares control points into ``coef`` (n, d); return (reason code, SSE).
 
@@ -150,24 +142,15 @@ def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st, max_mult=1):
 
 
 @njit(cache=True)
-def _conditioning_bound(st, width, p, n, smallest_dinv, largest_dinv):
-    """Cheap upper bound of the infinity-norm condition number of ``R``.
-
-    ``rb[i, a]`` is ``st[i * width + a]`` (see :func:`_solve_into`).
+def _bound_from(smallest_dinv, largest_dinv, row_max, v_max):
+    """Cheap upper bound of the infinity-norm condition number of ``R`` from the results of
+    ``_rows.bound`` (one banded pass, generated per degree, without division).
 
     ``|R^-1| <= M^-1`` elementwise, with ``M`` the comparison matrix of ``R`` (unit diagonal,
     minus the absolute off-diagonal entries of ``rb``), so ``||R^-1||_inf`` is at most the
-    largest entry of ``M^-1 e`` times the largest ``1 / R_ii``. One banded pass (generated per
-    degree, ``_rows.bound``, which also finds the extremes of ``dinv``), no division; usually
-    within a small factor of the true value for B-spline systems.
+    largest entry of ``M^-1 e`` (``v_max``) times the largest ``1 / R_ii``; usually within a
+    small factor of the true value for B-spline systems.
     """
-    _, _, row_max, v_max = bound(st, p, width, n)
-    return _bound_from(smallest_dinv, largest_dinv, row_max, v_max)
-
-
-@njit(cache=True)
-def _bound_from(smallest_dinv, largest_dinv, row_max, v_max):
-    """The bound of :func:`_conditioning_bound` from the results of its pass."""
     # (largest R_ii) * (largest 1 / R_ii) = sqrt(largest dinv / smallest dinv)
     return math.sqrt(largest_dinv / smallest_dinv) * row_max * v_max
 
