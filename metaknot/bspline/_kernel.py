@@ -301,53 +301,63 @@ def _largest_fit(offsets, n_points, p):
 
 
 @njit(cache=True)
-def _workspaces(n_points, d, p, n_max, want_max_dev):
-    """The workspaces of :func:`_score` for candidates of at most ``n_max`` control points."""
-    t_ws = np.empty(n_max + p + 1)
-    coef_ws = np.empty((n_max, d))
-    basis = np.empty((n_points if want_max_dev else 0, p + 1))
-    spans = np.empty(n_points if want_max_dev else 0, dtype=np.int64)
-    iv_ws = np.empty((n_max + p + 1) * p)
-    st_ws = np.empty(n_max * (1 + p + d))
-    return t_ws, coef_ws, basis, spans, iv_ws, st_ws
+def _score_workspaces(n_points, d, p, n_max, want_max_dev):
+    """The workspaces of :func:`_score` for candidates of at most ``n_max`` control points, open
+    or closed: the fit's (:func:`closed_workspaces`, whose first two an open fit takes), the
+    rows' basis values and spans (empty unless ``want_max_dev``), the breakpoints, the knot
+    vector and the control points."""
+    rows = n_points if want_max_dev else 0
+    return (closed_workspaces(n_max, p, d), np.empty((rows, p + 1)),
+            np.empty(rows, dtype=np.int64), np.empty(n_max), np.empty(n_max + 2 * p + 1),
+            np.empty((n_max, d)))
 
 
 @njit(cache=True)
-def _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult):
-    """Fit candidate ``b`` (its sorted interior knots) with the workspaces ``ws`` of
-    :func:`_workspaces`; its results go to entry ``b`` of the output arrays."""
-    t_ws, coef_ws, basis, spans, iv_ws, st_ws = ws
-    n = interior.size + p + 1
-    n_ctrl[b] = n
-    t = t_ws[: n + p + 1]
-    coef = coef_ws[:n]
-    code = TOO_MANY_CONTROL_POINTS
-    sse[b] = np.inf
-    if n <= u.size:
-        code, sse[b] = _fit_ws(u, q, interior, p, t, coef, basis, spans, iv_ws, st_ws,
-                               max_mult)
-    reason[b] = code
+def _score(u, q, p, closed, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult):
+    """Fit candidate ``b``, its interior knots each repeated at most ``max_mult`` times, with
+    the workspaces ``ws`` of :func:`_score_workspaces`; its results go to entry ``b`` of the
+    output arrays. Open: sorted interior knots of a clamped spline. Closed: breakpoints 0 and
+    ``interior`` in any order (sorted here), ``m = interior.size + 1`` periodic control
+    points; refused before a fit (and before a workspace is touched): a knot outside (0, 1)
+    (:func:`closed_verdict`), then coincident knots, then fewer than ``p`` breakpoints
+    (SINGULAR) or more than there are points."""
+    fit_ws, basis, spans, breaks, t_ws, coef_ws = ws
+    if not closed:
+        n = interior.size + p + 1
+        n_ctrl[b] = n
+        coef = coef_ws[:n]
+        code = TOO_MANY_CONTROL_POINTS
+        sse[b] = np.inf
+        if n <= u.size:
+            code, sse[b] = _fit_ws(u, q, interior, p, t_ws[: n + p + 1], coef, basis, spans,
+                                   fit_ws[0], fit_ws[1], max_mult)
+        reason[b] = code
+        if max_dev.size > 0:
+            max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE \
+                else np.inf
+        return
+    m = interior.size + 1
+    n_ctrl[b] = m
+    code, in_order = closed_verdict(interior, max_mult)
+    if code == FEASIBLE and (m < p or m > u.size):
+        code = SINGULAR if m < p else TOO_MANY_CONTROL_POINTS
+    if code != FEASIBLE:
+        sse[b], reason[b] = np.inf, code
+        if max_dev.size > 0:
+            max_dev[b] = np.inf
+        return
+    breaks[0] = 0.0
+    breaks[1:m] = interior if in_order else np.sort(interior)
+    t = t_ws[: m + 2 * p + 1]
+    extended_knots(breaks[:m], p, t)
+    coef = coef_ws[:m]
+    code, value = solve_closed_into(u, q, t, p, coef, basis, spans, fit_ws, PIVOT_RATIO)
+    if code == FEASIBLE and not np.isfinite(value):  # spans too short to compute with
+        code, value = SINGULAR, np.inf
+    sse[b], reason[b] = value, code
     if max_dev.size > 0:
-        max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE else np.inf
-
-
-@njit(cache=True)
-def _curve_workspaces(n_points, d, p, n_max, want_max_dev, closed):
-    """The workspaces of :func:`_score` and of :func:`_score_closed`, those of the other kind
-    of curve empty."""
-    return (_workspaces(n_points, d, p, 0 if closed else n_max, want_max_dev and not closed),
-            _closed_score_workspaces(n_points, d, p, n_max if closed else 0,
-                                     want_max_dev and closed))
-
-
-@njit(cache=True)
-def _score_any(u, q, p, closed, interior, b, ws, ws_closed, sse, max_dev, n_ctrl, reason,
-               max_mult):
-    """Candidate ``b`` of an open (:func:`_score`) or a closed curve (:func:`_score_closed`)."""
-    if closed:
-        _score_closed(u, q, p, interior, b, ws_closed, sse, max_dev, n_ctrl, reason, max_mult)
-    else:
-        _score(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult)
+        max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
+            if code == FEASIBLE else np.inf
 
 
 @njit(cache=True)
@@ -355,17 +365,17 @@ def _score_range(u, q, p, closed, max_mult, knots, offsets, lo, hi, n_max, sse, 
                  reason):
     """Score the candidates ``lo .. hi - 1`` of a flattened batch (:func:`evaluate_batch`) with
     one set of workspaces, sized for ``n_max`` control points."""
-    ws, ws_closed = _curve_workspaces(u.size, q.shape[1], p, n_max, max_dev.size > 0, closed)
+    ws = _score_workspaces(u.size, q.shape[1], p, n_max, max_dev.size > 0)
     for b in range(lo, hi):
-        _score_any(u, q, p, closed, knots[offsets[b] : offsets[b + 1]], b, ws, ws_closed, sse,
-                   max_dev, n_ctrl, reason, max_mult)
+        _score(u, q, p, closed, knots[offsets[b] : offsets[b + 1]], b, ws, sse, max_dev, n_ctrl,
+               reason, max_mult)
 
 
 @njit(cache=True, parallel=True)
 def evaluate_batch(u, q, p, closed, max_mult, knots, offsets, sse, max_dev, n_ctrl, reason,
                    n_chunks):
     """Score every candidate ``b`` with interior knots ``knots[offsets[b]:offsets[b+1]]``
-    (sorted; of a closed curve, in any order: :func:`_score_closed` sorts them), each knot
+    (sorted; of a closed curve, in any order: :func:`_score` sorts them), each knot
     repeated at most ``max_mult`` times, in ``n_chunks`` parts for the threads.
 
     ``max_dev`` may be empty: the maximum deviation (a second pass over the data) is then
@@ -399,8 +409,8 @@ def evaluate_masks_serial(u, q, p, closed, masks, sse, max_dev, n_ctrl, reason):
         for i in range(n_var):
             count += masks[b, i] != 0
         k_max = max(k_max, count)
-    ws, ws_closed = _curve_workspaces(u.size, q.shape[1], p, min(k_max, u.size) + p + 1,
-                                      max_dev.size > 0, closed)
+    ws = _score_workspaces(u.size, q.shape[1], p, min(k_max, u.size) + p + 1,
+                           max_dev.size > 0)
     interior = np.empty(k_max)
     for b in range(n_cand):
         end = n_var  # branch-free gathering, as in masks_to_knots
@@ -410,8 +420,7 @@ def evaluate_masks_serial(u, q, p, closed, masks, sse, max_dev, n_ctrl, reason):
         for i in range(end):
             interior[k] = u[i + 1]
             k += masks[b, i] != 0
-        _score_any(u, q, p, closed, interior[:k], b, ws, ws_closed, sse, max_dev, n_ctrl,
-                   reason, 1)
+        _score(u, q, p, closed, interior[:k], b, ws, sse, max_dev, n_ctrl, reason, 1)
 
 
 @njit(cache=True)
@@ -421,8 +430,7 @@ def evaluate_positions_serial(u, q, p, closed, max_mult, positions, nan_is_absen
     each row sorted in one workspace (NaN last, as numpy sorts; dropped if ``nan_is_absent``,
     else reported by the knot checks)."""
     n_cand, k = positions.shape
-    ws, ws_closed = _curve_workspaces(u.size, q.shape[1], p, min(k, u.size) + p + 1,
-                                      max_dev.size > 0, closed)
+    ws = _score_workspaces(u.size, q.shape[1], p, min(k, u.size) + p + 1, max_dev.size > 0)
     interior = np.empty(k)
     for b in range(n_cand):
         interior[:] = positions[b]
@@ -431,8 +439,8 @@ def evaluate_positions_serial(u, q, p, closed, max_mult, positions, nan_is_absen
         if nan_is_absent:
             while count > 0 and np.isnan(interior[count - 1]):
                 count -= 1
-        _score_any(u, q, p, closed, interior[:count], b, ws, ws_closed, sse, max_dev, n_ctrl,
-                   reason, max_mult)
+        _score(u, q, p, closed, interior[:count], b, ws, sse, max_dev, n_ctrl, reason,
+               max_mult)
 
 
 @njit(cache=True, parallel=True)
@@ -787,16 +795,6 @@ def fit_closed(u: np.ndarray, q: np.ndarray, t: np.ndarray, p: int, coef: np.nda
 
 
 @njit(cache=True)
-def _closed_score_workspaces(n_points, d, p, n_max, want_max_dev):
-    """The workspaces of :func:`_score_closed` for candidates of at most ``n_max`` control
-    points."""
-    rows = n_points if want_max_dev else 0
-    return (closed_workspaces(n_max, p, d), np.empty((rows, p + 1)),
-            np.empty(rows, dtype=np.int64), np.empty(n_max), np.empty(n_max + 2 * p + 1),
-            np.empty((n_max, d)))
-
-
-@njit(cache=True)
 def closed_verdict(interior, max_mult):
     """The reason to refuse the breakpoints 0 and ``interior`` (in any order) of a closed
     candidate: KNOT_OUT_OF_RANGE for a knot not in (0, 1) (NaN included) before
@@ -824,35 +822,3 @@ def repeated_beyond(knots, max_mult):
         if run > max_mult:
             return True
     return False
-
-
-@njit(cache=True)
-def _score_closed(u, q, p, interior, b, ws, sse, max_dev, n_ctrl, reason, max_mult):
-    """:func:`_score` of a closed curve: candidate ``b``'s breakpoints are 0 and its
-    ``interior`` knots, in any order (sorted here), each repeated at most ``max_mult`` times;
-    its ``m = interior.size + 1`` control points periodic. Refused before a fit (and before a
-    workspace is touched): a knot outside (0, 1) (:func:`closed_verdict`), then coincident
-    knots, then fewer than ``p`` breakpoints (SINGULAR) or more than there are points."""
-    ws_fit, basis, spans, breaks, t_ws, coef_ws = ws
-    m = interior.size + 1
-    n_ctrl[b] = m
-    code, in_order = closed_verdict(interior, max_mult)
-    if code == FEASIBLE and (m < p or m > u.size):
-        code = SINGULAR if m < p else TOO_MANY_CONTROL_POINTS
-    if code != FEASIBLE:
-        sse[b], reason[b] = np.inf, code
-        if max_dev.size > 0:
-            max_dev[b] = np.inf
-        return
-    breaks[0] = 0.0
-    breaks[1:m] = interior if in_order else np.sort(interior)
-    t = t_ws[: m + 2 * p + 1]
-    extended_knots(breaks[:m], p, t)
-    coef = coef_ws[:m]
-    code, value = solve_closed_into(u, q, t, p, coef, basis, spans, ws_fit, PIVOT_RATIO)
-    if code == FEASIBLE and not np.isfinite(value):  # spans too short to compute with
-        code, value = SINGULAR, np.inf
-    sse[b], reason[b] = value, code
-    if max_dev.size > 0:
-        max_dev[b] = deviation_from_basis(q, p, m, coef, basis, spans) \
-            if code == FEASIBLE else np.inf
