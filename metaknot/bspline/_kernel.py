@@ -217,18 +217,9 @@ def _max_deviation(q, p, coef, basis, spans):
 
 
 @njit(cache=True)
-def _fit_into(u, q, interior, p, t, coef, basis, spans, max_mult):
-    """Fit one candidate into preallocated ``t`` and ``coef``; return (reason code, SSE).
-    Allocates the workspaces of :func:`_fit_ws`."""
-    n = interior.size + p + 1
-    iv = np.empty((n + p + 1) * p)
-    st = np.empty(n * (1 + p + q.shape[1]))
-    return _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st, max_mult)
-
-
-@njit(cache=True)
 def _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st, max_mult):
-    """:func:`_fit_into` with the workspaces of :func:`_solve_into` given."""
+    """Fit one candidate into preallocated ``t`` and ``coef`` with the workspaces ``iv`` and
+    ``st`` of :func:`_solve_into`; return (reason code, SSE)."""
     n = interior.size + p + 1
     if n > u.size:
         return TOO_MANY_CONTROL_POINTS, np.inf
@@ -284,9 +275,9 @@ def fit_one(u, q, interior, p, max_mult):
     n = interior.size + p + 1
     t = np.empty(n + p + 1)
     coef = np.zeros((n, q.shape[1]))
-    no_basis = np.empty((0, p + 1))
-    no_spans = np.empty(0, dtype=np.int64)
-    reason, _ = _fit_into(u, q, interior, p, t, coef, no_basis, no_spans, max_mult)
+    reason, _ = _fit_ws(u, q, interior, p, t, coef, np.empty((0, p + 1)),
+                        np.empty(0, dtype=np.int64), np.empty((n + p + 1) * p),
+                        np.empty(n * (1 + p + q.shape[1])), max_mult)
     return reason, t, coef
 
 

@@ -48,17 +48,13 @@ from ._kernel import (
     SCHOENBERG_WHITNEY,
     SINGULAR,
     TOO_MANY_CONTROL_POINTS,
-    _fit_into,
-    _max_deviation,
+    _score,
+    _score_workspaces,
     basis_at,
-    closed_workspaces,
-    deviation_from_basis,
-    extended_knots,
     givens,
     periodic_distance2,
     repeated_beyond,
     rotate_entries,
-    solve_closed_into,
 )
 from ._moves_rows import EMPTY, absorb, frame, sweep, window
 
@@ -388,8 +384,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
     t2 = np.empty(n_max + p + 1)
     iv = np.zeros(p * (n_max + p + 1))
     coef = np.empty((n_max, d))
-    basis_ws = np.empty((m if want_max_dev else 0, p + 1))
-    spans_ws = np.empty(m if want_max_dev else 0, dtype=np.int64)
+    full = _score_workspaces(m, d, p, n_max, want_max_dev)  # the full fits'
     rows_max = n_max + p
     stl = np.empty(rows_max * w)
     colsum = np.empty(rows_max)
@@ -497,14 +492,10 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
                         worst = max(worst, dist2)
                     max_dev_out[b] = math.sqrt(worst)
                 continue
-        # the full fit decides
+        # the full fit decides, as the batched evaluator scores it
         path_out[b] = PATH_FULL
-        code, value = _fit_into(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws,
-                                max_mult)
-        reason_out[b] = code
-        sse_out[b] = value
-        if want_max_dev and code == FEASIBLE:
-            max_dev_out[b] = _max_deviation(q, p, coef[:n2], basis_ws, spans_ws)
+        _score(u, q, p, False, interior, b, full, sse_out, max_dev_out, n_ctrl_out, reason_out,
+               max_mult)
 
 
 @njit(cache=True)
@@ -919,7 +910,6 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
     for b in range(n_cand):
         widest = max(widest, offsets[b + 1] - offsets[b])
     breaks = np.empty(max(m_max, m + widest))
-    t2 = np.empty(m_max + 2 * p + 1)
     coef = np.zeros((m_max, d))
     wide = 1 + 2 * p + d
     cols_max = m_max + 2 * p
@@ -935,9 +925,7 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
     blocks_w = np.zeros(2, dtype=np.int64)
     S_w, T_w, Ssse_w, Scol_w = (np.empty((2, p * wide)), np.empty((2, p * width)),
                                 np.empty(2), np.empty((2, p)))
-    full_basis = np.empty((n if want_max_dev else 0, p + 1))  # the full fit's rows
-    ws_full = closed_workspaces(m_max, p, d)
-    full_spans = np.empty(n if want_max_dev else 0, dtype=np.int64)
+    full = _score_workspaces(n, d, p, m_max, want_max_dev)  # the full fits'
     window_basis = np.empty((n if want_max_dev else 0, p + 1))  # the window's rows
     window_span = np.empty(n if want_max_dev else 0, dtype=np.int64)
     u_window = np.empty(n)
@@ -1070,17 +1058,10 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
                         q, p, spans, basis, window_basis, window_span, cuts[held], m, m2, KL,
                         KR, rows_lo, window_rows, coef)
                 continue
-        # the full fit decides
+        # the full fit decides, as the batched evaluator scores it
         path_out[b] = PATH_FULL
-        c2 = coef[:m2]
-        tb = t2[: m2 + 2 * p + 1]
-        extended_knots(br, p, tb)
-        code, value = solve_closed_into(u, q, tb, p, c2, full_basis, full_spans, ws_full,
-                                        PIVOT_RATIO)
-        reason_out[b] = code
-        sse_out[b] = value
-        if want_max_dev and code == FEASIBLE:
-            max_dev_out[b] = deviation_from_basis(q, p, m2, c2, full_basis, full_spans)
+        _score(u, q, p, True, br[1:], b, full, sse_out, max_dev_out, n_ctrl_out, reason_out,
+               max_mult)
 
 
 @njit(cache=True, inline='always')
