@@ -48,6 +48,8 @@ from ._kernel import (
     SCHOENBERG_WHITNEY,
     SINGULAR,
     TOO_MANY_CONTROL_POINTS,
+    _fit_ws,
+    _max_deviation,
     _score,
     _score_workspaces,
     basis_at,
@@ -384,7 +386,8 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
     t2 = np.empty(n_max + p + 1)
     iv = np.zeros(p * (n_max + p + 1))
     coef = np.empty((n_max, d))
-    full = _score_workspaces(m, d, p, n_max, want_max_dev)  # the full fits'
+    basis_ws = np.empty((m if want_max_dev else 0, p + 1))  # the full fits' rows
+    spans_ws = np.empty(m if want_max_dev else 0, dtype=np.int64)
     rows_max = n_max + p
     stl = np.empty(rows_max * w)
     colsum = np.empty(rows_max)
@@ -492,10 +495,15 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
                         worst = max(worst, dist2)
                     max_dev_out[b] = math.sqrt(worst)
                 continue
-        # the full fit decides, as the batched evaluator scores it
+        # the full fit decides, as the batched evaluator fits it (its workspaces allocated
+        # here: most calls need none, and a call's allocations weigh on a move of 1-2 us)
         path_out[b] = PATH_FULL
-        _score(u, q, p, False, interior, b, full, sse_out, max_dev_out, n_ctrl_out, reason_out,
-               max_mult)
+        code, value = _fit_ws(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws,
+                              np.empty((n2 + p + 1) * p), np.empty(n2 * w), max_mult)
+        reason_out[b] = code
+        sse_out[b] = value
+        if want_max_dev and code == FEASIBLE:
+            max_dev_out[b] = _max_deviation(q, p, coef[:n2], basis_ws, spans_ws)
 
 
 @njit(cache=True)
