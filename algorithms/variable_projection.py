@@ -38,6 +38,7 @@ from contextlib import AbstractContextManager
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
+from scipy.special import softmax
 
 from metaknot.bspline.curve import curve_model
 from metaknot.budget import BudgetExhausted, Evaluator
@@ -517,17 +518,18 @@ class VariableProjection(Optimizer):
             ends = np.concatenate(([bounds[0]], distinct, [bounds[1]]))
             squared = np.bincount(np.searchsorted(distinct, u, side="right"),
                                   weights=np.sum(errors**2, axis=1), minlength=ends.size - 1)
-            elsewhere, candidates = [], []
+            # beside: (away) the moves that keep a knot within its own spans
+            candidates: list[np.ndarray] = []
+            beside: list[np.ndarray] = []
             for worst in np.argsort(-squared, kind="stable")[:RELOCATION_SPANS if away else 1]:
                 added = 0.5 * (ends[worst] + ends[worst + 1])
                 for drop in range(distinct.size):
                     fewer = counts.copy()
                     fewer[drop] -= 1
                     moved = np.sort(np.append(np.repeat(distinct, fewer), added))
-                    candidates.append(moved)
-                    if fewer[drop] > 0 or drop not in (worst - 1, worst):
-                        elsewhere.append(moved)
-            candidates = elsewhere if away and elsewhere else candidates
+                    near = away and fewer[drop] == 0 and drop in (worst - 1, worst)
+                    (beside if near else candidates).append(moved)
+            candidates = candidates or beside
             scores = evaluator(np.array(candidates))
             z_moved, counts_moved = _grouped(candidates[int(np.argmin(scores))], bounds)
             return (_widened(z_moved) if away else z_moved), counts_moved
@@ -592,8 +594,7 @@ def _widened(z: np.ndarray) -> np.ndarray:
     """The log spans ``z`` with every span at least ``PARTED_SPAN`` times the mean span (the
     others scaled down to make room): two knots run together (a span near 0, its log near
     minus infinity) would stay together in the solve's steps."""
-    spans = np.exp(np.concatenate(([0.0], z)) - max(0.0, float(z.max(initial=0.0))))
-    spans = np.maximum(spans / spans.sum(), PARTED_SPAN / spans.size)
+    spans = np.maximum(softmax(np.concatenate(([0.0], z))), PARTED_SPAN / (z.size + 1))
     return np.log(spans[1:]) - np.log(spans[0])
 
 
