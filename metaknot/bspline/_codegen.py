@@ -339,7 +339,7 @@ def _dispatch(name: str, params: str, doc: str, fallback: str, inline: bool = Fa
     the points, ``coef`` for ``back``, where ``params`` lacks it), else the line ``fallback``."""
     args = params.split(", ")
     inner = ", ".join(arg for arg in args if arg not in ("p", "d"))
-    lines = [f"@njit(cache=True{', inline=' + repr('always') if inline else ''})",
+    lines = ["@njit(cache=True, inline='always')" if inline else "@njit(cache=True)",
              *textwrap.wrap(f"def {name}({params}):", 96, subsequent_indent=" " * (len(name) + 5)),
              f'    """{doc}"""']
     if by_dimension and "d" not in args:
