@@ -55,7 +55,8 @@ def _build_knots(u, interior, p, t, max_mult):
     """Fill the clamped knot vector ``t``; return a reason code for malformed interior knots.
 
     One pass without branches on the knots (out of range, NaN included, takes precedence over
-    unsorted or coincident); a knot may repeat up to ``max_mult`` times.
+    unsorted or coincident); a knot may repeat up to ``max_mult`` times (the runs counted by
+    :func:`repeated_beyond`, the rule of every check of multiple knots).
     """
     k = interior.size
     u0 = u[0]
@@ -66,25 +67,16 @@ def _build_knots(u, interior, p, t, max_mult):
     outside = False
     unsorted = False
     prev = u0
-    if max_mult == 1:  # distinct knots: the loop without the count of copies
-        for i in range(k):
-            x = interior[i]
-            t[p + 1 + i] = x
-            outside |= not ((x > u0) & (x < um))  # also catches NaN
-            unsorted |= x <= prev
-            prev = x
-    else:
-        run = 1  # copies of the knot so far
-        for i in range(k):
-            x = interior[i]
-            t[p + 1 + i] = x
-            outside |= not ((x > u0) & (x < um))  # also catches NaN
-            run = run + 1 if x == prev else 1
-            unsorted |= (x < prev) | (run > max_mult)
-            prev = x
+    repeats = max_mult > 1  # equal neighbours allowed: their runs are counted after the loop
+    for i in range(k):
+        x = interior[i]
+        t[p + 1 + i] = x
+        outside |= not ((x > u0) & (x < um))  # also catches NaN
+        unsorted |= (x < prev) | ((x == prev) & (not repeats))
+        prev = x
     if outside:
         return KNOT_OUT_OF_RANGE
-    if unsorted:
+    if unsorted or (repeats and repeated_beyond(interior, max_mult)):
         return COINCIDENT_KNOTS
     return FEASIBLE
 
