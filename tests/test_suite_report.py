@@ -180,6 +180,28 @@ def test_gap_and_wins_recomputed(view, suite_study, suite_report):
     assert wins.loc[a, b] == f"{(x < y).sum()}/{(x == y).sum()}/{(x > y).sum()}"
 
 
+def test_each_methods_worst_problem_and_family_are_named(view, suite_study, suite_report):
+    """Where a method fails, beside its rank: the problem of its largest gap and the family of
+    its largest median gap, in the gap table and in the summary's sentence."""
+    runs = load_study(suite_study).runs
+    f_star = _best_known_of(runs)
+    runs = runs.assign(gap=(runs.best_f - f_star) / f_star.abs(),
+                       family=runs["suite.family"].astype(str))
+    table = suite_report.tables["suite_gap"].set_index("method")
+    text = suite_report.markdown.read_text()
+    assert "Where each method fails" in text
+    for method in METHODS:
+        mine = runs[runs.label == method]
+        per_problem = mine.groupby(["suite.instance", "suite.task"]).gap.median()
+        family_of = mine.groupby(["suite.instance", "suite.task"]).family.first()
+        worst = per_problem.idxmax()
+        assert table.loc[method, "worst gap"] == pytest.approx(per_problem.max())
+        assert table.loc[method, "worst problem"].startswith(worst[0] + " ")
+        by_family = per_problem.groupby(family_of).median()
+        assert table.loc[method, "worst family"] == by_family.idxmax()
+        assert f"{method} on {table.loc[method, 'worst problem']} (gap" in text
+
+
 def test_suite_best_from_study_stores_each_tasks_best_run(suite_study, tmp_path):
     """`metaknot suite best --from-study`: against a file whose values are all worse than the
     study's runs, each task's value becomes its lowest run's, evaluated again."""

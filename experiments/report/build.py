@@ -244,7 +244,8 @@ def _suite_tables(comparison: Comparison, tables: dict[str, pd.DataFrame],
             part, _ = s.performance_profile(view.medians[view.tasks == task], np.array([1.0]))
             best[f"{s.TASK_SCOPE}{task}"] = part.T.iloc[:, 0]
     best.index.name, best.columns.name = "method", None
-    tables.update(suite_solved=solved.reset_index(), suite_gap=s.gap_table(view),
+    gaps = s.gap_table(view)
+    tables.update(suite_solved=solved.reset_index(), suite_gap=gaps,
                   suite_ranks=ranks, suite_friedman=tests,
                   suite_wins=s.wins_matrix(view.medians, order),
                   suite_best=best.reindex(order).reset_index(),
@@ -253,7 +254,7 @@ def _suite_tables(comparison: Comparison, tables: dict[str, pd.DataFrame],
         view.notes.append(f"{left_out} problem(s) are left out of the suite-wide performance "
                           "profile (a compared method without runs there, or a best median "
                           "not above 0).")
-    return _Suite(view, hits, results, s.suite_summary(view, results, solved, alpha))
+    return _Suite(view, hits, results, s.suite_summary(view, results, solved, alpha, gaps))
 
 
 # --------------------------------------------------------------------------------------------
@@ -594,7 +595,8 @@ def _suite_sections(suite: _Suite, tables: dict[str, pd.DataFrame],
         sections.append(_Section(
             "Gap to the best-known value", level=3,
             paragraphs=["Per problem the median over seeds of (f − f*)/|f*|; per method the "
-                        "median over problems, the worst, and the shares of problems within "
+                        "median over problems, the worst and the problem where it is, the "
+                        "family of the largest median gap, and the shares of problems within "
                         "1 % and at (or below) the best-known value; sorted by the median "
                         "gap."],
             table=_plain(gap, shares)))

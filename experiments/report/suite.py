@@ -254,10 +254,11 @@ def profile_taus(medians: pd.DataFrame, points: int = 200) -> np.ndarray:
 
 def gap_table(suite: SuiteComparison) -> pd.DataFrame:
     """Per method, over the problems with a best-known value: the median over problems of
-    the median relative gap ``(f - f*) / |f*|`` over seeds, its worst, and the shares of
-    problems within 1 % and at (or below) the best-known value; per family and, in a study of
-    several tasks, per task (``median gap: task: <id>``) the median gap. Sorted by the median
-    gap."""
+    the median relative gap ``(f - f*) / |f*|`` over seeds, its worst and the problem where it
+    is (``worst problem``), the family of the largest median gap (``worst family``), and the
+    shares of problems within 1 % and at (or below) the best-known value; per family and, in a
+    study of several tasks, per task (``median gap: task: <id>``) the median gap. Sorted by
+    the median gap."""
     runs = suite.runs[suite.runs.best_known.notna()]
     gaps = runs.groupby(["problem", "method"]).gap.median().unstack("method")
     families = suite.families.reindex(gaps.index)
@@ -266,11 +267,14 @@ def gap_table(suite: SuiteComparison) -> pd.DataFrame:
     rows = []
     for method in [m for m in suite.methods if m in gaps]:
         values = gaps[method].dropna()
+        by_family = values.groupby(families[values.index]).median()
         row = {"method": method, "problems": len(values),
                "median gap": values.median(), "worst gap": values.max(),
+               "worst problem": values.idxmax() if len(values) else None,
+               "worst family": by_family.idxmax() if len(by_family) else None,
                "within 1%": (values <= 1e-2).mean(), "at best-known": (values <= 0).mean()}
-        for family, part in values.groupby(families[values.index]):
-            row[f"median gap: {family}"] = part.median()
+        for family, median in by_family.items():
+            row[f"median gap: {family}"] = median
         if several_tasks:
             for task, part in values.groupby(tasks[values.index]):
                 row[f"median gap: {TASK_SCOPE}{task}"] = part.median()
@@ -281,8 +285,8 @@ def gap_table(suite: SuiteComparison) -> pd.DataFrame:
     ordered = [f"median gap: {f}" for f in suite.family_names if f"median gap: {f}" in table]
     ordered += [f"median gap: {TASK_SCOPE}{t}" for t in suite.task_names
                 if f"median gap: {TASK_SCOPE}{t}" in table]
-    table = table[["method", "problems", "median gap", "worst gap", "within 1%",
-                   "at best-known", *ordered]]
+    table = table[["method", "problems", "median gap", "worst gap", "worst problem",
+                   "worst family", "within 1%", "at best-known", *ordered]]
     return table.sort_values(["median gap", "method"], kind="stable").reset_index(drop=True)
 
 
@@ -332,8 +336,10 @@ def ranks_by_family(results: dict[str, FriedmanResult]) -> tuple[pd.DataFrame, p
 
 
 def suite_summary(suite: SuiteComparison, results: dict[str, FriedmanResult],
-                  solved: pd.DataFrame, alpha: float = 0.05) -> list[str]:
-    """A few sentences on the suite as a whole."""
+                  solved: pd.DataFrame, alpha: float = 0.05,
+                  gaps: pd.DataFrame | None = None) -> list[str]:
+    """A few sentences on the suite as a whole; with the :func:`gap_table` ``gaps``, where
+    each method fails: its worst problem and family, beside its rank."""
     overall = results[ALL]
     lines = []
     ranks = overall.ranks
@@ -358,6 +364,20 @@ def suite_summary(suite: SuiteComparison, results: dict[str, FriedmanResult],
             parts.append(f"{task}: {' and '.join(leaders)} ({r.ranks.min():.2f}, "
                          f"{r.blocks} problems)")
         lines.append("Best average rank by task: " + "; ".join(parts) + ".")
+    if gaps is not None and len(gaps):
+        listed = gaps.set_index("method")
+        parts = []
+        for method in [m for m in ranks.index if m in listed.index]:
+            row = listed.loc[method]
+            if row["worst problem"] is None:
+                continue
+            family = row["worst family"]
+            parts.append(f"{method} on {row['worst problem']} (gap {row['worst gap']:.3g}; "
+                         f"its worst family {family}, median gap "
+                         f"{row['median gap: ' + family]:.3g})")
+        if parts:
+            lines.append("Where each method fails, in the order of its rank (the largest "
+                         "relative gap to the best-known value): " + "; ".join(parts) + ".")
     if len(solved):
         shares = solved[ALL].sort_values(ascending=False, kind="stable")
         text = ", ".join(f"{m} {v:.0%}" for m, v in shares.items())
