@@ -194,9 +194,9 @@ def test_each_methods_worst_problem_and_family_are_named(view, suite_study, suit
         mine = runs[runs.label == method]
         per_problem = mine.groupby(["suite.instance", "suite.task"]).gap.median()
         family_of = mine.groupby(["suite.instance", "suite.task"]).family.first()
-        worst = per_problem.idxmax()
+        instance, task = per_problem.idxmax()
         assert table.loc[method, "worst gap"] == pytest.approx(per_problem.max())
-        assert table.loc[method, "worst problem"].startswith(worst[0] + " ")
+        assert table.loc[method, "worst problem"] == f"{instance} {get_task(instance, task).id}"
         by_family = per_problem.groupby(family_of).median()
         assert table.loc[method, "worst family"] == by_family.idxmax()
         assert f"{method} on {table.loc[method, 'worst problem']} (gap" in text

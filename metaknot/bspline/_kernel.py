@@ -208,10 +208,17 @@ def _max_deviation(q, p, coef, basis, spans):
     return deviation(q, p, coef, basis, spans)
 
 
+@njit(cache=True, inline='always')
+def fit_workspaces(n, p, d):
+    """The workspaces of a fit of ``n`` control points (:func:`_solve_into`, and the first two
+    of :func:`closed_workspaces`): the knots' reciprocal differences and the banded factor."""
+    return np.empty((n + p + 1) * p), np.empty(n * (1 + p + d))
+
+
 @njit(cache=True)
 def _fit_ws(u, q, interior, p, t, coef, basis, spans, iv, st, max_mult):
     """Fit one candidate into preallocated ``t`` and ``coef`` with the workspaces ``iv`` and
-    ``st`` of :func:`_solve_into`; return (reason code, SSE)."""
+    ``st`` of :func:`fit_workspaces`; return (reason code, SSE)."""
     n = interior.size + p + 1
     if n > u.size:
         return TOO_MANY_CONTROL_POINTS, np.inf
@@ -267,9 +274,9 @@ def fit_one(u, q, interior, p, max_mult):
     n = interior.size + p + 1
     t = np.empty(n + p + 1)
     coef = np.zeros((n, q.shape[1]))
+    iv, st = fit_workspaces(n, p, q.shape[1])
     reason, _ = _fit_ws(u, q, interior, p, t, coef, np.empty((0, p + 1)),
-                        np.empty(0, dtype=np.int64), np.empty((n + p + 1) * p),
-                        np.empty(n * (1 + p + q.shape[1])), max_mult)
+                        np.empty(0, dtype=np.int64), iv, st, max_mult)
     return reason, t, coef
 
 
@@ -308,12 +315,9 @@ def _score(u, q, p, closed, interior, b, ws, sse, max_dev, n_ctrl, reason, max_m
     if not closed:
         n = interior.size + p + 1
         n_ctrl[b] = n
-        coef = coef_ws[:n]
-        code = TOO_MANY_CONTROL_POINTS
-        sse[b] = np.inf
-        if n <= u.size:
-            code, sse[b] = _fit_ws(u, q, interior, p, t_ws[: n + p + 1], coef, basis, spans,
-                                   fit_ws[0], fit_ws[1], max_mult)
+        coef = coef_ws[:n]  # a candidate of more than u.size is refused before it is touched
+        code, sse[b] = _fit_ws(u, q, interior, p, t_ws[: n + p + 1], coef, basis, spans,
+                               fit_ws[0], fit_ws[1], max_mult)
         reason[b] = code
         if max_dev.size > 0:
             max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE \
@@ -586,8 +590,8 @@ def closed_workspaces(m, p, d):
     reciprocals, the factor, its wrap-around entries, a dense row, the solution, the
     basis values of a seam row with their knot differences, and the seam's own factor
     (:func:`_seam_into`)."""
-    return (np.empty((m + p + 1) * p), np.empty(m * (1 + p + d)), np.empty((m, p)),
-            np.empty(m + d), np.empty((m, d)), np.empty((3, p + 1)),
+    iv, st = fit_workspaces(m, p, d)
+    return (iv, st, np.empty((m, p)), np.empty(m + d), np.empty((m, d)), np.empty((3, p + 1)),
             np.empty(2 * p * (1 + p + d)), np.empty((2 * p, p)))
 
 

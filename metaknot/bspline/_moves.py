@@ -53,6 +53,7 @@ from ._kernel import (
     _score,
     _score_workspaces,
     basis_at,
+    fit_workspaces,
     givens,
     periodic_distance2,
     repeated_beyond,
@@ -498,8 +499,9 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
         # the full fit decides, as the batched evaluator fits it (its workspaces allocated
         # here: most calls need none, and a call's allocations weigh on a move of 1-2 us)
         path_out[b] = PATH_FULL
-        code, value = _fit_ws(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws,
-                              np.empty((n2 + p + 1) * p), np.empty(n2 * w), max_mult)
+        iv_full, st_full = fit_workspaces(n2, p, d)
+        code, value = _fit_ws(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws, iv_full,
+                              st_full, max_mult)
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
