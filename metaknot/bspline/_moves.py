@@ -267,97 +267,86 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
     return True
 
 
-@njit(cache=True, inline='always', error_model='numpy')
-def _order_verdict(t2, lo, hi, p, max_mult):
-    """``COINCIDENT_KNOTS`` if a knot of the clamped knot vector ``t2`` compared with the one
-    before it at ``lo .. hi - 1`` (interior knots) lies below it, or a run of equal interior
-    knots near there repeats more than ``max_mult`` times; else ``FEASIBLE``."""
-    if max_mult == 1:  # distinct knots: the loop without the count of copies
-        for i in range(lo, hi):
-            if t2[i] <= t2[i - 1]:
-                return COINCIDENT_KNOTS
-        return FEASIBLE
-    for i in range(lo, hi):
-        if t2[i] < t2[i - 1]:
-            return COINCIDENT_KNOTS
-    # runs of interior knots only (the clamped ends repeat p + 1 times)
-    return _runs_verdict(t2, max(lo - max_mult - 1, p + 2),
-                         min(hi + max_mult + 1, t2.size - p - 1), max_mult, FEASIBLE)
+# _replaced's verdict on knots out of order, feasible so far: an open candidate is refused
+# (COINCIDENT_KNOTS, as the batch evaluator refuses it), a closed one sorted, as the batch
+# evaluator sorts it (no longer a local change: the full fit decides).
+UNSORTED = -1
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def _candidate_knots(u, t, interior, p, t2, max_mult):
-    """Fill ``t2`` with the candidate's clamped knot vector; return (reason, e, f): ``e`` the
-    first index where it differs from the incumbent's ``t``, ``f`` the length of their common
-    tail. Only the changed knots are checked (the others are the incumbent's): the reason is
-    the full kernel's ``_build_knots`` verdict."""
+def _changed_block(interior, knots, lo, hi):
+    """The incumbent's interior knots ``start:stop`` that candidate ``knots[lo:hi]`` replaces
+    (by its knots ``lo + start : hi - (k - stop)``): the common head and tail removed."""
     k = interior.size
-    n1 = t.size
-    n2 = k + 2 * p + 2
-    u0 = u[0]
-    um = u[u.size - 1]
-    for i in range(p + 1):
-        t2[i] = u0
-        t2[n2 - 1 - i] = um
-    for i in range(k):
-        t2[p + 1 + i] = interior[i]
-    # the common head and tail, compared eight entries at a time (the compiler vectorises a
-    # block without an early exit), then one at a time
-    limit = min(n1, n2)
+    limit = min(k, hi - lo)
+    # compared eight knots at a time (the compiler vectorises a block without an early
+    # exit), then one at a time
     e = 0
     while e + 8 <= limit:
         differs = False
         for i in range(8):
-            differs |= t[e + i] != t2[e + i]
+            differs |= interior[e + i] != knots[lo + e + i]
         if differs:
             break
         e += 8
-    while e < limit and t[e] == t2[e]:
+    while e < limit and interior[e] == knots[lo + e]:
         e += 1
     f = 0
     while f + 8 <= limit - e:
         differs = False
         for i in range(8):
-            differs |= t[n1 - 1 - f - i] != t2[n2 - 1 - f - i]
+            differs |= interior[k - 1 - f - i] != knots[hi - 1 - f - i]
         if differs:
             break
         f += 8
-    while f < limit - e and t[n1 - 1 - f] == t2[n2 - 1 - f]:
+    while f < limit - e and interior[k - 1 - f] == knots[hi - 1 - f]:
         f += 1
-    stop = n2 - f  # t2[e:stop] are the changed knots, all interior
-    for i in range(e, stop):
-        x = t2[i]
-        if not (x > u0 and x < um):  # also catches NaN
-            return KNOT_OUT_OF_RANGE, e, f
-    return _order_verdict(t2, max(e, p + 2), min(stop + 1, n2 - p - 1), p, max_mult), e, f
+    return e, k - f, lo + e, hi - f
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def _replacement_knots(u, t, n, start, stop, inserted, p, t2, max_mult):
-    """Fill ``t2`` with the knots of the incumbent ``t`` whose interior knots ``start:stop``
-    are replaced by ``inserted``; return (reason, e, f) as :func:`_candidate_knots` does, with
-    only the inserted knots checked."""
-    k = n - p - 1
-    size = t2.size
-    for i in range(p + 1 + start):  # the head, the inserted knots, the tail
-        t2[i] = t[i]
+def _replaced(own, head, trail, start, stop, inserted, out, lo, hi, max_mult):
+    """Fill ``out`` with the incumbent's knots ``own`` (``head`` entries before its interior
+    knots, ``trail`` after them: an open curve's clamped knot vector, a closed curve's
+    breakpoints) whose interior knots ``start:stop`` are replaced by ``inserted``; return the
+    batch evaluator's verdict, only the inserted knots checked (the others are the
+    incumbent's): KNOT_OUT_OF_RANGE for a replacement outside the interior knots or an
+    inserted knot outside ``(lo, hi)`` (NaN included), then ``UNSORTED`` for knots out of
+    order, COINCIDENT_KNOTS for a run of more than ``max_mult`` equal interior knots, else
+    FEASIBLE. The one check of the moves' knots, open and closed."""
+    if start > stop or stop > own.size - head - trail:
+        return KNOT_OUT_OF_RANGE
+    e = head + start
+    tail = e + inserted.size
+    shift = out.size - own.size
+    for i in range(e):  # the head, the inserted knots, the tail
+        out[i] = own[i]
     for i in range(inserted.size):
-        t2[p + 1 + start + i] = inserted[i]
-    tail = p + 1 + start + inserted.size
-    shift = size - t.size
-    for i in range(tail, size):
-        t2[i] = t[i - shift]
-    e = p + 1 + start
-    f = size - tail
-    u0 = u[0]
-    um = u[u.size - 1]
+        out[e + i] = inserted[i]
+    for i in range(tail, out.size):
+        out[i] = own[i - shift]
     for i in range(inserted.size):
         x = inserted[i]
-        if not (x > u0 and x < um):  # also catches NaN
-            return KNOT_OUT_OF_RANGE, e, f
-    if stop > k or start > stop:
-        return KNOT_OUT_OF_RANGE, e, f
-    return _order_verdict(t2, max(e, p + 2), min(tail + 1, size - p - 1), p, max_mult), e, f
+        if not (x > lo and x < hi):  # also catches NaN
+            return KNOT_OUT_OF_RANGE
+    first, end = head + 1, out.size - trail  # the knots with an interior one before them
+    for i in range(max(e, first), min(tail + 1, end)):
+        if out[i] <= out[i - 1]:
+            if out[i] < out[i - 1]:
+                return UNSORTED
+            if max_mult == 1:
+                return COINCIDENT_KNOTS
+    if max_mult == 1:
+        return FEASIBLE
+    return _runs_verdict(out, max(e - max_mult - 1, first), min(tail + max_mult + 2, end),
+                         max_mult, FEASIBLE)
+
+
+@njit(cache=True, inline='always')
+def _runs_verdict(knots, lo, hi, max_mult, verdict):
+    """``COINCIDENT_KNOTS`` if sorted knots ``knots[lo - 1:hi]`` repeat one more than
+    ``max_mult`` times, else ``verdict`` (a caller keeps the range to interior knots)."""
+    return COINCIDENT_KNOTS if repeated_beyond(knots[lo - 1 : hi], max_mult) else verdict
 
 
 @njit(cache=True, error_model='numpy')
@@ -396,13 +385,14 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
     bound_w = np.empty(rows_max)
     window_basis = np.empty((m if want_max_dev else 0, p + 1))
     window_span = np.empty(m if want_max_dev else 0, dtype=np.int64)
+    own = t[p + 1 : n]  # the incumbent's interior knots
     replacing = starts.size > 0
     for b in range(n_cand):
-        inserted = knots[offsets[b]:offsets[b + 1]]
+        lo, hi = offsets[b], offsets[b + 1]
         if replacing:
-            n2 = n - (stops[b] - starts[b]) + inserted.size
+            n2 = n - (stops[b] - starts[b]) + hi - lo
         else:
-            n2 = inserted.size + p + 1
+            n2 = hi - lo + p + 1
         n_ctrl_out[b] = n2
         sse_out[b] = np.inf
         if want_max_dev:
@@ -413,14 +403,17 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
             continue
         tb = t2[: n2 + p + 1]
         if replacing:
-            code, e, f = _replacement_knots(u, t, n, starts[b], stops[b], inserted, p, tb,
-                                            max_mult)
-        else:
-            code, e, f = _candidate_knots(u, t, inserted, p, tb, max_mult)
+            start, stop = starts[b], stops[b]
+        else:  # the incumbent's knots that the candidate replaces
+            start, stop, lo, hi = _changed_block(own, knots, lo, hi)
+        inserted = knots[lo:hi]
+        code = _replaced(t, p + 1, p + 1, start, stop, inserted, tb, u[0], u[m - 1], max_mult)
         interior = tb[p + 1 : n2]
         if code != FEASIBLE:
-            reason_out[b] = code
+            reason_out[b] = COINCIDENT_KNOTS if code == UNSORTED else code
             continue
+        e = p + 1 + start  # the first changed knot, and the length of the common tail
+        f = tb.size - e - inserted.size
         delta = n2 - n
         # functions below e - p - 1 keep their supports, those from t.size - f + delta on
         # (counted in t2) keep the supports of the incumbent's functions shifted by delta
@@ -429,7 +422,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
             continue
         c_left = max(e - p, p)
         c_right = min(t.size - f + p - 1, n)
-        if e == t.size and n2 == n:  # the incumbent itself
+        if not replacing and start == stop and inserted.size == 0:  # the incumbent itself
             if not want_max_dev:
                 reason_out[b] = FEASIBLE
                 sse_out[b] = base_sse
@@ -486,14 +479,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
                         else:
                             first = window_span[j] - p
                             hj = window_basis[j]
-                        dist2 = 0.0
-                        for k in range(d):
-                            acc = 0.0
-                            for i in range(p + 1):
-                                acc += hj[i] * c[first + i, k]
-                            diff = q[j, k] - acc
-                            dist2 += diff * diff
-                        worst = max(worst, dist2)
+                        worst = max(worst, periodic_distance2(q, j, hj, first, c, n2, p))
                     max_dev_out[b] = math.sqrt(worst)
                 continue
         # the full fit decides, as the batched evaluator fits it (its workspaces allocated
@@ -658,10 +644,6 @@ def mask_replacements(u, near, masks):
 # normal matrix, so bounding the inverse of each block bounds ``1 / sigma_min``. A candidate is
 # reported feasible on the delta path only when that bound keeps every pivot above
 # ``PIVOT_RATIO / CERTIFY`` times the largest; the full fit decides the rest.
-
-# _closed_candidate's verdict on knots given out of order (sorted there) but feasible so far.
-UNSORTED = -1
-
 
 @njit(cache=True, inline='always')
 def _periodic_rows(u, q, first, u_out, q_out):
@@ -848,57 +830,6 @@ def bind_closed(u, q, t, p, cuts):
 
 
 @njit(cache=True)
-def _closed_candidate(interior, start, stop, inserted, breaks, max_mult):
-    """Fill ``breaks`` with 0 and the incumbent's interior knots whose ``start:stop`` are
-    replaced by ``inserted``; return the reason the batch evaluator would give for malformed
-    knots (out of range before coincident), only the inserted knots being checked. Knots out
-    of order are sorted, as the batch evaluator sorts them (``UNSORTED``: no longer a local
-    change, the full fit decides)."""
-    k = interior.size
-    breaks[0] = 0.0
-    for i in range(start):
-        breaks[1 + i] = interior[i]
-    for i in range(inserted.size):
-        breaks[1 + start + i] = inserted[i]
-    tail = 1 + start + inserted.size
-    for i in range(stop, k):
-        breaks[tail + i - stop] = interior[i]
-    for i in range(inserted.size):
-        x = inserted[i]
-        if not (x > 0.0 and x < 1.0):  # also catches NaN
-            return KNOT_OUT_OF_RANGE
-    for i in range(max(start + 1, 2), min(tail + 1, breaks.size)):
-        if breaks[i] < breaks[i - 1]:  # out of order: the batch evaluator sorts the knots
-            breaks[1:] = np.sort(breaks[1:])
-            return _runs_verdict(breaks, 2, breaks.size, max_mult, UNSORTED)
-    return _runs_verdict(breaks, max(start - max_mult, 2), min(tail + max_mult + 1, breaks.size),
-                         max_mult, FEASIBLE)
-
-
-@njit(cache=True)
-def _runs_verdict(knots, lo, hi, max_mult, verdict):
-    """``COINCIDENT_KNOTS`` if sorted knots ``knots[lo - 1:hi]`` repeat one more than
-    ``max_mult`` times, else ``verdict`` (open and closed move checks; a caller keeps the range
-    to interior knots)."""
-    return COINCIDENT_KNOTS if repeated_beyond(knots[lo - 1 : hi], max_mult) else verdict
-
-
-@njit(cache=True)
-def _changed_block(interior, knots, lo, hi):
-    """The incumbent's interior knots ``start:stop`` that candidate ``knots[lo:hi]`` replaces
-    (by its knots ``lo + start : hi - (k - stop)``): the common head and tail removed."""
-    k = interior.size
-    k2 = hi - lo
-    e = 0
-    while e < k and e < k2 and interior[e] == knots[lo + e]:
-        e += 1
-    f = 0
-    while f < k - e and f < k2 - e and interior[k - 1 - f] == knots[hi - 1 - f]:
-        f += 1
-    return e, k - f, lo + e, hi - f
-
-
-@njit(cache=True)
 def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T, Ssse, Scol,
                           final_ext, inverse, gram_norm, base_sse,
                           base_max_dev, max_mult, knots, offsets, starts, stops,
@@ -942,6 +873,9 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
     q_window = np.empty((n, d))
     t_window = np.empty(m_max + 2 * p + 1)
     iv_window = np.empty(p * (m_max + 2 * p + 1))
+    own = np.empty(m)  # the incumbent's breakpoints
+    own[0] = 0.0
+    own[1:] = interior
     replacing = starts.size > 0
     for b in range(n_cand):
         lo, hi = offsets[b], offsets[b + 1]
@@ -958,10 +892,11 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
             max_dev_out[b] = np.inf
         path_out[b] = PATH_CHECKS
         br = breaks[:m2]
-        code = _closed_candidate(interior, start, stop, inserted, br, max_mult)
+        code = _replaced(own, 1, 0, start, stop, inserted, br, 0.0, 1.0, max_mult)
         local = code == FEASIBLE
-        if code == UNSORTED:
-            code = FEASIBLE
+        if code == UNSORTED:  # sorted, as the batch evaluator sorts them: fitted in full
+            br[1:] = np.sort(br[1:])
+            code = _runs_verdict(br, 2, br.size, max_mult, FEASIBLE)
         if code == FEASIBLE and m2 < p:
             code = SINGULAR
         if code == FEASIBLE and m2 > n:
