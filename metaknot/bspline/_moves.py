@@ -189,34 +189,46 @@ def inverse_norm_bound(st, width, p, size, v, wv, tri):
     return math.sqrt(v_max * w_max * d_max)
 
 
+@njit(cache=True, inline='always')
+def _substitute(st, o, p, d, wrap, reach, step, x, at):
+    """Back substitution of one row of a merged factor (``st[o:]``: the unit triangular row's
+    ``p`` band entries, its ``wrap`` wrap-around entries, its right-hand side): ``x[at]``
+    from its ``reach`` band entries (entry ``a`` the unknown ``x[at + a * step]``) and its
+    wrap-around entries (the unknowns ``x[:wrap]``)."""
+    for c in range(d):
+        acc = st[o + 1 + p + wrap + c]
+        for a in range(reach, 0, -1):
+            acc -= st[o + a] * x[at + a * step, c]
+        for k in range(wrap):
+            acc -= st[o + 1 + p + k] * x[k, c]
+        x[at, c] = acc
+
+
 @njit(cache=True)
-def _merged_coefficients(stl, size, st_f, st_m, n, p, d, c_left, c_right, delta, coef):
-    """Control points of a merged candidate (columns counted in the candidate): the merged
-    block ``stl`` (columns ``c_left - p ..``) first, then the incumbent's final forward rows
-    leftwards and its final mirrored rows rightwards (unit triangular, square-root-free)."""
-    w = 1 + p + d
-    base = c_left - p
-    for i in range(size - 1, -1, -1):
-        o = i * w
-        for k in range(d):
-            acc = stl[o + p + 1 + k]
-            for a in range(min(p, size - 1 - i), 0, -1):
-                acc -= stl[o + a] * coef[base + i + a, k]
-            coef[base + i, k] = acc
-    for col in range(base - 1, -1, -1):
-        o = col * w
-        for k in range(d):
-            acc = st_f[o + p + 1 + k]
-            for a in range(p, 0, -1):
-                acc -= st_f[o + a] * coef[col + a, k]
-            coef[col, k] = acc
-    for oc in range(c_right, n):  # incumbent's column oc: the mirror's n - 1 - oc
-        o = (n - 1 - oc) * w
-        for k in range(d):
-            acc = st_m[o + p + 1 + k]
-            for a in range(min(p, oc), 0, -1):
-                acc -= st_m[o + a] * coef[oc - a + delta, k]
-            coef[oc + delta, k] = acc
+def _merged_coefficients(stm, tri, nbm, final_f, final_m, nb, p, d, wrap, KL, KR, delta, x):
+    """Control points ``x`` of a merged candidate: the ``wrap`` wrap-around unknowns of a
+    closed curve first (none on an open one), then the band columns (the incumbent has
+    ``nb``), counted in the candidate. Solved from the merged factor (the wrap triangle
+    ``tri``, then ``stm``: band columns ``KL - p ..``, ``nbm`` of them) outwards: the
+    incumbent's final forward rows (``final_f``) leftwards and its final mirrored rows
+    (``final_m``, band column ``P`` their ``nb - 1 - P``) rightwards, ``+ delta`` right of
+    the change. Unit triangular, square-root-free rows of ``1 + p + wrap + d`` entries."""
+    width = 1 + p + d
+    wide = width + wrap
+    for k in range(wrap - 1, -1, -1):  # the wrap triangle
+        for c in range(d):
+            acc = tri[k * width + p + 1 + c]
+            for a in range(1, p - k):
+                acc -= tri[k * width + a] * x[k + a, c]
+            x[k, c] = acc
+    base = KL - p
+    for i in range(nbm - 1, -1, -1):
+        _substitute(stm, i * wide, p, d, wrap, min(p, nbm - 1 - i), 1, x, wrap + base + i)
+    for pos in range(base - 1, -1, -1):
+        _substitute(final_f, pos * wide, p, d, wrap, min(p, nb - 1 - pos), 1, x, wrap + pos)
+    for P in range(KR, nb):
+        _substitute(final_m, (nb - 1 - P) * wide, p, d, wrap, min(p, P), -1, x,
+                    wrap + P + delta)
 
 
 @njit(cache=True)
@@ -469,8 +481,8 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
                 path_out[b] = PATH_DELTA
                 if want_max_dev:
                     c = coef[:n2]
-                    _merged_coefficients(stl, size, st_f, st_m, n, p, d, c_left, c_right,
-                                         delta, c)
+                    _merged_coefficients(stl, NO_TRIANGLE, size, st_f, st_m, n, p, d, 0,
+                                         c_left, c_right, delta, c)
                     worst = 0.0
                     for j in range(m):
                         if j < row_start[c_left] or j >= row_start[c_right]:
@@ -997,8 +1009,9 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
                 sse_out[b] = Ssse[held, 0, iL] + Ssse[held, 1, iR] + res
                 path_out[b] = PATH_DELTA
                 if want_max_dev:
-                    _closed_coefficients(stm, trim, nbm, final_ext[held], p, d, m, KL, KR,
-                                         delta, coef[:m2])
+                    _merged_coefficients(stm, trim, nbm, final_ext[held, 0],
+                                         final_ext[held, 1], nb, p, d, p, KL, KR, delta,
+                                         coef[:m2])
                     max_dev_out[b] = _closed_max_deviation(
                         q, p, spans, basis, window_basis, window_span, cuts[held], m, m2, KL,
                         KR, rows_lo, window_rows, coef)
@@ -1007,47 +1020,6 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
         path_out[b] = PATH_FULL
         _score(u, q, p, True, br[1:], b, full, sse_out, max_dev_out, n_ctrl_out, reason_out,
                max_mult)
-
-
-@njit(cache=True, inline='always')
-def _substitute(st, o, p, d, reach, step, x, at):
-    """Back substitution of one row of a closed factor (``st[o:]``, the layout of
-    :func:`_rotate_wide`): ``x[at]`` from the row's right-hand side, its ``reach`` band
-    entries (entry ``a`` the unknown ``x[at + a * step]``) and its wrap-around entries (the
-    unknowns ``x[:p]``)."""
-    for c in range(d):
-        acc = st[o + 1 + 2 * p + c]
-        for a in range(1, reach + 1):
-            acc -= st[o + a] * x[at + a * step, c]
-        for k in range(p):
-            acc -= st[o + 1 + p + k] * x[k, c]
-        x[at, c] = acc
-
-
-@njit(cache=True)
-def _closed_coefficients(stm, trim, nbm, final, p, d, m, KL, KR, delta, coef):
-    """Control points ``coef`` of a merged periodic candidate, counted from its cut (the wrap
-    columns, then the band): the merged factor's (``stm``, ``trim``: band columns ``KL - p ..``
-    and the wrap columns), then the incumbent's final forward rows (``final[0]``) leftwards and
-    its final mirrored rows (``final[1]``) rightwards (band columns counted in the candidate:
-    ``+ delta`` right of the change)."""
-    nb = m - p
-    width = 1 + p + d
-    wide = width + p
-    for k in range(p - 1, -1, -1):  # the wrap triangle
-        for c in range(d):
-            acc = trim[k * width + p + 1 + c]
-            for a in range(1, p - k):
-                acc -= trim[k * width + a] * coef[k + a, c]
-            coef[k, c] = acc
-    base = KL - p
-    for i in range(nbm - 1, -1, -1):
-        _substitute(stm, i * wide, p, d, min(p, nbm - 1 - i), 1, coef, p + base + i)
-    for pos in range(base - 1, -1, -1):  # the final forward rows
-        _substitute(final[0], pos * wide, p, d, min(p, nb - 1 - pos), 1, coef, p + pos)
-    for P in range(KR, nb):  # the final mirrored rows (mirrored column nb - 1 - P)
-        mp = nb - 1 - P
-        _substitute(final[1], mp * wide, p, d, min(p, nb - 1 - mp), -1, coef, p + P + delta)
 
 
 @njit(cache=True)
