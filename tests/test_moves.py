@@ -459,3 +459,67 @@ def test_an_incumbent_of_few_control_points_scores_itself_with_its_max_deviation
         for _ in range(20):
             me = MoveEvaluator(u, q, interior, degree)
             assert_same(me, *stack([interior]), max_deviation=True)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+@pytest.mark.parametrize("max_multiplicity", [1, 2, 3])
+def test_one_check_decides_moves_and_whole_candidates_as_the_batch_evaluator(
+        closed, max_multiplicity):
+    """Open and closed moves share one check of their knots: a move scored as a replacement,
+    the candidate it makes scored whole, and the batch evaluator give the same reason (knots
+    out of range, out of order, repeated too often, too many), the same control points and,
+    for a feasible candidate, the same SSE to rounding. Out of order, an open candidate is
+    refused and a closed one sorted (as the batch evaluators do)."""
+    from metaknot.bspline.curve import make_curve
+
+    rng = np.random.default_rng(max_multiplicity + 3 * closed)
+    s = np.linspace(0, 2 * np.pi, 90, endpoint=False)
+    points = np.column_stack((np.cos(s) + 0.3 * np.sin(3 * s), np.sin(2 * s)))
+    model = make_curve(points, degree=3, closed=closed)
+    sites = model.candidate_params
+    interior = sites[4:-4:6]  # five free sites between neighbours, four or more at the ends
+    interior = np.sort(np.concatenate((interior, np.repeat(interior[7], max_multiplicity - 1))))
+    moves = model.move_evaluator(interior, max_multiplicity=max_multiplicity)
+    assert moves is not None
+    k = interior.size
+    lo, hi = model.knot_bounds
+    free = np.setdiff1d(sites, interior)
+
+    def between(start: int, stop: int, count: int = 1) -> list[float]:
+        """``count`` free sites between the knots a replacement of ``start:stop`` keeps."""
+        left = interior[start - 1] if start > 0 else lo
+        right = interior[stop] if stop < k else hi
+        inside = free[(free > left) & (free < right)]
+        return sorted(rng.choice(inside, count, replace=False))
+
+    replacements = [(2, 3, []), (2, 3, between(2, 3)), (4, 4, between(4, 4)), (0, 0, []),
+                    (5, 5, [interior[5]]), (5, 5, [interior[5]] * 3), (3, 4, [0.9, 0.1]),
+                    (6, 8, [interior[6]] * 4), (2, 3, [np.nan]), (2, 3, [lo]),
+                    (2, 3, [hi]), (k, k, between(k, k)), (1, 4, between(1, 4, 3)),
+                    (7, 7, [interior[7]]),  # a knot of multiplicity max_multiplicity raised
+                    (0, k, list(np.linspace(lo, hi, sites.size + 8)[1:-1]))]  # too many
+    starts, stops, inserted, offsets = [], [], [], [0]
+    whole, counts = [], [0]
+    for start, stop, new in replacements:
+        starts.append(start)
+        stops.append(stop)
+        inserted.extend(new)
+        offsets.append(len(inserted))
+        whole.extend(np.concatenate((interior[:start], new, interior[stop:])))
+        counts.append(len(whole))
+    fit, path = moves.evaluate_replacements(starts, stops, inserted, offsets)
+    again, again_path = moves.evaluate(np.array(whole), np.array(counts))
+    ref = model.evaluate_knots(np.array(whole), np.array(counts),
+                               max_multiplicity=max_multiplicity)
+    for scored in (fit, again):
+        np.testing.assert_array_equal(scored.reason, ref.reason)
+        np.testing.assert_array_equal(scored.n_control_points, ref.n_control_points)
+        ok = ref.feasible
+        np.testing.assert_allclose(scored.sse[ok], ref.sse[ok], rtol=1e-10)
+    np.testing.assert_array_equal(path == PATH_CHECKS, again_path == PATH_CHECKS)
+    reasons = {Infeasibility(r) for r in ref.reason}
+    assert {Infeasibility.KNOT_OUT_OF_RANGE, Infeasibility.COINCIDENT_KNOTS,
+            Infeasibility.TOO_MANY_CONTROL_POINTS} <= reasons
+    assert ref.feasible.sum() >= 6
+    shuffled = replacements.index((3, 4, [0.9, 0.1]))
+    assert ref.feasible[shuffled] == closed  # sorted on a closed curve, refused on an open one
