@@ -28,7 +28,7 @@ import warnings
 import weakref
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -111,6 +111,16 @@ class Progress:
                              batch_metrics={} if batch_metrics is None else batch_metrics)
 
 
+class _TraceRows(Protocol):
+    """What an evaluator feeds a run's trace (:class:`~metaknot.callbacks.TraceRecorder`)."""
+
+    @property
+    def next_checkpoint(self) -> float: ...
+
+    def record(self, n: int, batch_f: np.ndarray, batch_metrics: Mapping[str, np.ndarray]
+               ) -> None: ...
+
+
 class Evaluator:
     """Evaluate batches of candidates under a hard cap on the number of evaluations.
 
@@ -125,6 +135,10 @@ class Evaluator:
         :class:`~metaknot.callbacks.Callback`): called with a :class:`~metaknot.Progress` after
         every batch; returning ``True`` stops the run (the next request raises
         :class:`BudgetExhausted`).
+    trace
+        A :class:`~metaknot.callbacks.TraceRecorder` (after its ``on_start``) given the
+        batches that add rows to the run's trace, before the callbacks see them: the trace
+        :func:`metaknot.minimize` records, at no cost for the other batches.
 
     Attributes
     ----------
@@ -163,11 +177,13 @@ class Evaluator:
     """
 
     def __init__(self, problem: Problem, budget: int,
-                 callbacks: Sequence[Callable[[Progress], bool | None] | Any] = ()):
+                 callbacks: Sequence[Callable[[Progress], bool | None] | Any] = (),
+                 trace: _TraceRows | None = None):
         self._problem = problem
         self._budget = check_budget(budget)
         self._callbacks = tuple(callbacks)
         self._on_batch = tuple(_batch_hook(c) for c in self._callbacks)
+        self._trace = trace
         self._n_evaluations = 0
         self._best_x: np.ndarray | None = None
         self._best_f = np.inf
@@ -291,9 +307,10 @@ class Evaluator:
                                  f"({X.shape[0]},); got {accept.shape}")
             if self._front is not None:
                 raise ValueError("accept applies to one objective; this problem has two")
-        if X.shape[0] > remaining:
+        size = len(X)
+        if size > remaining:
             X = X[:remaining]
-        elif X.shape[0] == 0:
+        elif size == 0:
             return np.empty(0)
         fits_before, evaluations_before = _tally.count, self._n_evaluations
         try:
@@ -311,9 +328,9 @@ class Evaluator:
             F, metrics, delta = problem.evaluate_near(X, np.asarray(near))
         else:
             (F, metrics), delta = problem.evaluate_with_metrics(X), 0
-        if type(F) is not np.ndarray or F.dtype != _FLOAT64:
+        if type(F) is not np.ndarray or F.dtype is not _FLOAT64:  # (float64 is one object)
             F = self._as_values(np.asarray(F))
-        size = X.shape[0]
+        size = len(X)
         if F.shape != ((size,) if self._front is None else (size, 2)):
             raise ValueError(
                 f"{type(problem).__name__}.evaluate returned shape {F.shape}; expected "
@@ -325,35 +342,40 @@ class Evaluator:
                 size = int(taken[0]) + 1
                 X, F = X[:size], F[:size]
                 metrics = _Head(metrics, size)
-        # delta: which rows the delta path decided (an array), or how many (at most the kept)
-        self._delta_evaluations += int(np.count_nonzero(delta[:size])) \
-            if isinstance(delta, np.ndarray) else min(int(delta), size)
+        if near is not None:  # which rows the delta path decided (an array), or how many
+            self._delta_evaluations += int(np.count_nonzero(delta[:size])) \
+                if isinstance(delta, np.ndarray) else min(int(delta), size)
         front = self._front
         if front is None:
-            best = int(F.argmin())  # the first NaN, if there is one
-            value = F[best]
+            best = int(F.argmin()) if size > 1 else 0  # the first NaN, if there is one
+            value = F.item(best)
             if value != value:
                 F = self._warn_nan(F)
                 best = int(F.argmin())
-                value = F[best]
-            self._n_evaluations += size
-            if value < self._best_f:
-                self._best_f = float(value)
-                self._best_x = X[best].copy()
-            self._after_batch(F, metrics)
-            return F
-        if np.isnan(F).any():
-            F = self._warn_nan(F)
+                value = F.item(best)
+            scalar = F
+        else:
+            if np.isnan(F).any():
+                F = self._warn_nan(F)
+            scalar = front.add(X, F, metrics)
+            if not len(front):
+                scalar = np.full(len(F), np.inf)  # nothing feasible yet: no front, no incumbent
+            best = int(scalar.argmin())
+            value = scalar.item(best)
         self._n_evaluations += size
-        scalar = front.add(X, F, metrics)
-        if not len(front):
-            scalar = np.full(len(F), np.inf)  # nothing feasible yet: no front, no incumbent
-        best = int(np.argmin(scalar))
-        if scalar[best] < self._best_f:
-            self._best_f = float(scalar[best])
-            assert front.X is not None  # a front with members (above)
-            self._best_x = front.X[front.knee()].copy()
-        self._after_batch(scalar, metrics)
+        improved = value < self._best_f
+        if improved:
+            self._best_f = value
+            if front is None:
+                self._best_x = X[best].copy()
+            else:
+                assert front.X is not None  # a front with members (above)
+                self._best_x = front.X[front.knee()].copy()
+        trace = self._trace
+        if trace is not None and (improved or self._n_evaluations >= trace.next_checkpoint):
+            trace.record(self._n_evaluations, scalar, metrics)
+        if self._on_batch:
+            self._after_batch(scalar, metrics)
         return F
 
     def _as_values(self, F: np.ndarray) -> np.ndarray:
@@ -380,8 +402,6 @@ class Evaluator:
     def _after_batch(self, scalar: np.ndarray, metrics: Mapping[str, np.ndarray]) -> None:
         """Report the batch's values (``scalar``) to the callbacks; a stop they ask for ends
         the run."""
-        if not self._on_batch:
-            return
         progress = Progress(self._n_evaluations, self._budget, self._best_f, scalar,
                             time.perf_counter() - self._start, metrics)
         for on_batch in self._on_batch:

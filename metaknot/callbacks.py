@@ -10,7 +10,7 @@ callbacks like any other.
 from __future__ import annotations
 
 from bisect import bisect_left
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -164,6 +164,11 @@ class TraceRecorder(Callback):
         self._grid_list = self._grid.tolist()
         self._next_checkpoint = self._grid_list[0] if self._grid_list else np.inf
 
+    @property
+    def next_checkpoint(self) -> float:
+        """The first checkpoint after the batches recorded so far (``inf`` after the last)."""
+        return self._next_checkpoint
+
     def on_batch(self, progress: Progress) -> None:
         if self._grid is None:  # used without on_start (directly on an Evaluator)
             self._set_grid(progress.budget)
@@ -173,9 +178,18 @@ class TraceRecorder(Callback):
         if progress.best_f >= self._best_f and n < self._next_checkpoint:
             self._n = n
             return
+        self.record(n, progress.batch_f, progress.batch_metrics)
+
+    def record(self, n: int, batch_f: np.ndarray, batch_metrics: Mapping[str, np.ndarray]
+               ) -> None:
+        """Record the rows of a batch ending at evaluation ``n``: its values ``batch_f`` and
+        metrics. What :meth:`on_batch` does past its quick test, which a caller may make
+        itself: a batch that neither improves the best value nor reaches
+        :attr:`next_checkpoint` adds no row (an :class:`~metaknot.Evaluator` given the
+        recorder as its ``trace`` calls this for the other batches only)."""
         grid = self._grid
-        assert grid is not None  # set just above
-        F = np.asarray(progress.batch_f, dtype=np.float64)
+        assert grid is not None, "a trace recorder records after on_start"
+        F = np.asarray(batch_f, dtype=np.float64)
         first = n - F.size  # evaluations before this batch
         if F.size == 0:
             return
@@ -196,7 +210,6 @@ class TraceRecorder(Callback):
         # index in the batch of the incumbent at each row (-1: one of an earlier batch)
         incumbent = np.maximum.accumulate(np.where(improved, np.arange(F.size), -1))[rows]
         earlier, at = incumbent < 0, np.maximum(incumbent, 0)
-        batch_metrics = progress.batch_metrics
         for name in batch_metrics:  # first seen now: earlier rows get NaN
             if name not in self._metrics:
                 self._metrics[name] = [np.full(len(r), np.nan) for r in self._evals]
@@ -216,8 +229,13 @@ class TraceRecorder(Callback):
         self._best_f = float(running[-1])
         self._n = n
 
-    def trace(self) -> Trace:
-        """The trace so far; the last evaluation is always a checkpoint row."""
+    def trace(self, n_evaluations: int | None = None) -> Trace:
+        """The trace so far; the last evaluation is always a checkpoint row.
+
+        ``n_evaluations``: the run's evaluations, when more than the batches this recorder
+        saw (an evaluator feeds it only the batches that add rows)."""
+        if n_evaluations is not None and n_evaluations > self._n:
+            self._n = n_evaluations
         evals = np.concatenate([*self._evals, np.empty(0, dtype=np.int64)]).astype(np.int64)
         best = np.concatenate([*self._best, np.empty(0)])
         improved = np.concatenate([*self._improved, np.empty(0, dtype=bool)])

@@ -98,10 +98,9 @@ def minimize(
     recorder = TraceRecorder(checkpoints_per_decade)
     if isinstance(callbacks, Callback) or callable(callbacks):
         callbacks = (callbacks,)  # one callback, not in a sequence
-    hooks = [recorder, *(as_callback(c) for c in callbacks),
-             *([ProgressBar()] if progress else [])]
-    evaluator = Evaluator(problem, budget, hooks)
-    for hook in hooks:
+    hooks = [*(as_callback(c) for c in callbacks), *([ProgressBar()] if progress else [])]
+    evaluator = Evaluator(problem, budget, hooks, trace=recorder)
+    for hook in (recorder, *hooks):
         hook.on_start(RunStart(problem, optimizer, evaluator.budget))
     clock = _Clock()
     audit = _Audit(evaluator)
@@ -236,7 +235,7 @@ def _record(problem: Problem, described: dict[str, Any], optimizer: Optimizer, s
         n_evaluations=evaluator.n_evaluations,
         best_x=best_x,
         best_f=evaluator.best_f,
-        trace=recorder.trace(),
+        trace=recorder.trace(evaluator.n_evaluations),
         elapsed=time.perf_counter() - clock.start,
         problem_info=described,
         optimizer_params=optimizer.hyperparameters(),

@@ -330,6 +330,42 @@ def test_evaluator_names_values_that_are_not_real_numbers(values, message):
 # --------------------------------------------------------------------------------------------
 
 
+@pytest.mark.parametrize("objective", ["paper", "pareto"])
+def test_a_recorder_fed_by_the_evaluator_records_what_a_callback_records(objective):
+    """An evaluator given a recorder as its ``trace`` passes it only the batches that add
+    rows (an improvement or a checkpoint in them); the trace is the one a recorder sees as
+    a callback after every batch: improvements, checkpoints, metrics and the last
+    evaluation of a run stopped early by a callback, batches of one and of many."""
+    problem = KnotSelection("archimedean", objective=objective)
+    X = problem.sample(np.random.default_rng(8), 700)
+    sizes = [1] * 60 + [7, 1, 33, 1, 1, 120, 2] * 20
+    traces = []
+    for fed in (True, False):
+        recorder = mk.TraceRecorder(per_decade=4)
+        recorder.on_start(mk.RunStart(problem, mk.get_optimizer("random_search"), 700))
+        def stop(progress: mk.Progress) -> bool:
+            return progress.n_evaluations >= 333
+
+        ev = mk.Evaluator(problem, 700, [stop] if fed else [recorder, stop],
+                          trace=recorder if fed else None)
+        start = 0
+        for size in sizes:
+            try:
+                start += ev(X[start:start + size]).size
+            except mk.BudgetExhausted:
+                break
+        traces.append(recorder.trace(ev.n_evaluations))
+    assert ev.stop_requested and 333 < ev.n_evaluations < 562  # stopped between checkpoints
+    fed, called = traces
+    assert fed.evaluations[-1] == ev.n_evaluations
+    assert 10 < fed.evaluations.size < ev.n_evaluations / 2
+    for name in ("evaluations", "best_f", "improvement", "checkpoint"):
+        np.testing.assert_array_equal(getattr(fed, name), getattr(called, name))
+    assert fed.metrics.keys() == called.metrics.keys()
+    for name in fed.metrics:
+        np.testing.assert_array_equal(fed.metrics[name], called.metrics[name])
+
+
 @pytest.mark.parametrize(("budget", "batch_size", "seed"), [(1000, 64, 0), (517, 100, 9),
                                                             (1, 10, 4)])
 def test_trace_properties(budget, batch_size, seed):
@@ -448,6 +484,22 @@ def test_callback_returning_true_stops_early():
     again = mk.minimize(Counting(Sphere(3)), "random_search", budget=10_000, seed=0,
                         callbacks=stop_at_300, optimizer_kwargs={"batch_size": 100})
     assert again.n_evaluations == 300 and calls == [100, 200, 300]
+
+
+def test_a_run_stopped_between_checkpoints_ends_its_trace_at_its_last_evaluation():
+    """A run whose last batches neither improve nor reach a checkpoint (all values equal
+    after the first): its trace still ends with a checkpoint row at its last evaluation."""
+
+    class Flat(Sphere):
+        def evaluate(self, X):
+            return np.ones(len(X))
+
+    result = mk.minimize(Flat(2), "random_search", budget=10_000, seed=0,
+                         callbacks=[lambda progress: progress.n_evaluations >= 300],
+                         optimizer_kwargs={"batch_size": 10})
+    assert result.n_evaluations == 300  # the last batch holds no checkpoint (251, 316)
+    assert result.trace.evaluations[-1] == 300 and result.trace.checkpoint[-1]
+    assert not result.trace.improvement[1:].any() and result.trace.best_f[-1] == 1.0
 
 
 def test_stop_when_stalled_ends_a_run_that_no_longer_improves():
