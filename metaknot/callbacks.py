@@ -144,6 +144,7 @@ class TraceRecorder(Callback):
             raise ValueError(f"per_decade must be a positive integer; got {per_decade!r}")
         self.per_decade = per_decade
         self._grid: np.ndarray | None = None
+        self._next_checkpoint: float = 0  # every batch is recorded, until on_start says when
         self._reset()
 
     def _reset(self) -> None:
@@ -188,7 +189,9 @@ class TraceRecorder(Callback):
         :attr:`next_checkpoint` adds no row (an :class:`~metaknot.Evaluator` given the
         recorder as its ``trace`` calls this for the other batches only)."""
         grid = self._grid
-        assert grid is not None, "a trace recorder records after on_start"
+        if grid is None:
+            raise RuntimeError("a TraceRecorder records after its on_start (which sets its "
+                               "checkpoints from the budget)")
         F = np.asarray(batch_f, dtype=np.float64)
         first = n - F.size  # evaluations before this batch
         if F.size == 0:

@@ -486,6 +486,13 @@ def test_callback_returning_true_stops_early():
     assert again.n_evaluations == 300 and calls == [100, 200, 300]
 
 
+def test_a_recorder_fed_before_its_start_says_so():
+    problem = KnotSelection("archimedean")
+    evaluator = mk.Evaluator(problem, 100, trace=mk.TraceRecorder())
+    with pytest.raises(RuntimeError, match="records after its on_start"):
+        evaluator(problem.sample(np.random.default_rng(0), 3))
+
+
 def test_a_run_stopped_between_checkpoints_ends_its_trace_at_its_last_evaluation():
     """A run whose last batches neither improve nor reach a checkpoint (all values equal
     after the first): its trace still ends with a checkpoint row at its last evaluation."""
