@@ -269,3 +269,21 @@ def test_every_figure_of_a_report_draws_a_method_in_its_one_style(study, tmp_pat
                 checked += 1
     assert checked > 12 * len(drawn)
     plt.close("all")
+
+
+def test_a_profile_panel_of_less_than_a_decade_does_not_overlap_its_tick_labels() -> None:
+    """A performance-profile panel whose ratios span less than a decade (log axis) labels no
+    minor tick: matplotlib labelled them, and 2x10^0 ... 6x10^0 overlapped."""
+    import pandas as pd
+
+    medians = pd.DataFrame({"a": [1.0, 2.0, 1.0, 3.0], "b": [1.5, 1.0, 4.0, 1.0]},
+                           index=[f"p{i}" for i in range(4)])
+    families = pd.Series(["narrow"] * 4, index=medians.index)
+    suite = SimpleNamespace(medians=medians, families=families, family_names=["narrow"],
+                            methods=["a", "b"])
+    fig = figures_module.profile_figure(SimpleNamespace(methods=["a", "b"]), suite)
+    FigureCanvasAgg(fig).draw()
+    for ax in fig.axes[:2]:
+        assert ax.get_xlim()[1] / ax.get_xlim()[0] < 10  # less than a decade
+        assert not [t.get_text() for t in ax.get_xticklabels(minor=True) if t.get_text()]
+    plt.close(fig)

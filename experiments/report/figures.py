@@ -434,6 +434,8 @@ def profile_figure(comparison: Comparison, suite: Any) -> plt.Figure:
             ax.step(taus, profile[method], where="post", label=method, ms=4,
                     markevery=_markevery(k, taus, profile[method]), **look[method])
         ax.set_xscale("log")
+        # a panel spanning less than a decade labels its minor ticks, which then overlap
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_ylim(-0.02, 1.02)
         ax.set_title(f"{scope} ({len(medians) - left_out} problems)", fontsize=9)
         ax.set_xlabel("τ (ratio to the best median)")
