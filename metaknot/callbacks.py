@@ -173,21 +173,16 @@ class TraceRecorder(Callback):
     def on_batch(self, progress: Progress) -> None:
         if self._grid is None:  # used without on_start (directly on an Evaluator)
             self._set_grid(progress.budget)
-        n = progress.n_evaluations
-        # no improvement (the best so far is at most every value of the batch) and no
-        # checkpoint in the batch: no row (most batches, at the cost of two comparisons)
-        if progress.best_f >= self._best_f and n < self._next_checkpoint:
-            self._n = n
-            return
-        self.record(n, progress.batch_f, progress.batch_metrics)
+        self.record(progress.n_evaluations, progress.batch_f, progress.batch_metrics)
 
     def record(self, n: int, batch_f: np.ndarray, batch_metrics: Mapping[str, np.ndarray]
                ) -> None:
         """Record the rows of a batch ending at evaluation ``n``: its values ``batch_f`` and
-        metrics. What :meth:`on_batch` does past its quick test, which a caller may make
-        itself: a batch that neither improves the best value nor reaches
-        :attr:`next_checkpoint` adds no row (an :class:`~metaknot.Evaluator` given the
-        recorder as its ``trace`` calls this for the other batches only)."""
+        metrics. A batch that neither improves the best value nor reaches
+        :attr:`next_checkpoint` adds no row, so a caller may leave it out at the cost of two
+        comparisons (an :class:`~metaknot.Evaluator` given the recorder as its ``trace``
+        does: the only quick test, most batches; called back after every batch, the
+        recorder finds it here)."""
         grid = self._grid
         if grid is None:
             raise RuntimeError("a TraceRecorder records after its on_start (which sets its "

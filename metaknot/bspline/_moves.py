@@ -319,8 +319,8 @@ def _changed_block(interior, knots, lo, hi):
 @njit(cache=True, inline='always', error_model='numpy')
 def _replaced(own, head, trail, start, stop, inserted, out, lo, hi, max_mult):
     """Fill ``out`` with the incumbent's knots ``own`` (``head`` entries before its interior
-    knots, ``trail`` after them: an open curve's clamped knot vector, a closed curve's
-    breakpoints) whose interior knots ``start:stop`` are replaced by ``inserted``; return the
+    knots, ``trail`` after them: an open curve's clamped knot vector, a closed curve's interior
+    breakpoints alone) whose interior knots ``start:stop`` are replaced by ``inserted``; return the
     batch evaluator's verdict, only the inserted knots checked (the others are the
     incumbent's): KNOT_OUT_OF_RANGE for a replacement outside the interior knots or an
     inserted knot outside ``(lo, hi)`` (NaN included), then ``UNSORTED`` for knots out of
@@ -885,9 +885,6 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
     q_window = np.empty((n, d))
     t_window = np.empty(m_max + 2 * p + 1)
     iv_window = np.empty(p * (m_max + 2 * p + 1))
-    own = np.empty(m)  # the incumbent's breakpoints
-    own[0] = 0.0
-    own[1:] = interior
     replacing = starts.size > 0
     for b in range(n_cand):
         lo, hi = offsets[b], offsets[b + 1]
@@ -903,8 +900,9 @@ def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T
         if want_max_dev:
             max_dev_out[b] = np.inf
         path_out[b] = PATH_CHECKS
-        br = breaks[:m2]
-        code = _replaced(own, 1, 0, start, stop, inserted, br, 0.0, 1.0, max_mult)
+        br = breaks[:m2]  # breakpoint 0, then the candidate's interior knots
+        br[0] = 0.0
+        code = _replaced(interior, 0, 0, start, stop, inserted, br[1:], 0.0, 1.0, max_mult)
         local = code == FEASIBLE
         if code == UNSORTED:  # sorted, as the batch evaluator sorts them: fitted in full
             br[1:] = np.sort(br[1:])
