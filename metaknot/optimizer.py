@@ -21,13 +21,16 @@ from __future__ import annotations
 
 import inspect
 from abc import ABC
-from typing import Any, ClassVar
+from collections.abc import Callable
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
 from .budget import BudgetExhausted, Evaluator
 from .task import ProblemView
 from .validate import is_real
+
+_Hook = TypeVar("_Hook", bound=Callable[[], Any])
 
 __all__ = ["Optimizer", "check_param"]
 
@@ -144,8 +147,13 @@ class Optimizer(ABC):
         TypeError
             If :meth:`ask` returns None.
         """
-        while not evaluator.done and not self.finished():
-            X = self.ask()
+        ask, tell = self.ask, self.tell
+        # the default hooks answer the same every time: not called once per batch
+        finished = _unless_default(self.finished, Optimizer.finished)
+        move_origin = _unless_default(self.move_origin, Optimizer.move_origin)
+        acceptance = _unless_default(self.acceptance, Optimizer.acceptance)
+        while not evaluator.done and not (finished is not None and finished()):
+            X = ask()
             if X is None:
                 raise TypeError(f"{type(self).__name__}.ask() returned None; return an array "
                                 "of candidates (one row each), or True from finished() when "
@@ -159,13 +167,20 @@ class Optimizer(ABC):
                     "left to try"
                 )
             try:
-                F = evaluator(X, near=self.move_origin(), accept=self.acceptance())
+                F = evaluator(X, None if move_origin is None else move_origin(),
+                              None if acceptance is None else acceptance())
             except BudgetExhausted:
                 return
-            self.tell(X if F.size == len(X) else X[: F.size], F)
+            tell(X if F.size == len(X) else X[: F.size], F)
 
     def hyperparameters(self) -> dict[str, Any]:
         """Hyperparameters, for run records: the ``__init__`` arguments, read back from the
         attributes of the same name."""
         names = inspect.signature(type(self).__init__).parameters
         return {k: getattr(self, k) for k in names if k != "self" and hasattr(self, k)}
+
+
+def _unless_default(hook: _Hook, default: Callable[..., Any]) -> _Hook | None:
+    """``hook`` (a bound method of an optimizer), or None if it is ``default``, the base
+    class's method, whose answer never changes."""
+    return None if getattr(hook, "__func__", None) is default else hook
