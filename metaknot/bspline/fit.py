@@ -63,7 +63,7 @@ _MESSAGES = {
 }
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class BatchFit:
     """Scores of a population of knot vectors, one entry per candidate.
 
