@@ -587,74 +587,103 @@ def back_substitute(st, far, width, p, d, ncol, x):
 @njit(cache=True)
 def closed_workspaces(m, p, d):
     """The workspaces of :func:`solve_closed_into` for ``m`` control points: the
-    reciprocals, the factor, its wrap-around entries, a dense row, the solution, the
-    basis values of a seam row with their knot differences, and the seam's own factor with
-    the reciprocals of its knots (:func:`_seam_into`)."""
+    reciprocals, the factor, its wrap-around entries, a dense row, the solution, and those of
+    :func:`_seam_into`: the basis values of a seam row with their knot differences, the
+    seam's banded factor with the reciprocals of its knots, its dense factor and that
+    factor's wrap-around entries."""
     iv, st = fit_workspaces(m, p, d)
-    return (iv, st, np.empty((m, p)), np.empty(m + d), np.empty((m, d)), np.empty((3, p + 1)),
-            np.empty(2 * p * (1 + p + d)), np.empty(p * (3 * p + 1)))
+    seam = (np.empty((3, p + 1)), np.empty(2 * p * (1 + p + d)), np.empty(p * (3 * p + 1)),
+            np.empty(2 * p * (1 + p + d)), np.empty((2 * p, p)))
+    return iv, st, np.empty((m, p)), np.empty(m + d), np.empty((m, d)), seam
 
 
 @njit(cache=True)
-def _seam_into(u, q, t, p, m, seam, st, far, row, seam_basis, seam_st, seam_iv, basis, spans):
+def _seam_into(u, q, t, p, m, seam, st, far, row, seam_ws, basis, spans):
     """Rotate the seam rows ``0 .. seam - 1`` (the spans before breakpoint ``p``) into the
     factor ``st``, ``far`` of :func:`solve_closed_into`; return what is left of them. A seam
     row touches the first ``p`` unknowns and the last ``p`` only. When those are ``2p``
-    distinct ones (``m >= 2p``), taken last ``p`` first, a row in span ``j`` touches the
-    columns ``j .. j + p`` of them: a band, so the rows are first rotated among themselves by
-    the generated row loop (on the unshifted knots ``t[:3p + 1]``, reciprocals ``seam_iv``)
-    into a banded factor of those ``2p`` columns (``seam_st``), whose at most ``2p`` rows are
-    then rotated, weighted, through the whole factor by :func:`rotate_dense`: the fill-in of
-    the band runs ``2p`` times, not once per seam row. Otherwise each row is rotated in by
-    :func:`rotate_dense`. Stores the rows' basis values and natural spans if ``basis`` is not
-    empty."""
+    distinct ones (``m >= 2p``), the rows are first rotated among themselves into a dense
+    factor of those ``2p`` columns (``dense``, ``dense_far``; rows of :func:`rotate_dense`
+    with ``ncol = 2p``), whose at most ``2p`` rows are then rotated, weighted, through the
+    whole factor: the fill-in of the band runs at most ``p`` times, not once per seam row.
+    More than ``2p`` seam rows go to that dense factor through a banded one: taken last ``p``
+    unknowns first, a row in span ``j`` touches the columns ``j .. j + p`` of the ``2p``, so
+    the generated row loop (on the unshifted knots ``t[:3p + 1]``) rotates them into
+    ``band``, whose at most ``2p`` rows then go to the dense factor. Stores the rows' basis
+    values and natural spans if ``basis`` is not empty. ``seam_ws`` are the last workspaces
+    of :func:`closed_workspaces`."""
+    seam_basis, band, band_iv, dense, dense_far = seam_ws
     d = q.shape[1]
     width = 1 + p + d
     keep = basis.shape[0] > 0
     values = row[m : m + d]  # the row's right-hand side lives behind its entries
-    if m >= 2 * p:
-        ncol = 2 * p
-        seam_st[: ncol * width] = 0.0
-        seam_st[: ncol * width : width] = EMPTY
+    local = m >= 2 * p
+    ncol = 2 * p if local else m
+    if local:
+        dense[: ncol * width] = 0.0
+        dense[: ncol * width : width] = EMPTY
+        dense_far[:] = 0.0
+    fst = dense if local else st
+    ffar = dense_far if local else far
+    sse = 0.0
+    if local and seam > ncol:  # through the banded factor
+        band[: ncol * width] = 0.0
+        band[: ncol * width : width] = EMPTY
         knots = t[: 3 * p + 1]
-        reciprocals_into(knots, p, seam_iv)
-        sse, _ = rows(u[:seam], q[:seam], knots, seam_iv, p, ncol, seam_st,
+        reciprocals_into(knots, p, band_iv)
+        sse, _ = rows(u[:seam], q[:seam], knots, band_iv, p, ncol, band,
                       basis[:seam] if keep else basis, spans[:seam] if keep else spans)
         if keep:
             spans[:seam] -= p  # natural spans
-        for a in range(ncol):  # the seam factor's column a is unknown m - p + a or a - p
+        for a in range(ncol):  # band column a is dense column p + a (a < p) or a - p
             o = a * width
-            big_w = seam_st[o]
+            big_w = band[o]
             if big_w == EMPTY:
                 continue
-            row[:m] = 0.0
-            row[m - p + a if a < p else a - p] = 1.0
-            for c in range(a + 1, min(a + p + 1, ncol)):
-                row[m - p + c if c < p else c - p] = seam_st[o + c - a]
+            row[:ncol] = 0.0
+            for c in range(a, min(a + p + 1, ncol)):
+                row[p + c if c < p else c - p] = 1.0 if c == a else band[o + c - a]
             for c in range(d):
-                values[c] = seam_st[o + p + 1 + c]
-            sse += rotate_dense(st, far, width, p, d, m, row, values, 0 if a < p else a - p,
-                                m, big_w)
+                values[c] = band[o + p + 1 + c]
+            sse += rotate_dense(dense, dense_far, width, p, d, ncol, row, values,
+                                0 if a < p else a - p, ncol, big_w)
+    else:
+        h, left, right = seam_basis[0], seam_basis[1], seam_basis[2]
+        j = 0
+        for i in range(seam):
+            xi = u[i]
+            while j < p - 1 and xi >= t[p + j + 1]:
+                j += 1
+            basis_at(t, p + j, xi, p, h, left, right)
+            if keep:
+                spans[i] = j
+                for k in range(p + 1):
+                    basis[i, k] = h[k]
+            row[:ncol] = 0.0
+            for k in range(p + 1):  # extended function j + k is unknown (j + k - p) mod m
+                e = j + k
+                row[e - p if e >= p else ncol - p + e] += h[k]
+            for c in range(d):
+                values[c] = q[i, c]
+            sse += rotate_dense(fst, ffar, width, p, d, ncol, row, values, 0, ncol, 1.0)
+    if not local:
         return sse
-    h, left, right = seam_basis[0], seam_basis[1], seam_basis[2]
-    sse = 0.0
-    j = 0
-    for i in range(seam):
-        xi = u[i]
-        while j < p - 1 and xi >= t[p + j + 1]:
-            j += 1
-        basis_at(t, p + j, xi, p, h, left, right)
-        if keep:
-            spans[i] = j
-            for k in range(p + 1):
-                basis[i, k] = h[k]
+    for a in range(ncol):  # dense column a is unknown a or m - 2p + a
+        o = a * width
+        big_w = dense[o]
+        if big_w == EMPTY:
+            continue
         row[:m] = 0.0
-        for k in range(p + 1):  # extended function j + k is unknown (j + k - p) mod m
-            e = j + k
-            row[(e - p) % m] += h[k]
+        row[a if a < p else m - 2 * p + a] = 1.0
+        for b in range(1, min(p, ncol - 1 - a) + 1):
+            c = a + b
+            row[c if c < p else m - 2 * p + c] = dense[o + b]
+        for k in range(a + 1, p):
+            row[m - p + k] = dense_far[a, k]
         for c in range(d):
-            values[c] = q[i, c]
-        sse += rotate_dense(st, far, width, p, d, m, row, values, 0, m, 1.0)
+            values[c] = dense[o + p + 1 + c]
+        sse += rotate_dense(st, far, width, p, d, m, row, values, a if a < p else m - 2 * p + a,
+                            m, big_w)
     return sse
 
 
@@ -681,7 +710,7 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     m = t.size - 2 * p - 1
     if m > n:
         return TOO_MANY_CONTROL_POINTS, np.inf
-    iv, st, far, row, x, seam_basis, seam_st, seam_iv = ws
+    iv, st, far, row, x, seam_ws = ws
     width = 1 + p + d
     shifted = t[p:]
     reciprocals_into(shifted, p, iv)
@@ -694,8 +723,7 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     keep = basis.shape[0] > 0
     sse, _ = rows(u[seam:], q[seam:], shifted, iv, p, m, st,
                   basis[seam:] if keep else basis, spans[seam:] if keep else spans)
-    sse += _seam_into(u, q, t, p, m, seam, st, far, row, seam_basis, seam_st, seam_iv,
-                      basis, spans)
+    sse += _seam_into(u, q, t, p, m, seam, st, far, row, seam_ws, basis, spans)
     smallest_dinv, largest_dinv, _, _ = bound(st, p, width, m)
     if not (smallest_dinv > 0.0 and smallest_dinv > pivot_ratio * pivot_ratio * largest_dinv):
         return SINGULAR, np.inf
