@@ -81,6 +81,15 @@ def _build_knots(u, interior, p, t, max_mult):
     return FEASIBLE
 
 
+@njit(cache=True, inline='always', error_model='numpy')
+def empty_state(st, columns, width):
+    """Mark ``columns`` columns of the flat factor ``st`` as reached by no row."""
+    for c in range(columns):
+        st[c * width] = EMPTY
+        for k in range(1, width):
+            st[c * width + k] = 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def reciprocals_into(t, p, iv):
     """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` for ``j = 1..p`` (0 where not
@@ -115,8 +124,7 @@ def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st, max_mult=1):
     d = q.shape[1]
     width = 1 + p + d
     reciprocals_into(t, p, iv)
-    st[: n * width] = 0.0
-    st[: n * width : width] = EMPTY
+    empty_state(st, n, width)
     sse, matched = rows(u, q, t, iv, p, n, st, basis, spans)
     if matched and max_mult > 1 and _repeats(t, p, n):  # the row loop's test takes distinct
         matched = schoenberg_whitney(u, t, p, n)  # knots: a multiple one can pass it wrongly
@@ -620,15 +628,13 @@ def _seam_into(u, q, t, p, m, seam, st, far, row, seam_ws, basis, spans):
     local = m >= 2 * p
     ncol = 2 * p if local else m
     if local:
-        dense[: ncol * width] = 0.0
-        dense[: ncol * width : width] = EMPTY
+        empty_state(dense, ncol, width)
         dense_far[:] = 0.0
     fst = dense if local else st
     ffar = dense_far if local else far
     sse = 0.0
     if local and seam > ncol:  # through the banded factor
-        band[: ncol * width] = 0.0
-        band[: ncol * width : width] = EMPTY
+        empty_state(band, ncol, width)
         knots = t[: 3 * p + 1]
         reciprocals_into(knots, p, band_iv)
         sse, _ = rows(u[:seam], q[:seam], knots, band_iv, p, ncol, band,
@@ -714,8 +720,7 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     width = 1 + p + d
     shifted = t[p:]
     reciprocals_into(shifted, p, iv)
-    st[: m * width] = 0.0
-    st[: m * width : width] = EMPTY
+    empty_state(st, m, width)
     far[:m] = 0.0
     seam = 0  # rows in the spans before breakpoint p
     while seam < n and u[seam] < t[2 * p]:

@@ -53,6 +53,7 @@ from ._kernel import (
     _score,
     _score_workspaces,
     basis_at,
+    empty_state,
     fit_workspaces,
     givens,
     periodic_distance2,
@@ -120,15 +121,6 @@ def candidate_reciprocals(t2, t, iv_t, p, iv, lo_start, lo_stop, e, tail, shift)
             else:
                 gap = t2[lo + j] - t2[lo]
                 iv[(j - 1) * size2 + lo] = 1.0 / gap if gap > 0.0 else 0.0
-
-
-@njit(cache=True, inline='always', error_model='numpy')
-def empty_state(st, columns, width):
-    """Mark ``columns`` columns of the flat factor ``st`` as reached by no row."""
-    for c in range(columns):
-        st[c * width] = EMPTY
-        for k in range(1, width):
-            st[c * width + k] = 0.0
 
 
 @njit(cache=True, inline='always', error_model='numpy')
