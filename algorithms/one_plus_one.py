@@ -255,7 +255,7 @@ class OnePlusOneEA(Optimizer):
 # compares them).
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _floyd(rng: np.random.Generator, n: int, count: int, out: np.ndarray,
            taken: np.ndarray) -> None:
     """``count`` distinct places of ``range(n)`` into ``out``, drawn as
@@ -276,7 +276,7 @@ def _floyd(rng: np.random.Generator, n: int, count: int, out: np.ndarray,
         out[i], out[swap] = out[swap], out[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _counted_places(rng: np.random.Generator, n_var: int, rate: float, steps: int,
                     counts: np.ndarray, places: np.ndarray, taken: np.ndarray,
                     i: int, used: int) -> np.ndarray:
