@@ -324,29 +324,86 @@ def _entries(directory: Path) -> Iterable[Path]:
 
 def _to_table(record: Mapping[str, Any], best_x: np.ndarray | None,
               trace: Mapping[str, np.ndarray] | None) -> pa.Table:
+    """A record as a one-row table. Its columns are built from buffers (:func:`_one_row`,
+    :func:`_list_row`), with the types ``pa.array`` would give them: pyarrow's conversion of
+    Python objects imports pandas (about 0.26 s), which a run does not otherwise need."""
     columns: dict[str, pa.Array] = {}
     for key, value in record.items():
         if isinstance(value, np.generic):
             value = value.item()
         if isinstance(value, np.ndarray):  # a list column (nested for a 2-D array)
-            columns[key] = pa.array([value.tolist()])
+            columns[key] = _list_row(value)
             continue
         if isinstance(value, dict | list | tuple):
             value = json.dumps(value, sort_keys=True, default=str)
-        columns[key] = pa.array([value])
+        columns[key] = _one_row(value)
     x = None if best_x is None else np.asarray(best_x)
     if x is not None and x.dtype.kind in "iub":
-        columns["best_x"] = pa.array([x.astype(np.int64)], type=pa.list_(pa.int64()))
+        columns["best_x"] = _list_row(x, pa.int64())
     else:
-        columns["best_x"] = pa.array([None if x is None else x.astype(np.float64)],
-                                     type=pa.list_(pa.float64()))
+        columns["best_x"] = _list_row(x, pa.float64())
     for key, values in (trace or {}).items():
         values = np.asarray(values)
         kind = pa.bool_() if values.dtype == bool else (
             pa.int64() if values.dtype.kind in "iu" else pa.float64())
-        columns[TRACE_PREFIX + key] = pa.array([values], type=pa.list_(kind))
+        columns[TRACE_PREFIX + key] = _list_row(values, kind)
     table = pa.table(columns)
     return table.replace_schema_metadata({_META_KEY: STORE_FORMAT.encode()})
+
+
+#: The Arrow type of an array's items in a record, by numpy dtype kind (``pa.array`` of its
+#: ``tolist()``; a uint64 array, whose values may not fit int64, is left to pyarrow).
+_KINDS: dict[str, pa.DataType] = {"b": pa.bool_(), "i": pa.int64(), "u": pa.int64(),
+                                  "f": pa.float64()}
+
+
+def _flat(values: np.ndarray, kind: pa.DataType) -> Any:
+    """A flat numpy array as an Arrow array of ``kind`` (bool, int32, int64 or float64), no
+    nulls."""
+    dtype = {pa.bool_(): np.bool_, pa.int32(): np.int32, pa.int64(): np.int64,
+             pa.float64(): np.float64}[kind]
+    values = np.ascontiguousarray(values, dtype=dtype).ravel()
+    data = np.packbits(values, bitorder="little") if dtype is np.bool_ else values
+    return pa.Array.from_buffers(kind, values.size, [None, pa.py_buffer(data.tobytes())])
+
+
+def _one_row(value: Any) -> pa.Array:
+    """``pa.array([value])`` for a record's scalar (None, bool, int, float, str); other values
+    are converted by pyarrow."""
+    if value is None:
+        return pa.nulls(1)
+    if isinstance(value, str):
+        data = value.encode()
+        return pa.Array.from_buffers(pa.string(), 1, [
+            None, pa.py_buffer(np.array([0, len(data)], dtype=np.int32).tobytes()),
+            pa.py_buffer(data)])
+    if isinstance(value, bool):
+        return _flat(np.array([value]), pa.bool_())
+    if isinstance(value, int) and -2**63 <= value < 2**63:
+        return _flat(np.array([value]), pa.int64())
+    if isinstance(value, float):
+        return _flat(np.array([value]), pa.float64())
+    return pa.array([value])
+
+
+def _list_row(values: np.ndarray | None, kind: pa.DataType | None = None) -> Any:
+    """One row of a list column: ``pa.array([values], type=pa.list_(kind))`` for a 1-D array
+    of a given ``kind`` (``None``: a null list), else ``pa.array([values.tolist()])`` (a list
+    of lists for a 2-D array; an empty list's items of the null type, as pyarrow infers
+    them)."""
+    if values is None or kind is not None:
+        assert kind is not None and (values is None or values.ndim == 1)
+        items = _flat(np.empty(0) if values is None else values, kind)
+        mask = None if values is not None else _flat(np.array([True]), pa.bool_())
+        return pa.ListArray.from_arrays(_flat(np.array([0, len(items)]), pa.int32()), items,
+                                        mask=mask)
+    if values.dtype.kind not in _KINDS or values.dtype == np.uint64 or values.ndim not in (1, 2):
+        return pa.array([values.tolist()])
+    items = _flat(values, _KINDS[values.dtype.kind]) if values.size else pa.nulls(0)
+    if values.ndim == 2 and len(values):
+        rows, width = values.shape
+        items = pa.ListArray.from_arrays(_flat(np.arange(rows + 1) * width, pa.int32()), items)
+    return pa.ListArray.from_arrays(_flat(np.array([0, len(values)]), pa.int32()), items)
 
 
 def read_record(path: str | os.PathLike) -> dict[str, Any]:
