@@ -630,8 +630,7 @@ def _seam_into(u, q, t, p, m, seam, st, far, row, seam_ws, basis, spans):
     if local:
         empty_state(dense, ncol, width)
         dense_far[:] = 0.0
-    fst = dense if local else st
-    ffar = dense_far if local else far
+    target, target_far = (dense, dense_far) if local else (st, far)  # of the rows one by one
     sse = 0.0
     if local and seam > ncol:  # through the banded factor
         empty_state(band, ncol, width)
@@ -642,15 +641,11 @@ def _seam_into(u, q, t, p, m, seam, st, far, row, seam_ws, basis, spans):
         if keep:
             spans[:seam] -= p  # natural spans
         for a in range(ncol):  # band column a is dense column p + a (a < p) or a - p
-            o = a * width
-            big_w = band[o]
+            big_w = band[a * width]
             if big_w == EMPTY:
                 continue
             row[:ncol] = 0.0
-            for c in range(a, min(a + p + 1, ncol)):
-                row[p + c if c < p else c - p] = 1.0 if c == a else band[o + c - a]
-            for c in range(d):
-                values[c] = band[o + p + 1 + c]
+            _factor_row(band, dense_far[:0], a, p, d, ncol, p, -p, row, values)
             sse += rotate_dense(dense, dense_far, width, p, d, ncol, row, values,
                                 0 if a < p else a - p, ncol, big_w)
     else:
@@ -671,26 +666,37 @@ def _seam_into(u, q, t, p, m, seam, st, far, row, seam_ws, basis, spans):
                 row[e - p if e >= p else ncol - p + e] += h[k]
             for c in range(d):
                 values[c] = q[i, c]
-            sse += rotate_dense(fst, ffar, width, p, d, ncol, row, values, 0, ncol, 1.0)
+            sse += rotate_dense(target, target_far, width, p, d, ncol, row, values, 0, ncol,
+                                1.0)
     if not local:
         return sse
     for a in range(ncol):  # dense column a is unknown a or m - 2p + a
-        o = a * width
-        big_w = dense[o]
+        big_w = dense[a * width]
         if big_w == EMPTY:
             continue
         row[:m] = 0.0
-        row[a if a < p else m - 2 * p + a] = 1.0
-        for b in range(1, min(p, ncol - 1 - a) + 1):
-            c = a + b
-            row[c if c < p else m - 2 * p + c] = dense[o + b]
-        for k in range(a + 1, p):
-            row[m - p + k] = dense_far[a, k]
-        for c in range(d):
-            values[c] = dense[o + p + 1 + c]
+        _factor_row(dense, dense_far, a, p, d, ncol, 0, m - 2 * p, row, values)
         sse += rotate_dense(st, far, width, p, d, m, row, values, a if a < p else m - 2 * p + a,
                             m, big_w)
     return sse
+
+
+@njit(cache=True, inline='always')
+def _factor_row(src, src_far, a, p, d, ncol, low, high, row, values):
+    """Row ``a`` of the unit triangular factor ``src`` of :func:`rotate_dense` (``ncol``
+    columns; its wrap-around entries ``src_far``, none if empty) into the dense ``row`` and
+    its right-hand side ``values``, column ``c`` of ``src`` at ``c + low`` if ``c < p``, else
+    at ``c + high``: how :func:`_seam_into` moves a factor's rows into another."""
+    width = 1 + p + d
+    o = a * width
+    row[a + (low if a < p else high)] = 1.0
+    for b in range(1, min(p, ncol - 1 - a) + 1):
+        c = a + b
+        row[c + (low if c < p else high)] = src[o + b]
+    for k in range(max(0, a + 2 * p + 1 - ncol), p if src_far.shape[0] > 0 else 0):
+        row[ncol - p + k + high] = src_far[a, k]
+    for c in range(d):
+        values[c] = src[o + p + 1 + c]
 
 
 @njit(cache=True)
