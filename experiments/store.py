@@ -357,11 +357,15 @@ _KINDS: dict[str, pa.DataType] = {"b": pa.bool_(), "i": pa.int64(), "u": pa.int6
                                   "f": pa.float64()}
 
 
+#: The numpy dtype of each Arrow type :func:`_flat` builds.
+_NUMPY_TYPES = {pa.bool_(): np.bool_, pa.int32(): np.int32, pa.int64(): np.int64,
+                pa.float64(): np.float64}
+
+
 def _flat(values: np.ndarray, kind: pa.DataType) -> Any:
     """A flat numpy array as an Arrow array of ``kind`` (bool, int32, int64 or float64), no
     nulls."""
-    dtype = {pa.bool_(): np.bool_, pa.int32(): np.int32, pa.int64(): np.int64,
-             pa.float64(): np.float64}[kind]
+    dtype = _NUMPY_TYPES[kind]
     values = np.ascontiguousarray(values, dtype=dtype).ravel()
     data = np.packbits(values, bitorder="little") if dtype is np.bool_ else values
     return pa.Array.from_buffers(kind, values.size, [None, pa.py_buffer(data.tobytes())])
