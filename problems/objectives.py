@@ -18,8 +18,8 @@ from numpy.typing import ArrayLike
 from metaknot.bspline import BatchFit
 from metaknot.bspline.fit import check_metric
 
-__all__ = ["BIC", "OBJECTIVES", "RMSE", "DataInfo", "ErrorBounded", "Objective", "Paper", "Pareto",
-           "get_objective"]
+__all__ = ["BIC", "OBJECTIVES", "RMSE", "DataInfo", "ErrorBounded", "MaxDeviation", "Objective",
+           "Paper", "Pareto", "get_objective"]
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,13 @@ def _rmse_kernel(sse, reason, n_points, values):
     """Root-mean-square point distance (:class:`~.objectives.RMSE`)."""
     for b in range(sse.size):
         values[b] = math.sqrt(sse[b] / n_points) if reason[b] == 0 else math.inf
+
+
+@njit(cache=True)
+def _max_deviation_kernel(max_deviation, reason, values):
+    """Largest point distance (:class:`~.objectives.MaxDeviation`)."""
+    for b in range(max_deviation.size):
+        values[b] = max_deviation[b] if reason[b] == 0 else math.inf
 
 
 @njit(cache=True)
@@ -262,6 +269,25 @@ class RMSE(Objective):
 
 
 
+class MaxDeviation(Objective):
+    """Largest distance of a data point to its fitted point, for a fixed number of knots.
+
+    The minimax counterpart of :class:`RMSE`: the knots whose least-squares fit keeps its worst
+    point closest (the control points are still the least-squares ones). Like ``rmse`` it is
+    meant for a fixed knot count; ``error_bounded`` with ``metric="max_deviation"`` is the
+    tolerance task it serves (``metaknot fit`` polishes its knots under it).
+    """
+
+    name = "max_deviation"
+    ratio_scale = True
+    needs_max_deviation = True
+
+    def __call__(self, fit: BatchFit, data: DataInfo) -> np.ndarray:
+        values = np.empty(fit.sse.size)
+        _max_deviation_kernel(_max_deviation(fit, self.name), fit.reason, values)
+        return values
+
+
 class Pareto(Objective):
     """Two objectives, both minimised: control points and error — the whole trade-off.
 
@@ -316,12 +342,12 @@ class Pareto(Objective):
 
 
 OBJECTIVES: dict[str, type[Objective]] = {o.name: o for o in (Paper, BIC, ErrorBounded, RMSE,
-                                                               Pareto)}
+                                                               MaxDeviation, Pareto)}
 
 
 def get_objective(objective: str | Objective, **options: Any) -> Objective:
-    """An objective by name (``paper``, ``bic``, ``error_bounded``, ``rmse``, ``pareto``) with
-    its options."""
+    """An objective by name (``paper``, ``bic``, ``error_bounded``, ``rmse``,
+    ``max_deviation``, ``pareto``) with its options."""
     if isinstance(objective, Objective):
         if options:
             raise ValueError("objective options only apply when the objective is given by name")

@@ -1,4 +1,4 @@
-"""Objectives (paper, bic, error_bounded) through the three knot problems.
+"""Objectives (paper, bic, error_bounded, max_deviation) through the three knot problems.
 
 Every objective value is recomputed here from an independent least-squares fit with
 ``scipy.interpolate.make_lsq_spline``; feasibility (Schoenberg-Whitney) is decided
@@ -433,7 +433,37 @@ def test_free_knots_values(noisy_spiral):
     np.testing.assert_allclose(sol.fit.spline.c, fits[3].spline.c, rtol=1e-7, atol=1e-9)
 
 
-@pytest.mark.parametrize("objective", ["paper", "bic", "error_bounded"])
+@pytest.mark.parametrize("closed", [False, True])
+def test_max_deviation_is_the_largest_point_distance_of_the_least_squares_fit(noisy_spiral,
+                                                                              closed):
+    """The objective ``max_deviation`` against the largest distance of a point to the
+    independent least-squares fit (open: make_lsq_spline; closed: the periodic design matrix,
+    its last p columns folded onto the first, solved by numpy's lstsq); infeasible: inf."""
+    problem = FreeKnots(noisy_spiral, n_knots=5, objective="max_deviation", closed=closed)
+    rng = np.random.default_rng(11)
+    X = np.sort(rng.uniform(0.05, 0.95, size=(8, 5)), axis=1)
+    u, q = problem.params, problem.points
+    expected = []
+    for x in X:
+        if closed:
+            breaks = np.concatenate(([0.0], x))
+            t = np.concatenate((breaks[-DEGREE:] - 1.0, breaks, 1.0 + breaks[: DEGREE + 1]))
+            design = BSpline.design_matrix(u, t, DEGREE).toarray()
+            m = breaks.size
+            basis = design[:, :m].copy()
+            basis[:, :DEGREE] += design[:, m : m + DEGREE]
+            coef = np.linalg.lstsq(basis, q, rcond=None)[0]
+            fitted = basis @ coef
+        else:
+            fitted = reference_fit(u, q, x).spline(u)
+        expected.append(np.linalg.norm(q - fitted, axis=1).max())
+    np.testing.assert_allclose(problem.evaluate(X), expected, rtol=1e-9)
+    assert problem.objective.needs_max_deviation
+    X[0, 2] = X[0, 1]  # coincident knots
+    assert problem.evaluate(X[:1])[0] == np.inf
+
+
+@pytest.mark.parametrize("objective", ["paper", "bic", "error_bounded", "max_deviation"])
 def test_free_knots_bad_positions_give_inf_not_nan(noisy_spiral, objective):
     problem = FreeKnots(noisy_spiral, n_knots=3, objective=objective)
     u0, u1 = problem.params[0], problem.params[-1]
@@ -558,14 +588,15 @@ def test_problem_accepts_arrays_and_point_sets():
     assert a.encoding.kind == "binary" and a.encoding.n_var == 98
 
 
-@pytest.mark.parametrize("name", ["error_bounded", "pareto"])
+@pytest.mark.parametrize("name", ["error_bounded", "pareto", "max_deviation"])
 def test_an_objective_by_max_deviation_refuses_fits_without_it(name):
-    """Both objectives that read the maximum deviation say which objective needs it, with the
+    """The objectives that read the maximum deviation say which objective needs it, with the
     same error, when a batch was fitted without it."""
     from metaknot.bspline.fit import BatchFit
     from metaknot.problems.objectives import DataInfo, get_objective
 
-    objective = get_objective(name, metric="max_deviation")
+    objective = get_objective(name, **({} if name == "max_deviation"
+                                       else {"metric": "max_deviation"}))
     fit = BatchFit(sse=np.ones(2), max_deviation=None, n_control_points=np.full(2, 5),
                    reason=np.zeros(2, dtype=np.int8))
     data = DataInfo(n_points=10, dim=2, scale=1.0, degree=3, extra_control_points=4)
