@@ -770,6 +770,47 @@ def test_corners_on_the_command_line(tmp_path: Path) -> None:
     assert counts.max() == 3
 
 
+def test_a_polish_under_max_deviation_moves_the_least_squares_knots_towards_the_worst_point(
+        ) -> None:
+    """Where least squares' knots (``varpro`` under ``rmse``) stay beyond a tolerance on the
+    maximum deviation, the polish goes on under ``max_deviation`` from them: on 80 points of
+    the Archimedean spiral with 7 knots, 0.000318 -> 0.000281, within 2.9e-4; a tolerance that
+    least squares meets is not polished further, and under ``rmse`` there is no second
+    stage."""
+    from metaknot.apps.fit import _Search
+    from metaknot.bspline.curve import make_curve
+
+    curve = make_curve(get_curve("archimedean", n_points=80).points)
+    start = np.linspace(0.0, 1.0, 9)[1:-1]
+    objectives: list[str] = []
+    search = _Search(curve, 2.9e-4, "max_deviation")
+    varpro = search._varpro
+
+    def recorded(knots: np.ndarray, objective: str) -> np.ndarray | None:
+        objectives.append(objective)
+        return varpro(knots, objective)
+
+    search._varpro = recorded  # type: ignore[method-assign]
+    (err,) = search.errors([start])
+    found, found_err = search.polish(start, float(err))
+    assert objectives == ["rmse", "max_deviation"]
+    assert found_err <= 2.9e-4
+    (least_squares,) = search.errors([search._varpro(start, "rmse")])
+    assert least_squares > 3.1e-4
+    u, points = curve.params, curve.points
+    reference = make_lsq_spline(u, points, np.r_[[u[0]] * 4, found, [u[-1]] * 4], k=3)
+    largest = np.linalg.norm(reference(u) - points, axis=1).max()
+    assert largest == pytest.approx(found_err, rel=1e-9)
+    objectives.clear()
+    search.tol = 3.2e-4
+    assert search.polish(start, float(err))[1] <= 3.2e-4 and objectives == ["rmse"]
+    objectives.clear()
+    by_rmse = _Search(curve, 1e-9, "rmse")
+    by_rmse._varpro = recorded  # type: ignore[method-assign]
+    by_rmse.polish(start, 1.0)
+    assert objectives == ["rmse"]
+
+
 def test_polish_finds_the_control_points_of_kangs_spline() -> None:
     """Kang et al.'s spline (15 control points, a double knot between the data parameters):
     knot removal needs 19 at 1e-5 of the diagonal; with polish (the default) 15, within the

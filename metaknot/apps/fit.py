@@ -186,38 +186,58 @@ class _Search:
         knots, least squares, started from these knots: :data:`POLISH_ITERATIONS` Gauss-Newton
         steps at most, then from the averaging and equally spaced knots); knots closer than
         1e-6 of the parameter range become one multiple knot where multiplicities are allowed.
-        Returns the polished knots and their error, or the given ones (their error ``err``)
-        if polishing did not lower it."""
+        Under the metric ``max_deviation``, knots still beyond the tolerance are moved once
+        more, by ``varpro`` under the objective ``max_deviation``, from where least squares
+        left them alone (``only_initial``, as many steps). Returns the polished knots and
+        their error, or the given ones (their error ``err``) if polishing did not lower
+        it."""
+        if knots.size == 0:
+            return knots, float(err)
+        best, best_err = knots, float(err)
+        objectives = ("rmse", "max_deviation") if self.metric == "max_deviation" else ("rmse",)
+        for objective in objectives:
+            found = self._varpro(best, objective)
+            if found is None:
+                break
+            (found_err,) = self.errors([found])
+            if found_err < best_err:
+                best, best_err = found, float(found_err)
+            if best_err <= self.tol:
+                break
+        return best, best_err
+
+    def _varpro(self, knots: np.ndarray, objective: str) -> np.ndarray | None:
+        """The best knots of a short ``varpro`` run from ``knots`` under ``objective`` (None if
+        the curve's free-knot problem would see other parameters)."""
         import metaknot as mk
         from metaknot.problems import FreeKnots, PointSet
         from metaknot.problems.knot_problems import merge_close_knots
 
         curve = self.curve
-        if knots.size == 0:
-            return knots, float(err)
         lo, hi = curve.knot_bounds
         merge = 1e-6 * (hi - lo) if self.max_multiplicity > 1 else None
         # a closed outline's problem computes its parameters as the curve did (a thinned
         # copy's are those of all points: not polished)
         data = PointSet(curve.points, params=None if curve.closed else curve.params)
-        problem = FreeKnots(data, n_knots=knots.size, degree=curve.degree, objective="rmse",
+        problem = FreeKnots(data, n_knots=knots.size, degree=curve.degree, objective=objective,
                             merge_spacing=merge, closed=curve.closed,
                             parameterization=self.parameterization)
         if not np.array_equal(problem.params, curve.params):
-            return knots, float(err)
+            return None
         # the start from these knots takes half the budget at most (varpro's rule), the
         # averaging and equally spaced knots the rest (no removal start: its fits would come
-        # out of this small budget)
-        budget = 2 * POLISH_ITERATIONS * (knots.size + 2)  # a step: an evaluation, a Jacobian
-        result = mk.minimize(problem, "varpro", budget=budget, seed=0,
+        # out of this small budget); under max_deviation the start from the least-squares
+        # knots alone, with as many steps
+        steps = POLISH_ITERATIONS * (knots.size + 2)  # a step: an evaluation, a Jacobian
+        alone = objective == "max_deviation"
+        result = mk.minimize(problem, "varpro", budget=steps if alone else 2 * steps, seed=0,
                              optimizer_kwargs={"initial": knots, "restarts": 0,
-                                               "removal_start": False})
+                                               "removal_start": False, "only_initial": alone})
         self.evaluations += result.n_evaluations
         found = np.sort(np.asarray(result.best_x, dtype=np.float64))
         if merge is not None:
             found = merge_close_knots(found[None, :], merge)[0]
-        (found_err,) = self.errors([found])
-        return (found, float(found_err)) if found_err < err else (knots, float(err))
+        return found
 
     def remove(self, knots: np.ndarray, polish: bool = False) -> np.ndarray:
         """Remove knots while the fit stays within the tolerance (see the module notes); with
