@@ -64,8 +64,9 @@ REPAIRS = 3
 RELOCATION_SPANS = 3
 PARTED_SPAN = 1e-3
 # Under the objective ``max_deviation`` a solve minimises the sum of the points' deviations to
-# each of these powers in turn, each stage from where the one before ended and with an equal
-# part of the start's share (a continuation from least squares towards the largest deviation).
+# each of these powers in turn, each stage from where the one before ended (a continuation from
+# least squares towards the largest deviation): least squares may take half of the start's
+# share, the later stages split what is left evenly.
 MAX_DEVIATION_POWERS = (2, 4, 8, 16, 32)
 
 __all__ = ["VariableProjection", "deviation_power", "jump_knots", "knots_from_log_spans",
@@ -374,13 +375,15 @@ class VariableProjection(Optimizer):
     (``x_scale="jac"``).
 
     Under the objective ``max_deviation`` (the largest point distance) each solve is a
-    continuation: the sum of squares first, then the sum of the points' deviations to the
-    powers 4, 8, 16 and 32 (:data:`MAX_DEVIATION_POWERS`, :func:`deviation_power`), each stage
-    from where the one before ended, with an equal part of what is left of the start's share.
-    The control points stay the least-squares ones; the knots move to where the worst point
-    is nearest. At one knot fewer than ``metaknot fit``'s answer on a noisy epitrochoid (noise
-    1e-4 of the diagonal), the least-squares optimum's largest deviation is 1.004 times the
-    tolerance, this continuation's 0.863.
+    continuation: the sum of squares first (up to half of the start's share), then the sum of
+    the points' deviations to the powers 4, 8, 16 and 32 (:data:`MAX_DEVIATION_POWERS`,
+    :func:`deviation_power`), each stage from where the one before ended, with an equal part of
+    what is left. The weighted stages step in the log spans' own units (scaled by the
+    Jacobian's columns, as least squares is, they took no step from the least-squares knots of
+    ``bench_fit``'s star outline at K = 48). The control points stay the least-squares ones;
+    the knots move to where the worst point is nearest: on 80 points of the Archimedean spiral
+    with 7 knots, from equally spaced knots at 900 evaluations, a largest deviation of 0.000281
+    against 0.000318 under ``rmse``.
 
     Parameters
     ----------
