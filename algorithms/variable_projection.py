@@ -415,10 +415,8 @@ class VariableProjection(Optimizer):
         28 and worse on 15 (aspline_spa_het at the smaller K by 47 %).
     only_initial
         Solve from ``initial`` alone (which must then be given), with the whole budget up to
-        :func:`start_evaluations`, and stop: a polish of given knots. ``metaknot fit``'s
-        polish under the maximum deviation makes its second run so (on the star outline of
-        ``bench_fit`` 2.5 s instead of 2.8-3.0 s, the same control points on all 21 cases of
-        ``bench_literature``).
+        :func:`start_evaluations`, and stop: a polish of given knots (``metaknot fit``'s
+        polishes are runs so).
     """
 
     encodings = ("continuous",)

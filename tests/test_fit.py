@@ -811,6 +811,28 @@ def test_a_polish_under_max_deviation_moves_the_least_squares_knots_towards_the_
     assert objectives == ["rmse"]
 
 
+def test_where_the_best_removal_stays_beyond_the_tolerance_the_next_ones_are_polished(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """humps at its suite tolerance (1e-3 of the scale on the maximum deviation): the polish of
+    the most promising removal at 15 control points stays beyond the tolerance, the second
+    removal moved under ``max_deviation`` is within it (16 without the further tries); the
+    answer checked by scipy's least-squares spline on its knots."""
+    import metaknot.apps.fit as fit_module
+    from metaknot.suite import get_instance
+    from metaknot.suite.tasks import get_task
+
+    problem = get_task("humps", "tolerance").problem()
+    params = get_instance("humps").point_set().params
+    tolerance = problem.objective.bound(problem.info)
+    options = {"params": params, "metric": "max_deviation"}
+    found = mk.fit(problem.points, tolerance, **options)
+    assert found.n_control_points == 15
+    reference = make_lsq_spline(params, problem.points, np.asarray(found.spline.t), k=3)
+    assert np.linalg.norm(reference(params) - problem.points, axis=1).max() <= tolerance
+    monkeypatch.setattr(fit_module, "MAX_DEVIATION_TRIES", 0)
+    assert mk.fit(problem.points, tolerance, **options).n_control_points == 16
+
+
 def test_polish_finds_the_control_points_of_kangs_spline() -> None:
     """Kang et al.'s spline (15 control points, a double knot between the data parameters):
     knot removal needs 19 at 1e-5 of the diagonal; with polish (the default) 15, within the

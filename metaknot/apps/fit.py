@@ -183,12 +183,12 @@ class _Search:
 
     def polish(self, knots: np.ndarray, err: float) -> tuple[np.ndarray, float]:
         """``knots`` moved by variable projection (``varpro`` on the curve's points as free
-        knots, least squares, started from these knots: :data:`POLISH_ITERATIONS` Gauss-Newton
-        steps at most, then from the averaging and equally spaced knots); knots closer than
+        knots, least squares, from these knots alone: :data:`POLISH_ITERATIONS` Gauss-Newton
+        steps at most); knots closer than
         1e-6 of the parameter range become one multiple knot where multiplicities are allowed.
         Under the metric ``max_deviation``, knots still beyond the tolerance are moved once
         more, by ``varpro`` under the objective ``max_deviation``, from where least squares
-        left them alone (``only_initial``, as many steps). Returns the polished knots and
+        left them (as many steps). Returns the polished knots and
         their error, or the given ones (their error ``err``) if polishing did not lower
         it."""
         if knots.size == 0:
@@ -207,8 +207,9 @@ class _Search:
         return best, best_err
 
     def _varpro(self, knots: np.ndarray, objective: str) -> np.ndarray | None:
-        """The best knots of a short ``varpro`` run from ``knots`` under ``objective`` (None if
-        the curve's free-knot problem would see other parameters)."""
+        """The best knots of a short ``varpro`` run from ``knots`` alone under ``objective``
+        (:data:`POLISH_ITERATIONS` steps; None if the curve's free-knot problem would see
+        other parameters)."""
         import metaknot as mk
         from metaknot.problems import FreeKnots, PointSet
         from metaknot.problems.knot_problems import merge_close_knots
@@ -224,15 +225,11 @@ class _Search:
                             parameterization=self.parameterization)
         if not np.array_equal(problem.params, curve.params):
             return None
-        # the start from these knots takes half the budget at most (varpro's rule), the
-        # averaging and equally spaced knots the rest (no removal start: its fits would come
-        # out of this small budget); under max_deviation the start from the least-squares
-        # knots alone, with as many steps
+        # from these knots alone (the averaging, equally spaced and removal starts searched
+        # far from them, at twice the time on bench_fit's star outline)
         steps = POLISH_ITERATIONS * (knots.size + 2)  # a step: an evaluation, a Jacobian
-        alone = objective == "max_deviation"
-        result = mk.minimize(problem, "varpro", budget=steps if alone else 2 * steps, seed=0,
-                             optimizer_kwargs={"initial": knots, "restarts": 0,
-                                               "removal_start": False, "only_initial": alone})
+        result = mk.minimize(problem, "varpro", budget=steps, seed=0,
+                             optimizer_kwargs={"initial": knots, "only_initial": True})
         self.evaluations += result.n_evaluations
         found = np.sort(np.asarray(result.best_x, dtype=np.float64))
         if merge is not None:
@@ -263,7 +260,9 @@ class _Search:
                  removed: np.ndarray, polish: bool) -> np.ndarray | None:
         """Where no removal stays within the tolerance: the most promising removals (``order``
         of ``errs``; ``rows[j]`` is the knots without knot ``removed[j]``) nudged, then, with
-        ``polish``, polished; the first within the tolerance, or None."""
+        ``polish``, the most promising polished (:meth:`polish`) and, under the maximum
+        deviation, the next :data:`MAX_DEVIATION_TRIES` moved by ``varpro`` under
+        ``max_deviation`` alone; the first within the tolerance, or None."""
         for j in order[: self.tries]:
             if not np.isfinite(errs[j]):
                 return None  # no removal left can be fitted: nothing to nudge
@@ -274,6 +273,13 @@ class _Search:
             found, err = self.polish(rows[j], float(errs[j]))
             if err <= self.tol:
                 return found
+        further = MAX_DEVIATION_TRIES if polish and self.metric == "max_deviation" else 0
+        for j in order[POLISH_TRIES : POLISH_TRIES + further]:
+            if not np.isfinite(errs[j]) or rows[j].size == 0:
+                break
+            moved = self._varpro(rows[j], "max_deviation")
+            if moved is not None and self.errors([moved])[0] <= self.tol:
+                return moved
         return None
 
     def fewest_averaging(self, upper: int) -> np.ndarray | None:
@@ -327,11 +333,15 @@ def _largest_multiplicity(knots: np.ndarray) -> int:
 
 
 #: Gauss-Newton steps of a polish by variable projection (``polish``) from the knots it is
-#: given: its ``varpro`` run has twice this many times ``K + 2`` evaluations (a step is an
-#: evaluation and a Jacobian, charged as ``K + 1`` fits; a start takes half the budget).
+#: given: its ``varpro`` run has this many times ``K + 2`` evaluations (a step is an
+#: evaluation and a Jacobian, charged as ``K + 1`` fits).
 POLISH_ITERATIONS = 40
 #: The removals polished where knot removal would stop, the most promising first.
 POLISH_TRIES = 1
+#: Under the maximum deviation, the next removals then moved by ``varpro`` under
+#: ``max_deviation`` alone (humps: the second removal within the tolerance at 15 control
+#: points, where the first polished stayed beyond it).
+MAX_DEVIATION_TRIES = 2
 
 
 #: The searches tried at each knot count: local search, then a GA (name, options, budget).
