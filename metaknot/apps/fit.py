@@ -184,13 +184,12 @@ class _Search:
     def polish(self, knots: np.ndarray, err: float) -> tuple[np.ndarray, float]:
         """``knots`` moved by variable projection (``varpro`` on the curve's points as free
         knots, least squares, from these knots alone: :data:`POLISH_ITERATIONS` Gauss-Newton
-        steps at most); knots closer than
-        1e-6 of the parameter range become one multiple knot where multiplicities are allowed.
-        Under the metric ``max_deviation``, knots still beyond the tolerance are moved once
-        more, by ``varpro`` under the objective ``max_deviation``, from where least squares
-        left them (as many steps). Returns the polished knots and
-        their error, or the given ones (their error ``err``) if polishing did not lower
-        it."""
+        steps at most); knots closer than 1e-6 of the parameter range become one multiple
+        knot where multiplicities are allowed. Under the metric ``max_deviation``, knots still
+        beyond the tolerance are moved once more, by ``varpro`` under the objective
+        ``max_deviation``, from where least squares left them (as many steps). Returns the
+        polished knots and their error, or the given ones (their error ``err``) if polishing
+        did not lower it."""
         if knots.size == 0:
             return knots, float(err)
         best, best_err = knots, float(err)
@@ -225,8 +224,8 @@ class _Search:
                             parameterization=self.parameterization)
         if not np.array_equal(problem.params, curve.params):
             return None
-        # from these knots alone (the averaging, equally spaced and removal starts searched
-        # far from them, at twice the time on bench_fit's star outline)
+        # from these knots alone (the averaging and equally spaced starts searched far from
+        # them, at twice the time on bench_fit's star outline)
         steps = POLISH_ITERATIONS * (knots.size + 2)  # a step: an evaluation, a Jacobian
         result = mk.minimize(problem, "varpro", budget=steps, seed=0,
                              optimizer_kwargs={"initial": knots, "only_initial": True})
