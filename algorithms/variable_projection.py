@@ -69,9 +69,9 @@ PARTED_SPAN = 1e-3
 # share, the later stages split what is left evenly.
 MAX_DEVIATION_POWERS = (2, 4, 8, 16, 32)
 
-__all__ = ["VariableProjection", "deviation_power", "jump_knots", "knots_from_log_spans",
-           "log_spans_from_knots", "one_blas_thread", "removal_knots", "residual_jacobian",
-           "start_evaluations"]
+__all__ = ["Projection", "VariableProjection", "deviation_power", "jump_knots",
+           "knots_from_log_spans", "log_spans_from_knots", "one_blas_thread", "removal_knots",
+           "residual_jacobian", "start_evaluations"]
 
 
 def one_blas_thread() -> AbstractContextManager[object]:
@@ -239,36 +239,73 @@ def residual_jacobian(u: np.ndarray, points: np.ndarray, p: int, interior: np.nd
     numpy.linalg.LinAlgError
         If the basis matrix is rank deficient (a knot span without data).
     """
-    from ._knot_jacobian import design_open, knot_derivatives
+    fit = Projection(u, points, p, interior, bounds, closed=closed)
+    return fit.residual, fit.jacobian() if jacobian else None, fit.coefficients
 
-    t, positions, variables = _knot_vector(interior, bounds, p, closed)
-    n, d, k = t.size - p - 1, points.shape[1], interior.size  # n: B-splines of t
-    columns = interior.size + 1 if closed else n  # control points
-    extended, spans = np.empty((u.size, n)), np.empty(u.size, dtype=np.int64)
-    design_open(u, t, p, n, extended, spans)
-    basis = extended
-    if closed:  # B-spline i + m is periodic B-spline i's part beyond the seam
-        basis = extended[:, :columns].copy()
-        basis[:, : n - columns] += extended[:, columns:]
-    q_factor, r_factor = np.linalg.qr(basis)
-    diagonal = np.abs(np.diag(r_factor))
-    if diagonal.min() <= 1e-12 * diagonal.max():
-        raise np.linalg.LinAlgError("the basis matrix is rank deficient")
-    coefficients = np.linalg.solve(r_factor, q_factor.T @ points)
-    residual = points - basis @ coefficients
-    if not jacobian:
-        return residual.ravel(), None, coefficients
-    moved, pulled = np.empty((u.size, d, k)), np.empty((n, d, k))
-    knot_derivatives(u, t, p, n, spans, extended, coefficients[np.arange(n) % columns],
-                     residual, positions, variables, moved, pulled)
-    if closed:
-        pulled[: n - columns] += pulled[columns:]
-        pulled = pulled[:columns]
-    flat = moved.reshape(u.size, d * k)
-    projected = flat - q_factor @ (q_factor.T @ flat)  # P D_k C, every k at once
-    back = q_factor @ np.linalg.solve(r_factor.T, pulled.reshape(columns, d * k))
-    derivative = -(projected + back).reshape(u.size * d, k)  # back: (B^+)^T D_k^T r
-    return residual.ravel(), derivative, coefficients
+
+class Projection:
+    """The least-squares fit of a curve with given interior knots, kept factored so that the
+    Jacobian of its residual (:meth:`jacobian`) reuses the fit's QR factorisation: what
+    :func:`residual_jacobian` computes, in two steps (``varpro`` evaluates a point, then
+    asks for its Jacobian). Its arguments are :func:`residual_jacobian`'s.
+
+    Attributes
+    ----------
+    residual
+        ``points - B C``, flattened point by point (length ``N d``).
+    coefficients
+        ``C``, the control points.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If the basis matrix is rank deficient (a knot span without data).
+    """
+
+    def __init__(self, u: np.ndarray, points: np.ndarray, p: int, interior: np.ndarray,
+                 bounds: tuple[float, float], *, closed: bool = False) -> None:
+        from ._knot_jacobian import design_open
+
+        t, self._positions, self._variables = _knot_vector(interior, bounds, p, closed)
+        n = t.size - p - 1  # B-splines of t
+        columns = interior.size + 1 if closed else n  # control points
+        extended, spans = np.empty((u.size, n)), np.empty(u.size, dtype=np.int64)
+        design_open(u, t, p, n, extended, spans)
+        basis = extended
+        if closed:  # B-spline i + m is periodic B-spline i's part beyond the seam
+            basis = extended[:, :columns].copy()
+            basis[:, : n - columns] += extended[:, columns:]
+        q_factor, r_factor = np.linalg.qr(basis)
+        diagonal = np.abs(np.diag(r_factor))
+        if diagonal.min() <= 1e-12 * diagonal.max():
+            raise np.linalg.LinAlgError("the basis matrix is rank deficient")
+        self.coefficients = np.linalg.solve(r_factor, q_factor.T @ points)
+        self._residual = points - basis @ self.coefficients
+        self.residual = self._residual.ravel()
+        self._u, self._t, self._p, self._n, self._columns = u, t, p, n, columns
+        self._knots, self._closed = interior.size, closed
+        self._extended, self._spans = extended, spans
+        self._q, self._r = q_factor, r_factor
+
+    def jacobian(self) -> np.ndarray:
+        """``(N d, K)``: the derivative of :attr:`residual` with respect to each interior
+        knot."""
+        from ._knot_jacobian import knot_derivatives
+
+        u, n, columns = self._u, self._n, self._columns
+        d, k = self._residual.shape[1], self._knots
+        moved, pulled = np.empty((u.size, d, k)), np.empty((n, d, k))
+        knot_derivatives(u, self._t, self._p, n, self._spans, self._extended,
+                         self.coefficients[np.arange(n) % columns], self._residual,
+                         self._positions, self._variables, moved, pulled)
+        if self._closed:
+            pulled[: n - columns] += pulled[columns:]
+            pulled = pulled[:columns]
+        flat = moved.reshape(u.size, d * k)
+        q_factor = self._q
+        projected = flat - q_factor @ (q_factor.T @ flat)  # P D_k C, every k at once
+        back = q_factor @ np.linalg.solve(self._r.T, pulled.reshape(columns, d * k))
+        return -(projected + back).reshape(u.size * d, k)  # back: (B^+)^T D_k^T r
 
 
 def deviation_power(residual: np.ndarray, n_points: int, power: float, scale: float,
@@ -489,6 +526,7 @@ class VariableProjection(Optimizer):
         stage = [2.0, 1.0]  # the solve's power and the deviation it is scaled by
         best: list = [np.inf, None, None]  # value, log spans, multiplicities
         seen: dict[bytes, np.ndarray] = {}  # a point tried again (a start) is not re-evaluated
+        fitted: list = [b"", None]  # the last point's fit, kept for its Jacobian (by its key)
         solved: dict[bytes, np.ndarray | None] = {}  # each start solved: where it ended
         # the multiplicity of each distinct knot the search moves (all 1 without merging)
         groups = np.ones(problem.n_knots, dtype=np.int64)
@@ -515,18 +553,21 @@ class VariableProjection(Optimizer):
                 best[:] = value, z.copy(), groups.copy()
             self.count_fits(1)
             try:
-                return residual_jacobian(u, points, degree, knots, bounds, closed=closed,
-                                         jacobian=False)[0]
+                fitted[:] = [z.tobytes() + groups.tobytes(),
+                             Projection(u, points, degree, knots, bounds, closed=closed)]
             except np.linalg.LinAlgError:
                 return np.full(points.size, np.inf)
+            return fitted[1].residual
 
         def jacobian(z: np.ndarray) -> np.ndarray:
             distinct, chain = knots_from_log_spans(z, bounds)
             knots = np.repeat(distinct, groups)
             self.count_fits(knots.size + 1, charged=True)
-            raw, derivative, _ = residual_jacobian(u, points, degree, knots, bounds,
-                                                   closed=closed)
-            derivative = deviation_power(raw, u.size, stage[0], stage[1], derivative)[1]
+            key = z.tobytes() + groups.tobytes()
+            fit = fitted[1] if fitted[0] == key else \
+                Projection(u, points, degree, knots, bounds, closed=closed)
+            derivative = deviation_power(fit.residual, u.size, stage[0], stage[1],
+                                         fit.jacobian())[1]
             assert derivative is not None
             if groups.size < knots.size:  # a group moves as one: its copies' sum
                 derivative = np.add.reduceat(derivative, np.cumsum(groups) - groups, axis=1)

@@ -329,14 +329,23 @@ def test_a_start_given_is_tried_first_and_checked():
 
 
 def test_the_methods_own_fits_are_declared(monkeypatch):
+    import sys
+
     import metaknot.algorithms.variable_projection as module
 
-    calls = {True: 0, False: 0}
-    original = module.residual_jacobian
+    calls = {True: 0, False: 0}  # Jacobians; fits of a point's residual (after its evaluation)
+    refits = []  # fits made for a Jacobian (its point's fit not kept)
 
-    def counted(*args, jacobian=True, **kwargs):
-        calls[jacobian] += 1
-        return original(*args, jacobian=jacobian, **kwargs)
+    class Counted(module.Projection):
+        def __init__(self, *args, **kwargs):
+            caller = sys._getframe(1).f_code.co_name
+            calls[False] += caller == "_residual"
+            refits.append(caller == "jacobian")
+            super().__init__(*args, **kwargs)
+
+        def jacobian(self):
+            calls[True] += 1
+            return super().jacobian()
 
     evaluations = []
     evaluate = module.Evaluator.__call__
@@ -355,11 +364,12 @@ def test_the_methods_own_fits_are_declared(monkeypatch):
         return knots, fits
 
     monkeypatch.setattr(module.Evaluator, "__call__", recorded)
-    monkeypatch.setattr(module, "residual_jacobian", counted)
+    monkeypatch.setattr(module, "Projection", Counted)
     monkeypatch.setattr(module, "removal_knots", removed)
     problem = FreeKnots(get_curve("archimedean", n_points=60), n_knots=6, objective="rmse")
     result = mk.minimize(problem, "varpro", budget=300, seed=0)
     assert calls[True] > 0 and removal_fits == [6]  # 12 averaging knots down to 6
+    assert sum(refits) <= calls[True] // 4, (sum(refits), calls)  # a Jacobian reuses its fit
     # the residual's fit (a repeat of the evaluation's) declared; each Jacobian charged as
     # 6 + 1 fits and the removal start's fits as fits, but for what the budget could not take
     # at the end (external): at most two Jacobians, one pending when a single evaluation is
@@ -455,13 +465,13 @@ def test_the_gradient_methods_run_blas_on_one_thread(optimizer, monkeypatch):
         return {lib["num_threads"] for lib in threadpool_info() if lib["user_api"] == "blas"}
 
     seen: list[set[int]] = []
-    original = vp.residual_jacobian
 
-    def recording(*args, **kwargs):
-        seen.append(blas_threads())
-        return original(*args, **kwargs)
+    class Recording(vp.Projection):  # residual_jacobian (nlopt's gradient) makes one too
+        def jacobian(self):
+            seen.append(blas_threads())
+            return super().jacobian()
 
-    monkeypatch.setattr(vp, "residual_jacobian", recording)  # nlopt imports it when called
+    monkeypatch.setattr(vp, "Projection", Recording)
     before = blas_threads()
     problem = FreeKnots(PointSet(CIRCLE), n_knots=4, closed=True, objective="rmse")
     mk.minimize(problem, optimizer, budget=200, seed=0)
