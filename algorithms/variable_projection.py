@@ -525,46 +525,46 @@ class VariableProjection(Optimizer):
         powers = MAX_DEVIATION_POWERS if problem.objective.name == "max_deviation" else (2,)
         stage = [2.0, 1.0]  # the solve's power and the deviation it is scaled by
         best: list = [np.inf, None, None]  # value, log spans, multiplicities
-        seen: dict[bytes, np.ndarray] = {}  # a point tried again (a start) is not re-evaluated
-        fitted: list = [b"", None]  # the last point's fit, kept for its Jacobian (by its key)
+        # the last point's fit (None: infeasible), kept for its Jacobian; a point tried again
+        # (a start) is not re-evaluated
+        seen: dict[bytes, Projection | None] = {}
         solved: dict[bytes, np.ndarray | None] = {}  # each start solved: where it ended
         # the multiplicity of each distinct knot the search moves (all 1 without merging)
         groups = np.ones(problem.n_knots, dtype=np.int64)
 
         def residual(z: np.ndarray) -> np.ndarray:
-            """The least-squares fit's residual at the log spans ``z`` (evaluated once)."""
+            """The least-squares fit's residual at the log spans ``z`` (evaluated once; inf
+            where the fit is infeasible)."""
             key = z.tobytes() + groups.tobytes()
             if key not in seen:
                 seen.clear()
-                seen[key] = _residual(z)
-            return seen[key]
+                seen[key] = _fit(z)
+            fit = seen[key]
+            return np.full(points.size, np.inf) if fit is None else fit.residual
 
         def weighted(z: np.ndarray) -> np.ndarray:
             """The residual the solve minimises the squares of: each point's deviation
             weighted to the stage's power (:func:`deviation_power`)."""
             return deviation_power(residual(z), u.size, stage[0], stage[1])[0]
 
-        def _residual(z: np.ndarray) -> np.ndarray:
+        def _fit(z: np.ndarray) -> Projection | None:
             knots = np.repeat(knots_from_log_spans(z, bounds)[0], groups)
             value = float(evaluator(knots[None, :])[0])
             if not np.isfinite(value):
-                return np.full(points.size, np.inf)
+                return None
             if value < best[0]:
                 best[:] = value, z.copy(), groups.copy()
             self.count_fits(1)
             try:
-                fitted[:] = [z.tobytes() + groups.tobytes(),
-                             Projection(u, points, degree, knots, bounds, closed=closed)]
+                return Projection(u, points, degree, knots, bounds, closed=closed)
             except np.linalg.LinAlgError:
-                return np.full(points.size, np.inf)
-            return fitted[1].residual
+                return None
 
         def jacobian(z: np.ndarray) -> np.ndarray:
             distinct, chain = knots_from_log_spans(z, bounds)
             knots = np.repeat(distinct, groups)
             self.count_fits(knots.size + 1, charged=True)
-            key = z.tobytes() + groups.tobytes()
-            fit = fitted[1] if fitted[0] == key else \
+            fit = seen.get(z.tobytes() + groups.tobytes()) or \
                 Projection(u, points, degree, knots, bounds, closed=closed)
             derivative = deviation_power(fit.residual, u.size, stage[0], stage[1],
                                          fit.jacobian())[1]

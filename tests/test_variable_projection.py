@@ -339,7 +339,7 @@ def test_the_methods_own_fits_are_declared(monkeypatch):
     class Counted(module.Projection):
         def __init__(self, *args, **kwargs):
             caller = sys._getframe(1).f_code.co_name
-            calls[False] += caller == "_residual"
+            calls[False] += caller == "_fit"
             refits.append(caller == "jacobian")
             super().__init__(*args, **kwargs)
 
