@@ -437,8 +437,10 @@ def test_free_knots_values(noisy_spiral):
 def test_max_deviation_is_the_largest_point_distance_of_the_least_squares_fit(noisy_spiral,
                                                                               closed):
     """The objective ``max_deviation`` against the largest distance of a point to the
-    independent least-squares fit (open: make_lsq_spline; closed: the periodic design matrix,
-    its last p columns folded onto the first, solved by numpy's lstsq); infeasible: inf."""
+    independent least-squares fit (open: make_lsq_spline; closed: the wrapped design matrix of
+    :func:`tests.test_periodic.dense_reference`); infeasible: inf."""
+    from tests.test_periodic import dense_reference
+
     problem = FreeKnots(noisy_spiral, n_knots=5, objective="max_deviation", closed=closed)
     rng = np.random.default_rng(11)
     X = np.sort(rng.uniform(0.05, 0.95, size=(8, 5)), axis=1)
@@ -446,17 +448,11 @@ def test_max_deviation_is_the_largest_point_distance_of_the_least_squares_fit(no
     expected = []
     for x in X:
         if closed:
-            breaks = np.concatenate(([0.0], x))
-            t = np.concatenate((breaks[-DEGREE:] - 1.0, breaks, 1.0 + breaks[: DEGREE + 1]))
-            design = BSpline.design_matrix(u, t, DEGREE).toarray()
-            m = breaks.size
-            basis = design[:, :m].copy()
-            basis[:, :DEGREE] += design[:, m : m + DEGREE]
-            coef = np.linalg.lstsq(basis, q, rcond=None)[0]
-            fitted = basis @ coef
+            reference = dense_reference(u, q, x, DEGREE)
+            assert reference is not None
+            expected.append(reference[1])
         else:
-            fitted = reference_fit(u, q, x).spline(u)
-        expected.append(np.linalg.norm(q - fitted, axis=1).max())
+            expected.append(np.linalg.norm(q - reference_fit(u, q, x).spline(u), axis=1).max())
     np.testing.assert_allclose(problem.evaluate(X), expected, rtol=1e-9)
     assert problem.objective.needs_max_deviation
     X[0, 2] = X[0, 1]  # coincident knots
