@@ -79,7 +79,7 @@ def main() -> None:
             worse += fit_cp > best[0]
         print(f"{case[:26]:<26} {fit_cp:>3} {seconds:>5.1f} " + " ".join(cells)
               + f"  {best[1] if best else '-'}", flush=True)
-    print(f"fit_cp_ratio_vs_best_literature: {np.exp(np.mean(np.log(ratios))):.3f}")
+    print(f"fit_cp_ratio_vs_best_literature: {np.exp(np.mean(np.log(ratios))):.4f}")
     print(f"fit_cases_worse_than_literature: {worse}")
 
 

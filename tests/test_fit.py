@@ -92,6 +92,7 @@ def test_fitpack_is_returned_when_the_search_does_not_beat_it(monkeypatch) -> No
     from metaknot.apps import fit as tolerance_fit
 
     monkeypatch.setattr(tolerance_fit._Search, "remove", lambda self, knots, polish=False: knots)
+    monkeypatch.setattr(tolerance_fit._Search, "fewer_free", lambda self, knots: None)
     monkeypatch.setattr(tolerance_fit._Search, "fewest_averaging", lambda self, upper: None)
     monkeypatch.setattr(tolerance_fit, "_fewer_at_fixed_counts", lambda *a, **k: (None, 0))
     monkeypatch.setattr(tolerance_fit, "LITERATURE_STARTS", ())
@@ -853,3 +854,27 @@ def test_polish_finds_the_control_points_of_kangs_spline() -> None:
     assert polished.metrics["max_deviation"] == pytest.approx(error, rel=1e-6, abs=1e-12)
     knots = polished.interior_knots[0]
     assert not np.isin(knots, data.params).all()  # knots left the data points
+
+
+def test_where_the_polish_stops_one_knot_fewer_is_searched_in_full_if_cheap(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """galvez_f3 at its suite tolerance: removal and polish stop at 12 control points (the
+    knots of 11 stay at 1.9 times the tolerance); ``varpro`` from its own starts at one knot
+    fewer finds 11 within it, checked by scipy's least-squares spline on the knots found. 12
+    with the search cut to half its evaluations, or not run (its cost bound 0)."""
+    import metaknot.apps.fit as fit_module
+    from metaknot.suite import get_instance
+    from metaknot.suite.tasks import get_task
+
+    problem = get_task("galvez_f3", "tolerance").problem()
+    params = get_instance("galvez_f3").point_set().params
+    tolerance = problem.objective.bound(problem.info)
+    options = {"params": params, "metric": "max_deviation"}
+    found = mk.fit(problem.points, tolerance, **options)
+    assert found.n_control_points == 11
+    reference = make_lsq_spline(params, problem.points, np.asarray(found.spline.t), k=3)
+    assert np.linalg.norm(reference(params) - problem.points, axis=1).max() <= tolerance
+    for name, value in (("FREE_SEARCH_ITERATIONS", 300), ("FREE_SEARCH_MOST", 0)):
+        with monkeypatch.context() as patched:
+            patched.setattr(fit_module, name, value)
+            assert mk.fit(problem.points, tolerance, **options).n_control_points == 12
