@@ -878,3 +878,19 @@ def test_where_the_polish_stops_one_knot_fewer_is_searched_in_full_if_cheap(
         with monkeypatch.context() as patched:
             patched.setattr(fit_module, name, value)
             assert mk.fit(problem.points, tolerance, **options).n_control_points == 12
+
+
+def test_the_command_line_has_the_defaults_of_mk_fit() -> None:
+    """``metaknot fit``'s defaults are ``mk.fit``'s (the budget of the fixed-count search is
+    ``FIXED_COUNT_BUDGET``, the searches' own budgets follow it)."""
+    import inspect
+
+    from metaknot.apps.fit import FIXED_COUNT_BUDGET, FIXED_COUNT_SEARCHES
+    from metaknot.cli import build_parser
+
+    args = build_parser().parse_args(["fit", "points.csv", "--tolerance", "1e-3"])
+    defaults = inspect.signature(mk.fit).parameters
+    for name in ("budget", "seed", "method", "degree", "parameterization", "polish", "corners"):
+        assert getattr(args, name) == defaults[name].default, name
+    assert [budget for _, _, budget in FIXED_COUNT_SEARCHES] == \
+        [FIXED_COUNT_BUDGET // 4, FIXED_COUNT_BUDGET]

@@ -74,8 +74,9 @@ def add_fit(sub: Any) -> None:
                              "stops, the knots of the most promising removal are moved freely "
                              "by variable projection, and removal goes on if that is within "
                              "the tolerance)")
-    parser.add_argument("--budget", type=int, default=5000,
-                     help="evaluations of the GA at each count of the fixed-count search")
+    parser.add_argument("--budget", type=int, default=5000,  # fit's FIXED_COUNT_BUDGET
+                        help="evaluations of the GA at each count of the fixed-count search "
+                             "(the local search gets a quarter)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the searches")
     parser.add_argument("--out", default=None,
                         help="output folder (default: the points file's whole name and -fit, "

@@ -375,14 +375,16 @@ FREE_SEARCH_ITERATIONS = 600
 FREE_SEARCH_MOST = 6000
 
 
-#: The searches tried at each knot count: local search, then a GA (name, options, budget).
-#: ``fit``'s ``budget`` (the GA's; the local search gets a quarter) is 5,000 by default: on the
+#: ``fit``'s default ``budget`` (the GA's at each count; the local search gets a quarter): on the
 #: suite's 135 tolerance tasks 20,000 gave the same control points on 131 (1 fewer on one, 1,
 #: 4 and 6 more on three), in 247 s against 168 s in all; on ``bench_literature``'s 21 cases
 #: 2,000 to 20,000 gave the same control points; ``bench_fit``'s slowest case (the star
 #: outline) 1.3-1.5 s instead of 2.2-2.8 s.
+FIXED_COUNT_BUDGET = 5000
+#: The searches tried at each knot count: local search, then a GA (name, options, budget).
 FIXED_COUNT_SEARCHES: tuple[tuple[str, dict[str, Any], int], ...] = (
-    ("local_search", {}, 1250), ("ga", {"population": 100}, 5000))
+    ("local_search", {}, FIXED_COUNT_BUDGET // 4),
+    ("ga", {"population": 100}, FIXED_COUNT_BUDGET))
 #: A search at a fixed count stops after this many evaluations without improving its best.
 STALL_EVALUATIONS = 5000
 
@@ -458,7 +460,8 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         metric: Metric = "max_deviation", function: bool = False,
         params: ArrayLike | None = None, degree: int = 3,
         parameterization: str = "centripetal", closed: bool | None = None,
-        method: str = "auto", budget: int = 5000, seed: int = 0, corners: bool = False,
+        method: str = "auto", budget: int = FIXED_COUNT_BUDGET, seed: int = 0,
+        corners: bool = False,
         polish: bool = True, progress: bool = False,
         on_stage: Callable[[str], None] | None = None) -> ToleranceFit:
     """The fewest control points whose clamped B-spline stays within ``tolerance`` of the points.
@@ -494,7 +497,8 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         they are (a ``ValueError`` says why if they are not within the tolerance).
     budget, seed
         Evaluations of the GA at each count of the fixed-count search (the local search gets
-        a quarter; :data:`FIXED_COUNT_SEARCHES` says why 5,000) and the seed of both.
+        a quarter; :data:`FIXED_COUNT_BUDGET`, 5,000 by default, says why) and the seed of
+        both.
     corners
         Allow knots of multiplicity up to the degree, where the curve is then only continuous
         (C^0; a double knot of a cubic leaves it C^1): the search also starts from each start
