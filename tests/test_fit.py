@@ -819,19 +819,33 @@ def test_where_the_best_removal_stays_beyond_the_tolerance_the_next_ones_are_pol
     removal moved under ``max_deviation`` is within it (16 without the further tries); the
     answer checked by scipy's least-squares spline on its knots."""
     import metaknot.apps.fit as fit_module
+
+    points, tolerance, options = _tolerance_task("humps")
+    assert _fit_checked_by_scipy(points, tolerance, options) == 15
+    monkeypatch.setattr(fit_module, "MAX_DEVIATION_TRIES", 0)
+    assert mk.fit(points, tolerance, **options).n_control_points == 16
+
+
+def _tolerance_task(instance_id: str) -> tuple[np.ndarray, float, dict]:
+    """A suite instance's tolerance task as ``mk.fit`` takes it: the points, the tolerance and
+    the keyword arguments (the instance's parameters, the maximum deviation)."""
     from metaknot.suite import get_instance
     from metaknot.suite.tasks import get_task
 
-    problem = get_task("humps", "tolerance").problem()
-    params = get_instance("humps").point_set().params
-    tolerance = problem.objective.bound(problem.info)
-    options = {"params": params, "metric": "max_deviation"}
-    found = mk.fit(problem.points, tolerance, **options)
-    assert found.n_control_points == 15
-    reference = make_lsq_spline(params, problem.points, np.asarray(found.spline.t), k=3)
-    assert np.linalg.norm(reference(params) - problem.points, axis=1).max() <= tolerance
-    monkeypatch.setattr(fit_module, "MAX_DEVIATION_TRIES", 0)
-    assert mk.fit(problem.points, tolerance, **options).n_control_points == 16
+    problem = get_task(instance_id, "tolerance").problem()
+    params = get_instance(instance_id).point_set().params
+    return (problem.points, problem.objective.bound(problem.info),
+            {"params": params, "metric": "max_deviation"})
+
+
+def _fit_checked_by_scipy(points: np.ndarray, tolerance: float, options: dict) -> int:
+    """``mk.fit``'s control points, its answer within the tolerance by scipy's least-squares
+    spline on its knots."""
+    found = mk.fit(points, tolerance, **options)
+    params = options["params"]
+    reference = make_lsq_spline(params, points, np.asarray(found.spline.t), k=3)
+    assert np.linalg.norm(reference(params) - points, axis=1).max() <= tolerance
+    return found.n_control_points
 
 
 def test_polish_finds_the_control_points_of_kangs_spline() -> None:
@@ -863,21 +877,13 @@ def test_where_the_polish_stops_one_knot_fewer_is_searched_in_full_if_cheap(
     fewer finds 11 within it, checked by scipy's least-squares spline on the knots found. 12
     with the search cut to half its evaluations, or not run (its cost bound 0)."""
     import metaknot.apps.fit as fit_module
-    from metaknot.suite import get_instance
-    from metaknot.suite.tasks import get_task
 
-    problem = get_task("galvez_f3", "tolerance").problem()
-    params = get_instance("galvez_f3").point_set().params
-    tolerance = problem.objective.bound(problem.info)
-    options = {"params": params, "metric": "max_deviation"}
-    found = mk.fit(problem.points, tolerance, **options)
-    assert found.n_control_points == 11
-    reference = make_lsq_spline(params, problem.points, np.asarray(found.spline.t), k=3)
-    assert np.linalg.norm(reference(params) - problem.points, axis=1).max() <= tolerance
+    points, tolerance, options = _tolerance_task("galvez_f3")
+    assert _fit_checked_by_scipy(points, tolerance, options) == 11
     for name, value in (("FREE_SEARCH_ITERATIONS", 300), ("FREE_SEARCH_MOST", 0)):
         with monkeypatch.context() as patched:
             patched.setattr(fit_module, name, value)
-            assert mk.fit(problem.points, tolerance, **options).n_control_points == 12
+            assert mk.fit(points, tolerance, **options).n_control_points == 12
 
 
 def test_the_command_line_has_the_defaults_of_mk_fit() -> None:
