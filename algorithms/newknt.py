@@ -38,9 +38,12 @@ from .literature import Target, ToleranceMethod, equidistribute, tolerance_metho
 __all__ = ["NewKnt", "newknt", "newnot"]
 
 
-def newnot(target: Target, knots: np.ndarray, floor: float = 1e-3) -> np.ndarray | None:
-    """One NEWNOT step: the same number of knots, equidistributing the density of the fit
-    with ``knots`` (None if those cannot be fitted); ``floor``: see the module docstring."""
+def newnot(target: Target, knots: np.ndarray, floor: float = 1e-3,
+           count: int | None = None) -> np.ndarray | None:
+    """One NEWNOT step: ``count`` knots (default as many as ``knots``; PPPACK's ``lnew - 1``)
+    equidistributing the density of the fit with ``knots`` (None if those cannot be fitted);
+    ``floor``: see the module docstring."""
+    count = knots.size if count is None else int(check_param("count", count, low=1, integer=True))
     found = target.fit(knots)
     if found is None:
         return None
@@ -56,10 +59,10 @@ def newnot(target: Target, knots: np.ndarray, floor: float = 1e-3) -> np.ndarray
     d = np.linalg.norm(np.diff(a, axis=0), axis=1) / (0.5 * (width2[1:] + width2[:-1]))
     size = d[:-1] + d[1:]
     if floor == 0.0:
-        return _inverse(breaks, size ** (1.0 / (p + 1)), knots.size)
+        return _inverse(breaks, size ** (1.0 / (p + 1)), count)
     rho = (size + floor * max(size.mean(), np.finfo(float).tiny)) ** (1.0 / (p + 1))
     total = np.concatenate(([0.0], np.cumsum(rho * width)))  # exact for a piecewise constant
-    return equidistribute((breaks, total / total[-1]), knots.size)
+    return equidistribute((breaks, total / total[-1]), count)
 
 
 def _inverse(breaks: np.ndarray, slope: np.ndarray, count: int) -> np.ndarray | None:
