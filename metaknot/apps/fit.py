@@ -513,7 +513,7 @@ def fit(points: ArrayLike, tolerance: float, *, relative: bool = False,
         stops at 9 knots or fewer, search one knot fewer by ``varpro`` from its own starts
         (:data:`FREE_SEARCH_MOST`) and go on from there if it is within. Knots may then
         lie between data points; with ``corners`` too, knots that meet become a multiple
-        knot. On by default (it added at most 0.4 s to a case of ``bench_fit``); False
+        knot. On by default (it added at most 0.9 s to a case of ``bench_fit``); False
         ends the search with knots at or between data points as knot removal left them.
     progress
         Show a progress bar over each search's evaluations.
