@@ -888,15 +888,14 @@ def test_where_the_polish_stops_one_knot_fewer_is_searched_in_full_if_cheap(
 
 def test_the_command_line_has_the_defaults_of_mk_fit() -> None:
     """``metaknot fit``'s defaults are ``mk.fit``'s (the budget of the fixed-count search is
-    ``FIXED_COUNT_BUDGET``, the searches' own budgets follow it)."""
+    ``FIXED_COUNT_BUDGET``)."""
     import inspect
 
-    from metaknot.apps.fit import FIXED_COUNT_BUDGET, FIXED_COUNT_SEARCHES
+    from metaknot.apps.fit import FIXED_COUNT_BUDGET
     from metaknot.cli import build_parser
 
     args = build_parser().parse_args(["fit", "points.csv", "--tolerance", "1e-3"])
     defaults = inspect.signature(mk.fit).parameters
     for name in ("budget", "seed", "method", "degree", "parameterization", "polish", "corners"):
         assert getattr(args, name) == defaults[name].default, name
-    assert [budget for _, _, budget in FIXED_COUNT_SEARCHES] == \
-        [FIXED_COUNT_BUDGET // 4, FIXED_COUNT_BUDGET]
+    assert defaults["budget"].default == FIXED_COUNT_BUDGET

@@ -381,24 +381,26 @@ FREE_SEARCH_MOST = 6000
 #: 2,000 to 20,000 gave the same control points; ``bench_fit``'s slowest case (the star
 #: outline) 1.3-1.5 s instead of 2.2-2.8 s.
 FIXED_COUNT_BUDGET = 5000
-#: The searches tried at each knot count: local search, then a GA (name, options, budget).
-FIXED_COUNT_SEARCHES: tuple[tuple[str, dict[str, Any], int], ...] = (
-    ("local_search", {}, FIXED_COUNT_BUDGET // 4),
-    ("ga", {"population": 100}, FIXED_COUNT_BUDGET))
 #: A search at a fixed count stops after this many evaluations without improving its best.
 STALL_EVALUATIONS = 5000
 
 
+def fixed_count_searches(budget: int) -> tuple[tuple[str, dict[str, Any], int], ...]:
+    """The searches tried at each knot count (name, options, budget): the local search with a
+    quarter of ``budget``, then a GA with all of it."""
+    return ("local_search", {}, max(1, budget // 4)), ("ga", {"population": 100}, budget)
+
+
 def _fewer_at_fixed_counts(curve: Curve, tol: float, metric: Metric, parameterization: str,
-                           count: int, searches: tuple = FIXED_COUNT_SEARCHES, seed: int = 0,
+                           count: int, searches: tuple, seed: int = 0,
                            progress: bool = False, max_multiplicity: int = 1
                            ) -> tuple[np.ndarray | None, int]:
     """Knots at data points, one fewer at a time than ``count``: each count is searched under
     ``error_bounded`` at the same tolerance by the local search (best-improvement removal,
     insertion and shifts from the averaging knots), then, if that stays beyond the tolerance,
-    by the GA (``FIXED_COUNT_SEARCHES``, seed 0); an index may repeat ``max_multiplicity``
-    times (a multiple knot). Returns the knots of the last count found within the tolerance
-    (or None) and the fits used."""
+    by the GA (``searches``: :func:`fixed_count_searches`); an index may repeat
+    ``max_multiplicity`` times (a multiple knot). Returns the knots of the last count found
+    within the tolerance (or None) and the fits used."""
     from metaknot.callbacks import StopWhenStalled
     from metaknot.problems import KnotIndices, PointSet
     from metaknot.runner import minimize
@@ -689,11 +691,9 @@ def _reduce(search: _Search, starts: list[np.ndarray], options: _SearchOptions,
     note(f"knot removal{of}: {search.evaluations:,} fits")
     method_name = "knot removal"
     if best is not None and options.method == "auto":
-        searches: tuple[tuple[str, dict[str, Any], int], ...] = (
-            (FIXED_COUNT_SEARCHES[0][0], {}, max(1, options.budget // 4)),
-            (FIXED_COUNT_SEARCHES[1][0], FIXED_COUNT_SEARCHES[1][1], options.budget))
         fewer, fits = _fewer_at_fixed_counts(curve, tol_abs, search.metric,
-                                             options.parameterization, len(best), searches,
+                                             options.parameterization, len(best),
+                                             fixed_count_searches(options.budget),
                                              options.seed, options.progress,
                                              search.max_multiplicity)
         note(f"search at fixed counts{of}: {fits:,} fits, "
