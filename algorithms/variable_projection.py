@@ -79,9 +79,9 @@ FINISH_ITERATIONS = 20
 # worst by 0.3 %; 1e-1: 178 and 20); 1e-4 left epitrochoid at K = 9 behind its index set.
 METRIC_DAMPING = 3e-2
 
-__all__ = ["Projection", "VariableProjection", "deviation_power", "jump_knots",
-           "knots_from_log_spans", "log_spans_from_knots", "one_blas_thread", "removal_knots",
-           "residual_jacobian", "start_evaluations"]
+__all__ = ["Projection", "VariableProjection", "deviation_power", "gauss_newton_metric",
+           "jump_knots", "knots_from_log_spans", "log_spans_from_knots", "one_blas_thread",
+           "removal_knots", "residual_jacobian", "start_evaluations"]
 
 
 def one_blas_thread() -> AbstractContextManager[object]:
@@ -382,7 +382,6 @@ def log_spans_from_knots(knots: np.ndarray, bounds: tuple[float, float]) -> np.n
         raise ValueError("interior knots must be increasing and strictly inside the range")
     logs = np.log(spans)
     return logs[1:] - logs[0]
-
 
 
 def gauss_newton_metric(jacobian: np.ndarray) -> np.ndarray:
