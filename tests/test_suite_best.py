@@ -292,3 +292,42 @@ def test_no_free_knot_value_is_behind_the_index_set_of_the_same_count() -> None:
               if task.endswith(".free") and (instance, task[:-5] + ".indices") in ENTRIES
               and entry.value > ENTRIES[(instance, task[:-5] + ".indices")].value * (1 + 1e-12)]
     assert behind == []
+
+
+def test_a_free_task_is_searched_from_its_stored_best_too(monkeypatch) -> None:
+    """``search`` runs ``varpro`` from the task's stored best (``incumbent``): with the
+    portfolio emptied and no index set, an incumbent at equally spaced knots is all it has to
+    start from, and it ends below that (without the incumbent: nothing found)."""
+    import metaknot.suite.best as best
+
+    monkeypatch.setattr(best, "PORTFOLIO", {**best.PORTFOLIO, "free": ()})
+    task = get_task("titanium", "fixed_k_small.free")
+    problem = task.problem()
+    knots = np.linspace(*problem.knot_bounds, problem.n_knots + 2)[1:-1]
+    value = float(problem.evaluate(knots[None, :])[0])
+    stored = ENTRIES[("titanium", "fixed_k_small.free")]
+    incumbent = dataclasses.replace(stored, knots=[float(k) for k in knots], value=value,
+                                    method="made-up")
+    assert best.search(task, budget=300) is None
+    found = best.search(task, budget=300, incumbent=incumbent)
+    assert found is not None and found.method == "varpro from best-known"
+    assert found.value < value * (1 - 1e-3)
+    assert found.value == pytest.approx(reference_value(task, problem, np.sort(found.knots)),
+                                        rel=1e-9)
+
+
+def test_improve_searches_each_task_from_its_stored_best(monkeypatch, tmp_path) -> None:
+    import metaknot.suite.best as best
+
+    path = tmp_path / "best.json"
+    stored = ENTRIES[("titanium", "fixed_k_small.free")]
+    save_best_known({("titanium", "fixed_k_small.free"): stored}, path)
+    seen: dict[str, BestKnown | None] = {}
+
+    def recording(task, **options):
+        seen[task.id] = options.get("incumbent")
+        return None
+
+    monkeypatch.setattr(best, "search", recording)
+    improve(["titanium"], budget=1, path=path, kinds=("fixed_k",), report=lambda _: None)
+    assert seen["fixed_k_small.free"] == stored and seen["fixed_k_large.free"] is None
