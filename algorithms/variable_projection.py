@@ -732,7 +732,12 @@ class VariableProjection(Optimizer):
                 metric = gauss_newton_metric(jacobian_z)
             except np.linalg.LinAlgError:  # the residual ignores the knots
                 return
-            first = solve_triangular(metric, 2.0 * (jacobian_z.T @ at_z), trans="T")
+
+            def pulled(r: np.ndarray, jacobian_x: np.ndarray) -> np.ndarray:
+                """The gradient of ``r^T r`` in the metric's variables: ``R^-T 2 J^T r``."""
+                return solve_triangular(metric, 2.0 * (jacobian_x.T @ r), trans="T")
+
+            first = pulled(at_z, jacobian_z)
             scale = float(np.linalg.norm(first))
             if not scale > 0.0:
                 return
@@ -744,8 +749,7 @@ class VariableProjection(Optimizer):
                 r = residual(x)
                 if not np.isfinite(r).all():
                     return np.inf, np.zeros_like(v)
-                gradient = 2.0 * (jacobian(x).T @ r)
-                return float(r @ r), scale * solve_triangular(metric, gradient, trans="T")
+                return float(r @ r), scale * pulled(r, jacobian(x))
 
             minimize(value_and_gradient, np.zeros_like(z), jac=True, method="L-BFGS-B",
                      options={"maxfun": calls - 1, "ftol": 1e-15, "gtol": 1e-12})

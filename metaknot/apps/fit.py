@@ -392,7 +392,8 @@ def fixed_count_searches(budget: int) -> tuple[tuple[str, dict[str, Any], int], 
 
 
 def _fewer_at_fixed_counts(curve: Curve, tol: float, metric: Metric, parameterization: str,
-                           count: int, searches: tuple, seed: int = 0,
+                           count: int, searches: tuple[tuple[str, dict[str, Any], int], ...],
+                           seed: int = 0,
                            progress: bool = False, max_multiplicity: int = 1
                            ) -> tuple[np.ndarray | None, int]:
     """Knots at data points, one fewer at a time than ``count``: each count is searched under
