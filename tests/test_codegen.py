@@ -28,7 +28,7 @@ def test_generated_basis_matches_scipy(degree: int) -> None:
     t = clamped_knot_vector(u, interior, degree)
     n = t.size - degree - 1
     iv = np.empty(t.size * degree)
-    _kernel.reciprocals_into(t, degree, iv)
+    _kernel.reciprocals(t, degree, iv, 0, t.size)
     assert iv[degree] == pytest.approx(1.0 / (t[degree + 1] - t[degree]))
     basis = np.empty((u.size, degree + 1))
     spans = np.empty(u.size, dtype=np.int64)
@@ -89,7 +89,7 @@ def test_row_loop_matching_is_schoenberg_whitney(degree: int) -> None:
         st = np.zeros((n, 1 + degree + 1))
         st[:, 0] = _rows.EMPTY
         iv = np.empty(t.size * degree)
-        _kernel.reciprocals_into(t, degree, iv)
+        _kernel.reciprocals(t, degree, iv, 0, t.size)
         _, matched = _rows.rows(u, q, t, iv, degree, n, st.ravel(), np.empty((0, degree + 1)),
                                 np.empty(0, np.int64))
         expected = _schoenberg_whitney(u, t, degree, n)

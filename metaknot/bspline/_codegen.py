@@ -94,7 +94,7 @@ def _basis_lines(p: int, indent: str) -> list[str]:
     """De Boor-Cox (NURBS Book A2.2) unrolled: values h0..hp of the non-zero basis functions.
 
     The denominators ``t[lo + j] - t[lo]`` depend on the knots only; their reciprocals come from
-    the table ``iv`` (``iv[(j - 1) * t.size + lo]``, see ``_kernel.reciprocals_into``), so the
+    the table ``iv`` (``iv[(j - 1) * t.size + lo]``, see ``_kernel.reciprocals``), so the
     loop does no division.
     """
     lines = []

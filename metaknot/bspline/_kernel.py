@@ -91,18 +91,16 @@ def empty_state(st, columns, width):
 
 
 @njit(cache=True, error_model="numpy")
-def reciprocals_into(t, p, iv):
-    """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` for ``j = 1..p`` (0 where not
-    positive): the denominators of the basis recurrence, computed once per knot vector. Stored
-    by ``j`` so that the inner loop over ``lo`` is a vector division."""
+def reciprocals(t, p, iv, lo_start, lo_stop):
+    """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` (0 where not positive) for
+    ``j = 1..p`` and ``lo_start <= lo < lo_stop``: the denominators of the basis recurrence,
+    computed once per knot vector (all of them: ``0, t.size``), the table of every generated
+    row loop. Stored by ``j`` so that the inner loop over ``lo`` is a vector division."""
     size = t.size
     for j in range(1, p + 1):
-        row = (j - 1) * size
-        for lo in range(size - j):
-            diff = t[lo + j] - t[lo]
-            iv[row + lo] = 1.0 / diff if diff > 0.0 else 0.0
-        for lo in range(size - j, size):
-            iv[row + lo] = 0.0
+        for lo in range(max(lo_start, 0), min(lo_stop, size - j)):
+            gap = t[lo + j] - t[lo]
+            iv[(j - 1) * size + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
 @njit(cache=True)
@@ -119,11 +117,11 @@ def _solve_into(u, q, t, p, n, coef, basis, spans, iv, st, max_mult=1):
     (at least ``n * (1 + p + d)``) are workspaces: ``st`` holds, per column of the factor,
     ``dinv``, the ``p`` off-diagonal entries of ``rb`` and the ``d`` right-hand sides. If
     ``basis`` is not empty, basis values and spans of every data point are stored for
-    :func:`_max_deviation`.
+    ``_rows.deviation`` (the maximum deviation).
     """
     d = q.shape[1]
     width = 1 + p + d
-    reciprocals_into(t, p, iv)
+    reciprocals(t, p, iv, 0, t.size)
     empty_state(st, n, width)
     sse, matched = rows(u, q, t, iv, p, n, st, basis, spans)
     if matched and max_mult > 1 and _repeats(t, p, n):  # the row loop's test takes distinct
@@ -207,13 +205,6 @@ def _condition_estimate(st, width, p, n):
         x[:] = 0.0
         x[best] = 1.0
     return norm_r * est
-
-
-@njit(cache=True)
-def _max_deviation(q, p, coef, basis, spans):
-    """Largest distance of a data point to its fitted point, from the stored bases (a pass
-    generated per degree and dimension, ``_rows.deviation``)."""
-    return deviation(q, p, coef, basis, spans)
 
 
 @njit(cache=True, inline='always')
@@ -328,7 +319,7 @@ def _score(u, q, p, closed, interior, b, ws, sse, max_dev, n_ctrl, reason, max_m
                                fit_ws[0], fit_ws[1], max_mult)
         reason[b] = code
         if max_dev.size > 0:
-            max_dev[b] = _max_deviation(q, p, coef, basis, spans) if code == FEASIBLE \
+            max_dev[b] = deviation(q, p, coef, basis, spans) if code == FEASIBLE \
                 else np.inf
         return
     m = interior.size + 1
@@ -635,7 +626,7 @@ def _seam_into(u, q, t, p, m, seam, st, far, row, seam_ws, basis, spans):
     if local and seam > ncol:  # through the banded factor
         empty_state(band, ncol, width)
         knots = t[: 3 * p + 1]
-        reciprocals_into(knots, p, band_iv)
+        reciprocals(knots, p, band_iv, 0, knots.size)
         sse, _ = rows(u[:seam], q[:seam], knots, band_iv, p, ncol, band,
                       basis[:seam] if keep else basis, spans[:seam] if keep else spans)
         if keep:
@@ -725,7 +716,7 @@ def solve_closed_into(u, q, t, p, coef, basis, spans, ws, pivot_ratio):
     iv, st, far, row, x, seam_ws = ws
     width = 1 + p + d
     shifted = t[p:]
-    reciprocals_into(shifted, p, iv)
+    reciprocals(shifted, p, iv, 0, shifted.size)
     empty_state(st, m, width)
     far[:m] = 0.0
     seam = 0  # rows in the spans before breakpoint p
@@ -755,28 +746,6 @@ def extended_knots(breaks: np.ndarray, p: int, t: np.ndarray) -> None:
     t[p : p + m] = breaks
     for k in range(p + 1):
         t[p + m + k] = (breaks[k] if k < m else breaks[k - m] + 1.0) + 1.0
-
-
-@njit(cache=True)
-def periodic_knots(interior: np.ndarray, p: int, max_mult: int) -> tuple:
-    """The extended knot vector of the breakpoints 0 and the sorted ``interior`` (``m + 2p + 1``
-    knots, :func:`extended_knots`) and the reason to refuse them: SINGULAR for fewer than ``p``
-    breakpoints, then the batch fit's verdict (:func:`closed_verdict`: a knot not in (0, 1),
-    NaN included, then one repeated more than ``max_mult`` times), then COINCIDENT_KNOTS for
-    knots out of order (an incumbent is taken as given, not sorted), else FEASIBLE."""
-    m = interior.size + 1
-    t = np.empty(m + 2 * p + 1)
-    if m < p:
-        return SINGULAR, t
-    code, in_order = closed_verdict(interior, max_mult)
-    if code == FEASIBLE and not in_order:
-        code = COINCIDENT_KNOTS
-    if code == FEASIBLE:
-        breaks = np.empty(m)
-        breaks[0] = 0.0
-        breaks[1:] = interior
-        extended_knots(breaks, p, t)
-    return code, t
 
 
 @njit(cache=True)

@@ -49,7 +49,6 @@ from ._kernel import (
     SINGULAR,
     TOO_MANY_CONTROL_POINTS,
     _fit_ws,
-    _max_deviation,
     _score,
     _score_workspaces,
     basis_at,
@@ -57,10 +56,12 @@ from ._kernel import (
     fit_workspaces,
     givens,
     periodic_distance2,
+    reciprocals,
     repeated_beyond,
     rotate_entries,
 )
 from ._moves_rows import EMPTY, absorb, frame, sweep, window
+from ._rows import deviation
 
 # How each candidate was decided (``path`` output).
 PATH_DELTA = 0  # merged from the cached states
@@ -91,17 +92,6 @@ def check_offsets(offsets, size):
         bad |= offsets[b + 1] < offsets[b]
     if bad:
         raise ValueError("offsets must run from 0 to len(knots) without decreasing")
-
-
-@njit(cache=True)
-def reciprocals(t, p, iv, lo_start, lo_stop):
-    """``iv[(j - 1) * t.size + lo] = 1 / (t[lo + j] - t[lo])`` (0 where not positive) for
-    ``lo_start <= lo < lo_stop`` and ``j = 1..p``: the table of the generated basis loop."""
-    size = t.size
-    for j in range(1, p + 1):
-        for lo in range(max(lo_start, 0), min(lo_stop, size - j)):
-            gap = t[lo + j] - t[lo]
-            iv[(j - 1) * size + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -223,36 +213,19 @@ def _merged_coefficients(stm, tri, nbm, final_f, final_m, nb, p, d, wrap, KL, KR
                     wrap + P + delta)
 
 
-@njit(cache=True)
-def sw_matching(u, t, p, n, match):
-    """A greedy Schoenberg-Whitney matching (the check the full kernel makes): ``match[i]`` is
-    the data row given to basis function ``i`` (the first free row inside its support).
-    Returns False (and stops) where a function finds none."""
-    m = u.size
-    j = 0
-    for i in range(n):
-        lo = t[i]
-        hi = t[i + p + 1]
-        while j < m and not (u[j] > lo or (i == 0 and u[j] >= lo)):
-            j += 1
-        if j == m:
-            return False
-        if not (u[j] < hi or (i == n - 1 and u[j] <= hi)):
-            return False
-        match[i] = j
-        j += 1
-    return True
-
-
 @njit(cache=True, inline='always', error_model='numpy')
-def sw_local(u, t2, p, n2, match, first, tail, shift):
-    """The Schoenberg-Whitney check of ``t2`` given the incumbent's matching ``match``.
+def sw_local(u, t2, p, n2, match, first, tail, shift, keep):
+    """The Schoenberg-Whitney check of ``t2`` (the check the full kernel makes) by a greedy
+    matching: each basis function gets the first free data row inside its support; False where
+    one finds none. With ``keep`` (an incumbent's: ``first = shift = 0``, ``tail = n2``), the
+    row of function ``i`` is kept in ``match[i]``.
 
-    Functions below ``first`` have the incumbent's supports, so the greedy matching agrees
-    there; it is resumed at ``first``. Functions from ``tail`` on have the supports of the
-    incumbent's functions ``i - shift``: once the resumed matching gives one of them a row no
-    later than the incumbent's, every later function is matched too (the greedy choice is
-    monotone in the row it starts from), and the check stops early.
+    Given the incumbent's matching ``match``: functions below ``first`` have the incumbent's
+    supports, so the greedy matching agrees there; it is resumed at ``first``. Functions from
+    ``tail`` on have the supports of the incumbent's functions ``i - shift``: once the resumed
+    matching gives one of them a row no later than the incumbent's, every later function is
+    matched too (the greedy choice is monotone in the row it starts from), and the check stops
+    early.
     """
     m = u.size
     j = match[first - 1] + 1 if first > 0 else 0
@@ -267,6 +240,8 @@ def sw_local(u, t2, p, n2, match, first, tail, shift):
             return False
         if i >= tail and j <= match[i - shift]:
             return True
+        if keep:
+            match[i] = j
         j += 1
     return True
 
@@ -421,7 +396,8 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
         delta = n2 - n
         # functions below e - p - 1 keep their supports, those from t.size - f + delta on
         # (counted in t2) keep the supports of the incumbent's functions shifted by delta
-        if not sw_local(u, tb, p, n2, match, max(e - p - 1, 0), t.size - f + delta, delta):
+        if not sw_local(u, tb, p, n2, match, max(e - p - 1, 0), t.size - f + delta, delta,
+                        False):
             reason_out[b] = SCHOENBERG_WHITNEY
             continue
         c_left = max(e - p, p)
@@ -495,7 +471,7 @@ def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse,
         reason_out[b] = code
         sse_out[b] = value
         if want_max_dev and code == FEASIBLE:
-            max_dev_out[b] = _max_deviation(q, p, coef[:n2], basis_ws, spans_ws)
+            max_dev_out[b] = deviation(q, p, coef[:n2], basis_ws, spans_ws)
 
 
 @njit(cache=True)
@@ -518,7 +494,7 @@ def bind(u, q, u_mirror, q_mirror, t, p):
         row_start[c] = j
     row_start[n] = m
     match = np.empty(n, dtype=np.int64)
-    sw_matching(u, t, p, n, match)
+    sw_local(u, t, p, n, match, 0, n, 0, True)
     iv = np.zeros(p * t.size)
     reciprocals(t, p, iv, 0, t.size)
     steps = n - p + 1

@@ -333,10 +333,9 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-        code, t = _kernel.periodic_knots(interior, p, self.max_multiplicity)
-        if code != _kernel.FEASIBLE:  # refused: named by the knot vector's check, else unsorted
-            _periodic_knots(interior, p, self.max_multiplicity)
-            raise ValueError("the incumbent cannot be fitted: "  # (indexed as given: sorted)
+        t = _periodic_knots(interior, p, self.max_multiplicity)  # named if refused
+        if (np.diff(interior) < 0).any():  # indexed as given: sorted
+            raise ValueError("the incumbent cannot be fitted: "
                              f"{Infeasibility(_kernel.COINCIDENT_KNOTS).message}")
         m = interior.size + 1
         add_fits(1)
