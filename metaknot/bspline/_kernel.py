@@ -97,10 +97,11 @@ def reciprocals(t, p, iv, lo_start, lo_stop):
     computed once per knot vector (all of them: ``0, t.size``), the table of every generated
     row loop. Stored by ``j`` so that the inner loop over ``lo`` is a vector division."""
     size = t.size
-    for j in range(1, p + 1):
-        for lo in range(max(lo_start, 0), min(lo_stop, size - j)):
-            gap = t[lo + j] - t[lo]
-            iv[(j - 1) * size + lo] = 1.0 / gap if gap > 0.0 else 0.0
+    for j in range(1, p + 1):  # unsigned indices: no wraparound test, a vector loop
+        row = np.uint64((j - 1) * size)
+        for lo in range(np.uint64(max(lo_start, 0)), np.uint64(min(lo_stop, size - j))):
+            gap = t[lo + np.uint64(j)] - t[lo]
+            iv[row + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
 @njit(cache=True)
