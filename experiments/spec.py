@@ -29,6 +29,8 @@ from .run import ENCODINGS, RUN_KEYS, RunSpec, run_id
 
 __all__ = ["ConfigError", "config_node", "plain_config", "run_spec"]
 
+# the curve model's (metaknot.bspline.PARAMETERIZATIONS), written here so that checking a
+# configuration does not load the compiled kernels; tests/test_spec.py keeps the two equal
 PARAMETERIZATIONS = ("uniform", "chord", "centripetal")
 STUDY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.=,+-]*")  # matched in full (fullmatch)
 

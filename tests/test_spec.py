@@ -967,3 +967,10 @@ def test_index_sets_with_repeats_are_configured_by_the_encoding():
     problem = spec.build_problem()
     assert problem.max_multiplicity == 2 and not problem.encoding.distinct_sorted
     assert "max_multiplicity" not in spec_of("encoding=indices").config["encoding"]
+
+
+def test_the_parameterizations_a_configuration_accepts_are_the_curve_models():
+    from metaknot.bspline import PARAMETERIZATIONS
+    from metaknot.experiments import spec
+
+    assert spec.PARAMETERIZATIONS == PARAMETERIZATIONS

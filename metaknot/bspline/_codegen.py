@@ -24,33 +24,21 @@ predictor cannot guess:
 * the Schoenberg-Whitney conditions are checked on the way, by the greedy matching of data
   points to basis functions (in data order, each point to the first unmatched function whose
   open support holds it), from the span of each data point;
-* no fast-math flags: whether the compiler contracts a multiply-add under
-  ``fastmath={"contract"}`` depends on what it inlined, which turned out to depend on the
-  kernels compiled before in the same process, so results depended on the compile order and
-  the cache. The multiply-adds of the rotations and of the basis recurrence are written as
-  ``fma`` (an intrinsic rendered into the header: LLVM's fused multiply-add, rounded once),
-  which gives the same bits wherever it is inlined and is as fast as the contracted loop.
+* no fast-math flags: the multiply-adds of the rotations and of the basis recurrence are
+  written as ``fma`` (LLVM's fused multiply-add, an intrinsic rendered into the header), which
+  gives the same bits wherever it is inlined (``docs/internals/kernel.md`` says why).
 
 Back substitution and the pass of the conditioning bound are generated too, with the band's
 last values in locals. A column never reached keeps ``dinv = EMPTY`` and fails the ``RCOND``
 test, as an infinite one did.
 
-*Delta evaluation* (``_moves_rows.py``).
-
-:mod:`metaknot.bspline._moves` rotates data rows into a banded factor in three places: the
-forward sweep and the backward sweep over an incumbent (saving a state at every knot), and
-the window of a move (the rows whose basis functions the move changed, under the candidate's
-knots). ``window_p{p}_d{d}`` rotates rows ``j0..j1 - 1`` into a flat factor whose first column
-is the knot vector's column ``col0``; ``sweep_p{p}_d{d}`` is the same loop over every row,
-saving a state at given row boundaries (the forward and the mirrored sweeps);
-``absorb_p{p}_d{d}`` rotates a backward state's rows into a merged factor.
-
-The loops reuse the kernel's templates (above: de Boor-Cox with a table of
-reciprocal knot differences, square-root-free Givens rotations on a flat factor of ``W = 1 +
-p + d`` entries per column, empty columns as ``dinv = EMPTY``, unsigned indices), so they
-compile to the same straight-line code. They add the column sums of the rows' basis values
-(the conditioning certificate needs them) and, with ``store``, keep the basis values and spans
-(the maximum deviation).
+*Delta evaluation* (``_moves_rows.py``, for :mod:`metaknot.bspline._moves`) has the same
+loops over other rows, on the same templates, adding the column sums of the rows' basis values
+(the conditioning certificate needs them) and, with ``store``, keeping the basis values and
+spans: ``window_p{p}_d{d}`` (the rows of a move's changed spans under the candidate's knots),
+``sweep_p{p}_d{d}`` (every row, saving a state at given row boundaries), ``absorb_p{p}_d{d}``
+(a backward state's rows into a merged factor) and ``frame_p{p}_d{d}`` (a sweep of a closed
+frame, the wrap-around columns carried along).
 
 The generated files are committed; ``python -m metaknot.bspline._codegen`` rewrites both and a
 test checks they are current.

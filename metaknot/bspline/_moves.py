@@ -617,13 +617,9 @@ def mask_replacements(u, near, masks):
 # more (:func:`metaknot.bspline.moves._cuts`), so every change of one or two neighbouring knots
 # lies inside one frame.
 #
-# *Certificate.* The closed fit reports a system singular when a pivot is at most
-# ``PIVOT_RATIO`` times the largest. Every pivot lies between ``sigma_min(B)`` and the largest
-# column norm of ``B`` (at most the square root of the largest column sum); ``[left final rows;
-# right final rows; merged factor]`` is a block triangular square factor of the candidate's
-# normal matrix, so bounding the inverse of each block bounds ``1 / sigma_min``. A candidate is
-# reported feasible on the delta path only when that bound keeps every pivot above
-# ``PIVOT_RATIO / CERTIFY`` times the largest; the full fit decides the rest.
+# *Certificate* (``docs/internals/kernel.md``): the open rule against the closed fit's pivot
+# test. A merged candidate is reported feasible only when a bound of ``1 / sigma_min`` keeps
+# every pivot above ``PIVOT_RATIO / CERTIFY`` times the largest; the full fit decides the rest.
 
 @njit(cache=True, inline='always')
 def _periodic_rows(u, q, first, u_out, q_out):

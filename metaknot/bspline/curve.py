@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar, Literal
+from typing import Any, ClassVar
 
 import numba
 import numpy as np
@@ -28,17 +28,18 @@ from scipy.interpolate import BSpline
 from ..budget import add_fits
 from ..validate import check_flag
 from . import _kernel
-from ._codegen import MAX_DIMENSION
 from .fit import (
     BatchFit,
     CurveFit,
     Infeasibility,
+    Metric,
     PeriodicFit,
     SplineFit,
     _fit_clamped,
     _prepare,
     batch_errors,
     check_metric,
+    kernel_points,
 )
 from .knots import (
     _periodic_knots,
@@ -55,12 +56,10 @@ from .knots import (
     stack_rows,
 )
 from .moves import MoveEvaluator, bound_to
-from .parameterize import _parameters, as_points, check_degree, closed_parameterize
+from .parameterize import _parameters, check_degree, closed_parameterize
 
 __all__ = ["CLOSING_CHORD_SPACINGS", "REPEAT_SPACINGS", "ClosedCurve", "Closure", "Curve",
            "OpenCurve", "closure", "curve_model", "make_curve"]
-
-Metric = Literal["max_deviation", "rmse"]
 
 #: A closing chord of at most this many typical point spacings makes a sequence an outline.
 CLOSING_CHORD_SPACINGS = 2.5
@@ -567,10 +566,7 @@ def make_curve(points: ArrayLike, *, degree: int = 3, parameterization: str = "c
     """
     p = check_degree(degree)
     closed = check_flag("closed", closed)
-    q = as_points(points, degree=p)  # the one check of the points
-    if q.shape[1] > MAX_DIMENSION:
-        raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
-                         f"kernel's loops are generated for those); got {q.shape[1]}")
+    q = kernel_points(points, p)  # the one check of the points
     if not closed:  # explicit parameters are checked here, the computed ones are valid
         u = _parameters(q, params if params is not None else parameterization)
         return OpenCurve._checked(u, q, p)

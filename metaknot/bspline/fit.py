@@ -96,16 +96,17 @@ class BatchFit:
 
 #: The error measures a tolerance or an objective can be stated in.
 METRICS = ("max_deviation", "rmse")
+Metric = Literal["max_deviation", "rmse"]
 
 
-def check_metric(metric: object) -> Literal["max_deviation", "rmse"]:
+def check_metric(metric: object) -> Metric:
     """``metric``, or a ``ValueError`` unless it is ``"max_deviation"`` or ``"rmse"``."""
     if metric not in METRICS:
         raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
     return metric  # type: ignore[return-value]  # one of METRICS
 
 
-def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_points: int
+def batch_errors(batch: BatchFit, metric: Metric, n_points: int
                  ) -> np.ndarray:
     """The error ``metric`` of every candidate of a batch; ``inf`` where infeasible."""
     check_metric(metric)
@@ -118,16 +119,23 @@ def batch_errors(batch: BatchFit, metric: Literal["max_deviation", "rmse"], n_po
     return np.where(batch.feasible, err, np.inf)
 
 
+def kernel_points(points: ArrayLike, degree: int, *, closed: bool = False) -> np.ndarray:
+    """Points checked by :func:`~metaknot.bspline.parameterize.as_points`, of at most
+    ``MAX_DIMENSION`` coordinates (the compiled kernels' loops are generated for those)."""
+    q = as_points(points, degree=degree, closed=closed)
+    if q.shape[1] > MAX_DIMENSION:
+        raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
+                         f"kernel's loops are generated for those); got {q.shape[1]}")
+    return q
+
+
 def _prepare(u: ArrayLike, points: ArrayLike, degree: int, *, closed: bool = False
              ) -> tuple[np.ndarray, np.ndarray]:
     """Parameters and points as the compiled kernels take them (float64, contiguous), checked:
     the points by :func:`~metaknot.bspline.parameterize.as_points` and the kernels' dimensions,
     the parameters finite, strictly increasing and one per point, a ``closed`` outline's from
     0 and below 1 (the kernels trust all of it)."""
-    q = as_points(points, degree=check_degree(degree), closed=closed)
-    if q.shape[1] > MAX_DIMENSION:
-        raise ValueError(f"points must have 1 to {MAX_DIMENSION} coordinates (the compiled "
-                         f"kernel's loops are generated for those); got {q.shape[1]}")
+    q = kernel_points(points, check_degree(degree), closed=closed)
     u = np.ascontiguousarray(u, dtype=np.float64)
     if u.shape != (q.shape[0],):
         raise ValueError(

@@ -26,6 +26,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import BSpline, splev, splprep
 
+from .fit import Metric
+
 __all__ = ["FitpackError", "SmoothingSpline", "fewest_within", "front", "interior_knots",
            "smoothing_spline"]
 
@@ -171,7 +173,7 @@ SCAN_STOP_MARGIN = 10
 
 
 def fewest_within(u: ArrayLike, points: ArrayLike, degree: int, tolerance: float,
-                  metric: Literal["max_deviation", "rmse"], *, closed: bool = False
+                  metric: Metric, *, closed: bool = False
                   ) -> dict[str, Any]:
     """The fewest control points FITPACK's smoothing spline needs to stay within ``tolerance``: a
     scan of 60 smoothing factors over log s (1e-14 to 1 times the data's total sum of squares),
