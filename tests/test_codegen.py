@@ -140,3 +140,20 @@ def test_results_do_not_depend_on_which_kernels_compiled_first(tmp_path) -> None
     here = namespace["scores"](moves_first=False)
     assert np.isfinite(here).sum() > 0.9 * here.size
     np.testing.assert_array_equal(np.load(out), here)
+
+
+def test_the_reciprocal_table_fills_only_the_range_asked_for() -> None:
+    """``_kernel.reciprocals`` writes ``lo_start <= lo < lo_stop`` only; an empty or negative
+    range writes nothing (its unsigned loop bounds must not wrap around)."""
+    from metaknot.bspline import _kernel
+
+    t = np.array([0.0, 0.0, 0.25, 0.5, 0.5, 1.0, 1.0])
+    iv = np.full(2 * t.size, -1.0)
+    _kernel.reciprocals(t, 2, iv, 2, 4)
+    written = np.flatnonzero(iv != -1.0)
+    assert written.tolist() == [2, 3, t.size + 2, t.size + 3]
+    assert iv[2] == 4.0 and iv[3] == 0.0 and iv[t.size + 2] == 4.0
+    for start, stop in ((3, 3), (0, -5), (-4, -1)):
+        iv[:] = -1.0
+        _kernel.reciprocals(t, 2, iv, start, stop)
+        assert (iv == -1.0).all()

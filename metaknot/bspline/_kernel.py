@@ -99,7 +99,8 @@ def reciprocals(t, p, iv, lo_start, lo_stop):
     size = t.size
     for j in range(1, p + 1):  # unsigned indices: no wraparound test, a vector loop
         row = np.uint64((j - 1) * size)
-        for lo in range(np.uint64(max(lo_start, 0)), np.uint64(min(lo_stop, size - j))):
+        stop = max(min(lo_stop, size - j), 0)  # never negative: it would wrap around
+        for lo in range(np.uint64(max(lo_start, 0)), np.uint64(stop)):
             gap = t[lo + np.uint64(j)] - t[lo]
             iv[row + lo] = 1.0 / gap if gap > 0.0 else 0.0
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Literal
+from typing import Literal, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -94,16 +94,16 @@ class BatchFit:
         return self.sse.size
 
 
-#: The error measures a tolerance or an objective can be stated in.
-METRICS = ("max_deviation", "rmse")
 Metric = Literal["max_deviation", "rmse"]
+#: The error measures a tolerance or an objective can be stated in.
+METRICS: tuple[Metric, ...] = get_args(Metric)
 
 
 def check_metric(metric: object) -> Metric:
     """``metric``, or a ``ValueError`` unless it is ``"max_deviation"`` or ``"rmse"``."""
     if metric not in METRICS:
         raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
-    return metric  # type: ignore[return-value]  # one of METRICS
+    return metric  # one of METRICS
 
 
 def batch_errors(batch: BatchFit, metric: Metric, n_points: int
