@@ -537,8 +537,8 @@ def bind(u, q, t, p, closed, cuts):
     cols = t.size - p - 1 - wrap  # control points
     nb = cols - wrap
     frames = cuts.size if closed else 1
-    # (one frame's room at least: evaluate_moves takes an open curve's mirrored states ahead)
     steps = max(nb - p + 1, 0)  # the states K = p .. nb of each sweep
+    # (one frame's room at least: evaluate_moves takes an open curve's mirrored states ahead)
     S = np.zeros((max(frames, 1), 2, steps, p * wide))
     T = np.zeros((frames, 2, steps, wrap * width))
     Ssse = np.zeros((frames, 2, steps))
