@@ -1,7 +1,5 @@
 """Compiled delta evaluation of local knot moves on open and closed curves (numba); see
-:mod:`metaknot.bspline.moves`. One evaluator (:func:`bind`, :func:`evaluate_moves`) serves
-both: an open curve is one *frame* without wrap-around columns, a closed one is cut into frames
-(the notes above :func:`_periodic_rows`). Below, an open curve's notation.
+:mod:`metaknot.bspline.moves`. Closed curves: the notes above :func:`bind_closed`.
 
 Notation: ``t`` is the incumbent's clamped knot vector with ``n`` basis functions (columns);
 data row ``j`` lies in knot span ``spans[j]`` (``t[k] <= u[j] < t[k + 1]``, the last point in
@@ -17,11 +15,10 @@ are again columns ``c - p .. c - 1``.
 
 States are kept in the flat layout of the generated row loop (:mod:`._codegen`):
 ``W = 1 + p + d`` entries per column (reciprocal weight, the unit triangular row's ``p``
-off-diagonal entries, the right-hand sides; a closed frame's ``p`` wrap-around entries before
-those), ``dinv = EMPTY`` for a column no row has reached. The backward sweep runs the same loop
-on the mirrored problem (parameters and knots negated and reversed, points reversed: column
-``c`` is the mirror's ``n - 1 - c``), with the rows taken by index, so a point on a knot
-belongs to the same side in both sweeps; its state ``c`` is the mirror's step ``n - c``.
+off-diagonal entries, the right-hand sides), ``dinv = EMPTY`` for a column no row has reached.
+The backward sweep runs the same loop on the mirrored problem (parameters and knots negated and
+reversed, points reversed: column ``c`` is the mirror's ``n - 1 - c``), with the rows taken by
+index, so a point on a knot belongs to the same side in both sweeps.
 
 A move changes the knots between two unchanged ends. The rows of spans ``< cL`` keep their
 basis values and columns (counted from the left), those of spans ``>= cR`` keep theirs (counted
@@ -81,8 +78,9 @@ CERTIFY = 0.5
 # A column whose reciprocal weight is still above this was reached by no row (see EMPTY).
 UNREACHED = EMPTY * 1e-10
 
-# An open factor has no wrap triangle.
+# An open factor has no wrap triangle, nor states of one.
 NO_TRIANGLE = np.zeros(0)
+NO_TRIANGLES = np.zeros((0, 0))
 
 
 @njit(cache=True, inline='always')
@@ -94,6 +92,25 @@ def check_offsets(offsets, size):
         bad |= offsets[b + 1] < offsets[b]
     if bad:
         raise ValueError("offsets must run from 0 to len(knots) without decreasing")
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def candidate_reciprocals(t2, t, iv_t, p, iv, lo_start, lo_stop, e, tail, shift):
+    """:func:`reciprocals` of the candidate's knots ``t2`` for ``lo_start <= lo < lo_stop``,
+    copied from the incumbent's table ``iv_t`` where both knots are the incumbent's: below
+    ``e`` (the first changed knot) and from ``tail`` on (``t2[i] = t[i - shift]``); only the
+    differences that involve a changed knot are divided."""
+    size2 = t2.size
+    size = t.size
+    for j in range(1, p + 1):
+        for lo in range(max(lo_start, 0), min(lo_stop, size2 - j)):
+            if lo + j < e:
+                iv[(j - 1) * size2 + lo] = iv_t[(j - 1) * size + lo]
+            elif lo >= tail:
+                iv[(j - 1) * size2 + lo] = iv_t[(j - 1) * size + lo - shift]
+            else:
+                gap = t2[lo + j] - t2[lo]
+                iv[(j - 1) * size2 + lo] = 1.0 / gap if gap > 0.0 else 0.0
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -311,6 +328,221 @@ def _runs_verdict(knots, lo, hi, max_mult, verdict):
     return COINCIDENT_KNOTS if repeated_beyond(knots[lo - 1 : hi], max_mult) else verdict
 
 
+@njit(cache=True, error_model='numpy')
+def evaluate_moves(u, q, p, t, iv_t, n, spans, basis, row_start, match, F, Fsse, Fcol, G, Gsse,
+                   Gcol, st_f, st_m, col_before, col_from, base_sse, inverse_left, inverse_right,
+                   gram_norm, max_mult, knots, offsets, starts, stops, max_window_rows,
+                   want_max_dev, sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
+    """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``, each repeated at
+    most ``max_mult`` times) by merging the incumbent's cached states; fall back to the full
+    fit where the cheap path cannot decide.
+    With ``starts`` not empty, candidate ``b`` is instead the incumbent with its interior knots
+    ``starts[b]:stops[b]`` replaced by ``knots[offsets[b]:offsets[b + 1]]`` (a move: no
+    comparison of whole knot vectors is then needed).
+
+    Outputs per candidate: SSE, maximum deviation (when ``want_max_dev``), control points,
+    reason code and the path that decided it. The maximum deviation of a merged candidate
+    comes from its control points, solved from the merged block outwards through the final
+    rows of the incumbent's forward factor (``st_f``: columns left of the block) and of the
+    mirror's (``st_m``: columns right of it), and the incumbent's basis values for the rows
+    outside the window.
+    """
+    m, d = q.shape
+    w = 1 + p + d
+    n_cand = offsets.size - 1
+    check_offsets(offsets, knots.size)
+    n_max = m + p + 1  # a candidate with more columns than points is rejected before a fit
+    t2 = np.empty(n_max + p + 1)
+    iv = np.zeros(p * (n_max + p + 1))
+    coef = np.empty((n_max, d))
+    basis_ws = np.empty((m if want_max_dev else 0, p + 1))  # the full fits' rows
+    spans_ws = np.empty(m if want_max_dev else 0, dtype=np.int64)
+    rows_max = n_max + p
+    stl = np.empty(rows_max * w)
+    colsum = np.empty(rows_max)
+    bound_v = np.empty(rows_max)
+    bound_w = np.empty(rows_max)
+    window_basis = np.empty((m if want_max_dev else 0, p + 1))
+    window_span = np.empty(m if want_max_dev else 0, dtype=np.int64)
+    own = t[p + 1 : n]  # the incumbent's interior knots
+    replacing = starts.size > 0
+    for b in range(n_cand):
+        lo, hi = offsets[b], offsets[b + 1]
+        if replacing:
+            n2 = n - (stops[b] - starts[b]) + hi - lo
+        else:
+            n2 = hi - lo + p + 1
+        n_ctrl_out[b] = n2
+        sse_out[b] = np.inf
+        if want_max_dev:
+            max_dev_out[b] = np.inf
+        path_out[b] = PATH_CHECKS
+        if n2 > m:
+            reason_out[b] = TOO_MANY_CONTROL_POINTS
+            continue
+        tb = t2[: n2 + p + 1]
+        if replacing:
+            start, stop = starts[b], stops[b]
+        else:  # the incumbent's knots that the candidate replaces
+            start, stop, lo, hi = _changed_block(own, knots, lo, hi)
+        inserted = knots[lo:hi]
+        code = _replaced(t, p + 1, p + 1, start, stop, inserted, tb, u[0], u[m - 1], max_mult)
+        interior = tb[p + 1 : n2]
+        if code != FEASIBLE:
+            reason_out[b] = COINCIDENT_KNOTS if code == UNSORTED else code
+            continue
+        e = p + 1 + start  # the first changed knot, and the length of the common tail
+        f = tb.size - e - inserted.size
+        delta = n2 - n
+        # functions below e - p - 1 keep their supports, those from t.size - f + delta on
+        # (counted in t2) keep the supports of the incumbent's functions shifted by delta
+        if not sw_local(u, tb, p, n2, match, max(e - p - 1, 0), t.size - f + delta, delta,
+                        False):
+            reason_out[b] = SCHOENBERG_WHITNEY
+            continue
+        c_left = max(e - p, p)
+        c_right = min(t.size - f + p - 1, n)
+        if not replacing and start == stop and inserted.size == 0:  # the incumbent itself
+            if not want_max_dev:
+                reason_out[b] = FEASIBLE
+                sse_out[b] = base_sse
+                path_out[b] = PATH_DELTA
+                continue
+            c_left = max(n - p, p)  # merge the last spans again (their rows are unchanged)
+            c_right = n
+        c_right2 = c_right + delta
+        if row_start[c_right] - row_start[c_left] <= max_window_rows:
+            size = c_right2 - c_left + p
+            for i in range(p * w):  # the forward state's columns, then empty ones
+                stl[i] = F[c_left, i]
+            empty_state(stl[p * w :], size - p, w)
+            for i in range(size):
+                colsum[i] = 0.0
+            for a in range(p):
+                colsum[a] += Fcol[c_left, a]
+                colsum[size - p + a] += Gcol[c_right, a]
+            # the basis of the window's spans c_left .. c_right2 - 1 reads these reciprocals
+            candidate_reciprocals(tb, t, iv_t, p, iv, c_left - p + 1, c_right2, e, tb.size - f,
+                                  delta)
+            res, _ = window(p, d, u, q, tb, iv, row_start[c_left], row_start[c_right], c_left,
+                            n2 - 1, c_left - p, stl, colsum, window_basis, window_span)
+            # the backward state's rows, as weighted rows
+            res += absorb(p, d, stl, size - p, G, c_right, UNREACHED)
+            # certify the full kernel's verdict (feasible) by bounding the condition number:
+            # [left final rows; merged rows; right final rows] is a square factor S of the
+            # candidate's normal matrix, block triangular around the merged block, with the
+            # left and right blocks parts of the incumbent's factors (see the module notes)
+            inv_m = inverse_norm_bound(stl, w, p, size, bound_v, bound_w, NO_TRIANGLE)
+            inv_s = inv_m + inverse_left * (1.0 + gram_norm * inv_m) \
+                + inverse_right * (1.0 + gram_norm * inv_m)
+            # ||B'||_2^2 <= largest column sum (entries >= 0, rows summing to 1); the columns
+            # outside the merged block keep the incumbent's sums
+            largest_sum = max(col_before[c_left - p], col_from[c_right])
+            for i in range(size):
+                largest_sum = max(largest_sum, colsum[i])
+            # the kernel's condition number is in the infinity norm, of the upper triangular R':
+            # ||R'||_inf <= sqrt(p + 1) ||R'||_2 and ||R'^-1||_inf <= sqrt(n) ||R'^-1||_2
+            kappa = math.sqrt((p + 1) * n2) * math.sqrt(largest_sum) * inv_s
+            if kappa <= CERTIFY * COND_LIMIT:
+                reason_out[b] = FEASIBLE
+                sse_out[b] = Fsse[c_left] + Gsse[c_right] + res
+                path_out[b] = PATH_DELTA
+                if want_max_dev:
+                    c = coef[:n2]
+                    _merged_coefficients(stl, NO_TRIANGLE, size, st_f, st_m, n, p, d, 0,
+                                         c_left, c_right, delta, c)
+                    worst = 0.0
+                    for j in range(m):
+                        if j < row_start[c_left] or j >= row_start[c_right]:
+                            first = spans[j] - p + (0 if j < row_start[c_left] else delta)
+                            hj = basis[j]
+                        else:
+                            first = window_span[j] - p
+                            hj = window_basis[j]
+                        worst = max(worst, periodic_distance2(q, j, hj, first, c, n2, p))
+                    max_dev_out[b] = math.sqrt(worst)
+                continue
+        # the full fit decides, as the batched evaluator fits it (its workspaces allocated
+        # here: most calls need none, and a call's allocations weigh on a move of 1-2 us)
+        path_out[b] = PATH_FULL
+        iv_full, st_full = fit_workspaces(n2, p, d)
+        code, value = _fit_ws(u, q, interior, p, tb, coef[:n2], basis_ws, spans_ws, iv_full,
+                              st_full, max_mult)
+        reason_out[b] = code
+        sse_out[b] = value
+        if want_max_dev and code == FEASIBLE:
+            max_dev_out[b] = deviation(q, p, coef[:n2], basis_ws, spans_ws)
+
+
+@njit(cache=True)
+def bind(u, q, u_mirror, q_mirror, t, p):
+    """Everything delta evaluation caches for the incumbent with knot vector ``t`` (a feasible
+    fit): spans and basis values of the rows, ``row_start``, the Schoenberg-Whitney matching,
+    the reciprocal table, the forward states (``F``, ``Fsse``, ``Fcol``) and final factor,
+    the backward states (``G``, ``Gsse``, ``Gcol``) and the mirror's final factor, the bounds
+    of both factors' inverses and the column sums. One forward and one backward sweep."""
+    m, d = q.shape
+    w = 1 + p + d
+    n = t.size - p - 1
+    spans = np.empty(m, dtype=np.int64)
+    basis = np.empty((m, p + 1))
+    row_start = np.zeros(n + 1, dtype=np.int64)  # the first row of a span >= c
+    j = 0
+    for c in range(p + 1, n):
+        while j < m and u[j] < t[c]:
+            j += 1
+        row_start[c] = j
+    row_start[n] = m
+    match = np.empty(n, dtype=np.int64)
+    sw_local(u, t, p, n, match, 0, n, 0, True)
+    iv = np.zeros(p * t.size)
+    reciprocals(t, p, iv, 0, t.size)
+    steps = n - p + 1
+    blocks = np.arange(steps)
+    F = np.empty((n + 1, p * w))
+    Fsse = np.empty(n + 1)
+    Fcol = np.empty((n + 1, p))
+    st_f = np.empty(n * w)
+    empty_state(st_f, n, w)
+    column_sums = np.zeros(n)
+    sweep(p, d, u, q, t, iv, p, n - 1, row_start[p:], blocks, st_f, NO_TRIANGLE, F[p:],
+          NO_TRIANGLES, Fsse[p:], Fcol[p:], column_sums, basis, spans, 0.0)
+    # the backward sweep: the same loop on the mirrored problem (column c is the mirror's
+    # n - 1 - c); state c, after the rows j >= row_start[c], is saved at step n - c, its
+    # columns c - 1 .. c - p being the mirror's n - c .. n - c + p - 1
+    t_mirror = np.empty(t.size)
+    for i in range(t.size):
+        t_mirror[i] = -t[t.size - 1 - i]
+    iv_mirror = np.zeros(p * t.size)
+    reciprocals(t_mirror, p, iv_mirror, 0, t.size)
+    bounds = np.empty(steps, dtype=np.int64)
+    for s in range(steps):
+        bounds[s] = m - row_start[n - s]
+    states = np.empty((steps, p * w))
+    sse = np.empty(steps)
+    mirror_col = np.empty((steps, p))
+    st_m = np.empty(n * w)
+    empty_state(st_m, n, w)
+    sweep(p, d, u_mirror, q_mirror, t_mirror, iv_mirror, p, n - 1, bounds, blocks, st_m,
+          NO_TRIANGLE, states, NO_TRIANGLES, sse, mirror_col, np.zeros(n), basis[:0], spans[:0],
+          0.0)
+    G = np.empty((n + 1, p * w))
+    Gsse = np.empty(n + 1)
+    Gcol = np.empty((n + 1, p))
+    for s in range(steps):
+        c = n - s
+        G[c, :] = states[s]
+        Gsse[c] = sse[s]
+        for a in range(p):
+            Gcol[c, a] = mirror_col[s, p - 1 - a]
+    work_v = np.empty(n)
+    work_w = np.empty(n)
+    inverse_left = inverse_norm_bound(st_f, w, p, n, work_v, work_w, NO_TRIANGLE)
+    inverse_right = inverse_norm_bound(st_m, w, p, n, work_v, work_w, NO_TRIANGLE)
+    return (spans, basis, row_start, match, iv, F, Fsse, Fcol, st_f, G, Gsse, Gcol, st_m,
+            inverse_left, inverse_right, column_sums)
+
+
 @njit(cache=True)
 def mask_replacements(u, near, masks):
     """Each row of ``masks`` (over the interior points ``u[1:-1]``: 0/1, or the multiplicity of
@@ -370,9 +602,9 @@ def mask_replacements(u, near, masks):
 # leaves of a row goes into the wrap triangle (the generated ``frame`` loop; the rows of the
 # first and last ``p`` spans, which touch the wrap columns themselves, by :func:`_rotate_wide`).
 # The merge continues a forward state's sweep over the window and takes in the backward
-# state's rows in the same layout (:func:`evaluate_moves`, as on an open curve, which is a
-# frame without wrap columns). The mirrored sweep runs the frame spans backwards with the band
-# columns mirrored (``nb - 1 - c``), the wrap columns in place.
+# state's rows in the same layout, as the open merge does. The mirrored sweep
+# runs the frame spans backwards with the band columns mirrored (``nb - 1 - c``), the wrap
+# columns in place.
 #
 # *States* ``K`` of a frame: the forward state holds the rows of frame spans ``< K`` rotated,
 # the mirrored one those of spans ``>= K``; each keeps its ``p`` active band rows (band columns
@@ -521,166 +753,102 @@ def _frame_sweep(u, q, t, basis, p, m, s, mirror, row_start, ext, tri, S, T, Sss
 
 
 @njit(cache=True)
-def bind(u, q, t, p, closed, cuts):
-    """Everything delta evaluation caches for the incumbent with knot vector ``t`` (a feasible
-    fit; of a closed curve, its extended knots): the rows' spans (an open curve's knot spans, a
-    closed one's natural spans) and basis values, ``row_start`` (open: the first row of a span
-    ``>= c``; closed: of natural span ``c``), an open curve's Schoenberg-Whitney matching, and
-    per frame (an open curve is one, without wrap-around columns; a closed one is cut at each
-    breakpoint of ``cuts``) and side (forward, mirrored) the states, the final factor and the
-    bound of its inverse; the largest column sum left of each column and from it on (a closed
-    curve's: the largest of all), and the column sums."""
+def bind_closed(u, q, t, p, cuts):
+    """Everything delta evaluation caches for the periodic incumbent with extended knot vector
+    ``t`` (a feasible fit): spans and basis values of the rows, ``row_start`` (first row of each
+    natural span), the column sums, and per frame (cut at breakpoint ``cuts[f]``) and side
+    (forward, mirrored) the states, the final factors and the bounds of their band blocks'
+    inverses."""
     n, d = q.shape
-    wrap = p if closed else 0
     width = 1 + p + d
-    wide = width + wrap
-    cols = t.size - p - 1 - wrap  # control points
-    nb = cols - wrap
-    frames = cuts.size if closed else 1
-    steps = max(nb - p + 1, 0)  # the states K = p .. nb of each sweep
-    # (one frame's room at least: evaluate_moves takes an open curve's mirrored states ahead)
-    S = np.zeros((max(frames, 1), 2, steps, p * wide))
-    T = np.zeros((frames, 2, steps, wrap * width))
-    Ssse = np.zeros((frames, 2, steps))
-    Scol = np.zeros((frames, 2, steps, p))
-    final = np.zeros((frames, 2, nb * wide))
-    tri = np.empty(wrap * width)  # a sweep's final wrap triangle: no merge reads it
+    m = t.size - 2 * p - 1
+    nb = m - p
     spans = np.empty(n, dtype=np.int64)
     basis = np.empty((n, p + 1))
-    row_start = np.zeros(cols + 1, dtype=np.int64)
-    column_sums = np.zeros(cols)
-    match = np.empty(0 if closed else cols, dtype=np.int64)
-    if closed:
-        left = np.empty(p + 1)
-        right = np.empty(p + 1)
-        j = 0
-        for r in range(n):
-            x = u[r]
-            while j < cols - 1 and x >= t[p + j + 1]:
-                j += 1
-                row_start[j] = r
-            spans[r] = j
-            basis_at(t, p + j, x, p, basis[r], left, right)
-            for i in range(p + 1):
-                column_sums[(j + i) % cols] += basis[r, i]
-        while j < cols - 1:  # spans without rows (not in a feasible fit, but kept consistent)
+    row_start = np.empty(m + 1, dtype=np.int64)
+    column_sums = np.zeros(m)
+    left = np.empty(p + 1)
+    right = np.empty(p + 1)
+    j = 0
+    row_start[0] = 0
+    for r in range(n):
+        x = u[r]
+        while j < m - 1 and x >= t[p + j + 1]:
             j += 1
-            row_start[j] = n
-        row_start[cols] = n
-        for f in range(frames):
-            for side in range(2):
-                _frame_sweep(u, q, t, basis, p, cols, cuts[f], side == 1, row_start,
-                             final[f, side], tri, S[f, side], T[f, side], Ssse[f, side],
-                             Scol[f, side])
-    else:
-        j = 0
-        for c in range(p + 1, cols):
-            while j < n and u[j] < t[c]:
-                j += 1
-            row_start[c] = j
-        row_start[cols] = n
-        sw_local(u, t, p, cols, match, 0, cols, 0, True)
-        blocks = np.arange(steps)
-        bounds = np.empty(steps, dtype=np.int64)
-        for side in range(2):
-            # the backward sweep: the same loop on the mirrored problem (column c is the
-            # mirror's cols - 1 - c); state c, after the rows j >= row_start[c], is its step
-            # cols - c, its columns c - 1 .. c - p the mirror's cols - c .. cols - c + p - 1
-            mirror = side == 1
-            u_s = -u[::-1] if mirror else u
-            q_s = q[::-1].copy() if mirror else q
-            t_s = -t[::-1] if mirror else t
-            iv = np.zeros(p * t.size)
-            reciprocals(t_s, p, iv, 0, t.size)
-            for s in range(steps):
-                bounds[s] = n - row_start[cols - s] if mirror else row_start[p + s]
-            empty_state(final[0, side], cols, wide)
-            sweep(p, d, u_s, q_s, t_s, iv, p, cols - 1, bounds, blocks, final[0, side], tri,
-                  S[0, side], T[0, side], Ssse[0, side], Scol[0, side],
-                  np.zeros(cols) if mirror else column_sums, basis[: 0 if mirror else n],
-                  spans[: 0 if mirror else n], 0.0)
+            row_start[j] = r
+        spans[r] = j
+        basis_at(t, p + j, x, p, basis[r], left, right)
+        for i in range(p + 1):
+            column_sums[(j + i) % m] += basis[r, i]
+    while j < m - 1:  # spans without rows (not in a feasible fit, but kept consistent)
+        j += 1
+        row_start[j] = n
+    row_start[m] = n
+    frames = cuts.size
+    wide = 1 + 2 * p + d
+    steps = max(nb - p + 1, 0)  # the states K = p .. nb of each sweep
+    S = np.zeros((frames, 2, steps, p * wide))
+    T = np.zeros((frames, 2, steps, p * width))
+    Ssse = np.zeros((frames, 2, steps))
+    Scol = np.zeros((frames, 2, steps, p))
+    final_ext = np.zeros((frames, 2, nb * wide))
+    tri = np.empty(p * width)  # a sweep's final wrap triangle: no merge reads it
     inverse = np.zeros((frames, 2))
-    v = np.empty(cols + p)
-    w = np.empty(cols + p)
+    v = np.empty(m)
+    w = np.empty(m)
     for f in range(frames):
         for side in range(2):
-            inverse[f, side] = inverse_norm_bound(final[f, side], wide, p, nb, v, w, tri[:0])
-    col_before = np.zeros(cols + 1)
-    col_from = np.zeros(cols + 1)
-    if closed:
-        col_before[:] = column_sums.max()
-        col_from[:] = column_sums.max()
-    else:
-        for c in range(cols):
-            col_before[c + 1] = max(col_before[c], column_sums[c])
-            col_from[cols - 1 - c] = max(col_from[cols - c], column_sums[cols - 1 - c])
-    return (spans, basis, row_start, match, S, T, Ssse, Scol, final, inverse, col_before,
-            col_from, column_sums)
+            _frame_sweep(u, q, t, basis, p, m, cuts[f], side == 1, row_start, final_ext[f, side],
+                         tri, S[f, side], T[f, side], Ssse[f, side], Scol[f, side])
+            inverse[f, side] = inverse_norm_bound(final_ext[f, side], wide, p, nb, v, w,
+                                                  NO_TRIANGLE)
+    return (spans, basis, row_start, column_sums, S, T, Ssse, Scol, final_ext, inverse)
 
 
-@njit(cache=True, error_model='numpy')
-def evaluate_moves(u, q, p, closed, t, spans, basis, row_start, match, cuts, S, T, Ssse, Scol,
-                   final, inverse, col_before, col_from, gram_norm, base_sse, base_max_dev,
-                   max_mult, knots, offsets, starts, stops, max_window_rows, want_max_dev,
-                   sse_out, max_dev_out, n_ctrl_out, reason_out, path_out):
-    """Score candidates (interior knots ``knots[offsets[b]:offsets[b + 1]]``, each repeated at
-    most ``max_mult`` times; of a closed curve, its breakpoints after 0) by merging the cached
-    states of the incumbent (:func:`bind`); the full fit decides where no frame holds the
-    change, the change spans more than ``max_window_rows`` rows or the certificate fails.
-    With ``starts`` not empty, candidate ``b`` is instead the incumbent with its interior knots
-    ``starts[b]:stops[b]`` replaced by ``knots[offsets[b]:offsets[b + 1]]`` (a move: no
-    comparison of whole knot vectors is then needed).
-
-    Outputs per candidate: SSE, maximum deviation (when ``want_max_dev``), control points,
-    reason code and the path that decided it. The maximum deviation of a merged candidate
-    comes from its control points, solved from the merged block outwards through the final
-    rows of the incumbent's forward factor (columns left of the block) and of the mirrored one
-    (columns right of it), and the incumbent's basis values for the rows outside the window.
-    ``base_max_dev`` is a closed incumbent's own (an open one merges its last spans again).
-    """
+@njit(cache=True)
+def evaluate_closed_moves(u, q, p, interior, spans, basis, row_start, cuts, S, T, Ssse, Scol,
+                          final_ext, inverse, gram_norm, base_sse,
+                          base_max_dev, max_mult, knots, offsets, starts, stops,
+                          max_window_rows, want_max_dev, sse_out, max_dev_out, n_ctrl_out,
+                          reason_out, path_out):
+    """:func:`evaluate_moves` of a periodic incumbent: candidates merged from a frame's cached
+    states; the full fit decides where no frame holds the change, the change spans more than
+    ``max_window_rows`` rows, or the certificate fails."""
     n, d = q.shape
-    wrap = p if closed else 0
     width = 1 + p + d
-    wide = width + wrap
-    cols = t.size - p - 1 - wrap  # the incumbent's control points
-    nb = cols - wrap
-    # the incumbent's knots as the candidates' are written: an open curve's clamped knot
-    # vector, a closed one's breakpoints (0 first)
-    head, trail = (1, 0) if closed else (p + 1, p + 1)
-    own = t[p : p + cols] if closed else t[:]
-    k = own.size - head - trail
-    interior = own[head : head + k]
-    lo_bound, hi_bound = (0.0, 1.0) if closed else (u[0], u[n - 1])
+    m = interior.size + 1
+    nb = m - p
     n_cand = offsets.size - 1
     check_offsets(offsets, knots.size)
-    # room for the largest candidate: a closed one's knots are written before its count is
-    # checked against the data (the incumbent's and all its inserted knots at most)
+    m_max = n + 1
+    # a candidate's breakpoints are gathered before its count is checked against the data:
+    # room for the largest (the incumbent's and all its inserted knots at most)
     widest = 0
-    for b in range(n_cand if closed else 0):
+    for b in range(n_cand):
         widest = max(widest, offsets[b + 1] - offsets[b])
-    size = max(n, k + widest) + 2 * p + 2
-    cand_ws = np.empty(size)
-    coef = np.empty((size, d))
-    stm = np.empty((size + p) * wide)  # the merged factor's band (its wrap triangle: trim)
-    trim = np.empty(wrap * width)
-    mcol = np.empty(size + p)
-    v = np.empty(size + p)
-    w = np.empty(size + p)
+    breaks = np.empty(max(m_max, m + widest))
+    coef = np.zeros((m_max, d))
+    wide = 1 + 2 * p + d
+    cols_max = m_max + 2 * p
+    stm = np.empty(cols_max * wide)  # the merged factor: its band, then its wrap triangle
+    trim = np.empty(p * width)
+    mcol = np.zeros(cols_max)
+    row = np.zeros(cols_max)
+    values = np.empty(d)
+    v = np.empty(cols_max)
+    w = np.empty(cols_max)
+    # the window's rows go in as one step of the frame loop (its saved states unused)
+    bounds_w = np.zeros(2, dtype=np.int64)
+    blocks_w = np.zeros(2, dtype=np.int64)
+    S_w, T_w, Ssse_w, Scol_w = (np.empty((2, p * wide)), np.empty((2, p * width)),
+                                np.empty(2), np.empty((2, p)))
+    full = _score_workspaces(n, d, p, m_max, want_max_dev)  # the full fits'
     window_basis = np.empty((n if want_max_dev else 0, p + 1))  # the window's rows
     window_span = np.empty(n if want_max_dev else 0, dtype=np.int64)
-    iv_window = np.empty(p * size)
-    backward = S[0, 1]  # an open curve's mirrored states
-    # a closed frame's workspaces (an open curve's: empty views, no allocation)
-    if closed:
-        u_copy, q_copy, t_window = np.empty(n), np.empty((n, d)), np.empty(size)
-        frame_steps = np.zeros(4, dtype=np.int64)  # a window's bounds and blocks
-        row, values = np.zeros(size + p), np.empty(d)
-        S_w, T_w, Ssse_w, Scol_w = (np.empty((2, p * wide)), np.empty((2, p * width)),
-                                    np.empty(2), np.empty((2, p)))
-    else:
-        none, none_2d, frame_steps = mcol[:0], coef[:0], window_span[:0]
-        u_copy, q_copy, t_window, row, values = none, none_2d, none, none, none
-        S_w, T_w, Ssse_w, Scol_w = none_2d, none_2d, none, none_2d
+    u_window = np.empty(n)
+    q_window = np.empty((n, d))
+    t_window = np.empty(m_max + 2 * p + 1)
+    iv_window = np.empty(p * (m_max + 2 * p + 1))
     replacing = starts.size > 0
     for b in range(n_cand):
         lo, hi = offsets[b], offsets[b + 1]
@@ -689,229 +857,155 @@ def evaluate_moves(u, q, p, closed, t, spans, basis, row_start, match, cuts, S, 
         else:
             start, stop, ins_lo, ins_hi = _changed_block(interior, knots, lo, hi)
         inserted = knots[ins_lo:ins_hi]
-        k2 = k - (stop - start) + inserted.size
-        c2 = k2 + cols - k
-        delta = c2 - cols
-        n_ctrl_out[b] = c2
+        m2 = m - (stop - start) + inserted.size
+        delta = m2 - m
+        n_ctrl_out[b] = m2
         sse_out[b] = np.inf
         if want_max_dev:
             max_dev_out[b] = np.inf
         path_out[b] = PATH_CHECKS
-        if not closed and c2 > n:  # the checks in the batch evaluator's order
-            reason_out[b] = TOO_MANY_CONTROL_POINTS
-            continue
-        cand = cand_ws[: k2 + head + trail]
-        code = _replaced(own, head, trail, start, stop, inserted, cand, lo_bound, hi_bound,
-                         max_mult)
+        br = breaks[:m2]  # breakpoint 0, then the candidate's interior knots
+        br[0] = 0.0
+        code = _replaced(interior, 0, 0, start, stop, inserted, br[1:], 0.0, 1.0, max_mult)
         local = code == FEASIBLE
-        if not closed and code == UNSORTED:
-            code = COINCIDENT_KNOTS
-        if closed and code == UNSORTED:  # sorted, as the batch evaluator sorts them: in full
-            cand[1:] = np.sort(cand[1:])
-            code = _runs_verdict(cand, 2, cand.size, max_mult, FEASIBLE)
-        if closed and code == FEASIBLE and (c2 < p or c2 > n):
-            code = SINGULAR if c2 < p else TOO_MANY_CONTROL_POINTS
+        if code == UNSORTED:  # sorted, as the batch evaluator sorts them: fitted in full
+            br[1:] = np.sort(br[1:])
+            code = _runs_verdict(br, 2, br.size, max_mult, FEASIBLE)
+        if code == FEASIBLE and m2 < p:
+            code = SINGULAR
+        if code == FEASIBLE and m2 > n:
+            code = TOO_MANY_CONTROL_POINTS
         if code != FEASIBLE:
             reason_out[b] = code
             continue
-        e = head + start  # the first changed knot, and the length of the common tail
-        f = cand.size - e - inserted.size
-        # functions below e - p - 1 keep their supports, those from t.size - f + delta on
-        # (counted in the candidate) keep the supports of the incumbent's shifted by delta
-        if not closed and not sw_local(u, cand, p, c2, match, max(e - p - 1, 0),
-                                       t.size - f + delta, delta, False):
-            reason_out[b] = SCHOENBERG_WHITNEY
-            continue
-        itself = local and start == stop and inserted.size == 0 and (closed or not replacing)
-        if itself and (closed or not want_max_dev):
+        if local and start == stop and inserted.size == 0:  # the incumbent itself
             reason_out[b] = FEASIBLE
             sse_out[b] = base_sse
             path_out[b] = PATH_DELTA
             if want_max_dev:
                 max_dev_out[b] = base_max_dev
             continue
-        # the frame that holds the change: rows of spans < KL and >= KR keep their basis
+        # the frame that holds the change: breakpoints start (natural) and stop + 1 are the
+        # last and first unchanged ones; rows of frame spans < KL and >= KR keep their basis
         held = -1
-        KL = KR = s = s2 = rows_lo = window_rows = 0
-        if not closed:
-            held = 0
-            KL, KR = (max(cols - p, p), cols) if itself else \
-                (max(e - p, p), min(t.size - f + p - 1, cols))
-            rows_lo = row_start[KL]
-            window_rows = row_start[KR] - rows_lo
-        for fr in range(cuts.size if closed and local else 0):
-            # breakpoints start and stop + 1 are the last and first unchanged ones
-            s = cuts[fr]
+        KL = KR = s2 = 0
+        for f in range(cuts.size if local else 0):
+            s = cuts[f]
             A = start - s
             if A < 0:
-                A += cols
+                A += m
+            B = A + (stop - start) + 1
             KL = A - p + 1
-            KR = A + (stop - start) + p
+            KR = B + p - 1
             if KL >= p and KR <= nb:
-                held = fr
+                held = f
                 s2 = s if s <= start else s + delta
-                rows_lo = row_start[(s + KL) % cols]
-                window_rows = row_start[(s + KR) % cols] - rows_lo
-                if window_rows < 0:
-                    window_rows += n
                 break
+        rows_lo = row_start[(cuts[held] + KL) % m] if held >= 0 else 0
+        rows_hi = row_start[(cuts[held] + KR) % m] if held >= 0 else 0
+        window_rows = rows_hi - rows_lo
+        if window_rows < 0:
+            window_rows += n
         if held >= 0 and window_rows <= max_window_rows:
-            # the forward state's active rows are the merged band's first p columns and its
-            # wrap triangle the merged one: the sweep goes on from there, over the rows between
-            # the unchanged spans under the candidate's knots (local span p is span KL), then
-            # takes in the backward state's rows and wrap triangle
             KR2 = KR + delta
             nbm = KR2 - KL + p  # merged band columns: band columns KL - p .. KR2 - 1
             iL, iR = KL - p, nb - KR  # the states' steps (forward, mirrored)
-            for i in range(p * wide):  # (loops: a slice's copy costs more at these sizes)
-                stm[i] = S[held, 0, iL, i]
+            # the forward state's active rows are the merged band's first p columns and its
+            # wrap triangle the merged one: the sweep goes on from there, over the rows between
+            # the unchanged spans under the candidate's knots, by the generated row loop on the
+            # window's own knots (local span p is frame span KL; the rows past the data's end
+            # are taken one period later)
+            stm[: p * wide] = S[held, 0, iL]
             empty_state(stm[p * wide :], nbm - p, wide)
-            for i in range(trim.size):
-                trim[i] = T[held, 0, iL, i]
-            for i in range(p):
-                mcol[i] = Scol[held, 0, iL, i]
-            for i in range(p, nbm):
-                mcol[i] = 0.0
-            for a in range(p):
-                mcol[nbm - 1 - a] += Scol[held, 1, iR, a]
+            trim[:] = T[held, 0, iL]
+            mcol[:p] = Scol[held, 0, iL]
+            mcol[p:nbm] = 0.0
             spans_w = KR2 - KL
-            # the window's knots and what its spans read of their reciprocals: a closed
-            # frame's own (a period on past the last breakpoint; its local span p is frame
-            # span KL; the rows past the last copied, a period on), an open curve's in place
-            # (of spans KL .. KR2 - 1)
-            copied = False
-            if closed:
-                # the window's own knots (a period on past the last breakpoint: its local
-                # span p is frame span KL) and rows (those past the data's last copied, a
-                # period on, and stored by place in the window; the others by row)
-                tw = t_window[: spans_w + 2 * p + 1]
-                _periodic_breaks(cand, s2 + KL - p, s2 + KL, tw)
-                reciprocals(tw, p, iv_window, 1, p + spans_w)  # what its spans read
-                copied = rows_lo + window_rows > n
-                u_w, q_w, j0 = u, q, rows_lo
-                if copied:
-                    _periodic_rows(u, q, rows_lo, u_copy[:window_rows], q_copy[:window_rows])
-                    u_w, q_w, j0 = u_copy, q_copy, 0
-                frame_steps[0], frame_steps[1] = j0, j0 + window_rows  # one step of a sweep
-                res = frame(p, d, u_w, q_w, tw, iv_window, p, p + spans_w - 1,
-                            frame_steps[:2], frame_steps[2:], stm, trim, S_w, T_w, Ssse_w,
-                            Scol_w, mcol, window_basis, window_span, 0.0)
-                res += _absorb_frame(stm, trim, p, d, nbm, S[held, 1, iR], T[held, 1, iR],
-                                     row, values)
-            else:
-                reciprocals(cand, p, iv_window, KL - p + 1, KR2)
-                res, _ = window(p, d, u, q, cand, iv_window, rows_lo, rows_lo + window_rows,
-                                KL, c2 - 1, KL - p, stm, mcol, window_basis, window_span)
-                res += absorb(p, d, stm, nbm - p, backward, iR, UNREACHED)
-            # the certificate (the module notes; a closed frame's, those above _periodic_rows):
-            # the merged block's inverse bounded, with the incumbent's outer blocks; ||B'||_2^2
-            # is at most the largest column sum (entries >= 0, rows summing to 1)
-            if closed:
-                inv_m = inverse_norm_bound(stm, wide, p, nbm, v, w, trim)
-            else:  # no wrap triangle (a constant: its loops compiled away)
-                inv_m = inverse_norm_bound(stm, wide, p, nbm, v, w, NO_TRIANGLE)
-            grow = 1.0 + gram_norm * inv_m
-            inv_s = inv_m + inverse[held, 0] * grow + inverse[held, 1] * grow
-            largest_sum = max(col_before[KL - p], col_from[KR])
+            tw = t_window[: spans_w + 2 * p + 1]
+            _periodic_breaks(br, s2 + KL - p, s2 + KL, tw)
+            iv_w = iv_window[: p * tw.size]
+            reciprocals(tw, p, iv_w, 0, tw.size)
+            _periodic_rows(u, q, rows_lo, u_window[:window_rows], q_window[:window_rows])
+            bounds_w[1] = window_rows
+            res = frame(p, d, u_window, q_window, tw, iv_w, p, p + spans_w - 1, bounds_w,
+                        blocks_w, stm, trim, S_w, T_w, Ssse_w, Scol_w, mcol, window_basis,
+                        window_span, 0.0)
+            # the backward state's active rows: mirrored band column nb - KR + a is band
+            # column KR - 1 - a, merged column P; its entries lie leftwards, within the last
+            # p columns (the active ones)
+            for a in range(p):
+                o = a * wide
+                big_w = S[held, 1, iR, o]
+                mcol[nbm - 1 - a] += Scol[held, 1, iR, a]
+                if big_w >= UNREACHED:
+                    continue
+                P = nbm - 1 - a
+                row[P] = 1.0
+                for k in range(1, p - a):
+                    row[P - k] = S[held, 1, iR, o + k]
+                for k in range(p):
+                    row[nbm + k] = S[held, 1, iR, o + 1 + p + k]
+                for c in range(d):
+                    values[c] = S[held, 1, iR, o + 1 + 2 * p + c]
+                res += _rotate_wide(stm, trim, p, d, nbm, row, values, nbm - p, big_w)
+            # and its wrap triangle's rows
+            for a in range(p):
+                o = a * width
+                big_w = T[held, 1, iR, o]
+                if big_w >= UNREACHED:
+                    continue
+                row[nbm + a] = 1.0
+                for k in range(1, p - a):
+                    row[nbm + a + k] = T[held, 1, iR, o + k]
+                for c in range(d):
+                    values[c] = T[held, 1, iR, o + p + 1 + c]
+                res += _rotate_wide(stm, trim, p, d, nbm, row, values, nbm, big_w)
+            # the certificate (see the notes above)
+            inv_m = inverse_norm_bound(stm, wide, p, nbm, v, w, trim)
+            inv_s = inv_m + (inverse[held, 0] + inverse[held, 1]) * (1.0 + gram_norm * inv_m)
+            largest_sum = gram_norm * gram_norm
             for i in range(nbm):
                 largest_sum = max(largest_sum, mcol[i])
-            if closed:  # every pivot above PIVOT_RATIO / CERTIFY times the largest
-                certified = inv_s * math.sqrt(largest_sum) * PIVOT_RATIO <= CERTIFY
-            else:  # the infinity-norm condition number of R' below CERTIFY * COND_LIMIT:
-                # ||R'||_inf <= sqrt(p + 1) ||R'||_2 and ||R'^-1||_inf <= sqrt(n) ||R'^-1||_2
-                certified = math.sqrt((p + 1) * c2) * math.sqrt(largest_sum) * inv_s \
-                    <= CERTIFY * COND_LIMIT
-            if certified:
+            if inv_s * math.sqrt(largest_sum) * PIVOT_RATIO <= CERTIFY:
                 reason_out[b] = FEASIBLE
                 sse_out[b] = Ssse[held, 0, iL] + Ssse[held, 1, iR] + res
                 path_out[b] = PATH_DELTA
                 if want_max_dev:
-                    _merged_coefficients(stm, trim, nbm, final[held, 0], final[held, 1], nb, p,
-                                         d, wrap, KL, KR, delta, coef[:c2])
-                    max_dev_out[b] = _merged_deviation(
-                        q, p, wrap, spans, basis, window_basis, window_span,
-                        KL - p if closed else 0, s, cols, c2, KR, rows_lo, window_rows, copied,
-                        coef[:c2])
+                    _merged_coefficients(stm, trim, nbm, final_ext[held, 0],
+                                         final_ext[held, 1], nb, p, d, p, KL, KR, delta,
+                                         coef[:m2])
+                    max_dev_out[b] = _closed_max_deviation(
+                        q, p, spans, basis, window_basis, window_span, cuts[held], m, m2, KL,
+                        KR, rows_lo, window_rows, coef)
                 continue
-        # the full fit decides, as the batched evaluator scores it (its workspaces allocated
-        # here: most calls need none, and allocations weigh on a move of 1-2 us)
+        # the full fit decides, as the batched evaluator scores it
         path_out[b] = PATH_FULL
-        if closed:
-            _score(u, q, p, True, cand[1:], b, _score_workspaces(n, d, p, c2, want_max_dev),
-                   sse_out, max_dev_out, n_ctrl_out, reason_out, max_mult)
-            continue
-        iv_full, st_full = fit_workspaces(c2, p, d)
-        code, value = _fit_ws(u, q, cand[p + 1 : p + 1 + k2], p, cand, coef[:c2],
-                              window_basis, window_span, iv_full, st_full, max_mult)
-        reason_out[b] = code
-        sse_out[b] = value
-        if want_max_dev and code == FEASIBLE:
-            max_dev_out[b] = deviation(q, p, coef[:c2], window_basis, window_span)
+        _score(u, q, p, True, br[1:], b, full, sse_out, max_dev_out, n_ctrl_out, reason_out,
+               max_mult)
 
 
 @njit(cache=True)
-def _merged_deviation(q, p, wrap, spans, basis, window_basis, window_span, window_base, s,
-                      cols, c2, KR, rows_lo, window_rows, copied, coef):
-    """Largest distance of a data point to a merged candidate with the control points
-    ``coef`` (of a closed curve, counted from the frame's cut ``s``): every row's value from
-    its basis values, the window's for its rows (stored by row, or by place in the window if
-    its rows were ``copied``; their span plus ``window_base``), the incumbent's elsewhere."""
+def _closed_max_deviation(q, p, spans, basis, window_basis, window_span, s, m, m2, KL, KR,
+                          rows_lo, window_rows, coef):
+    """Largest distance of a data point to a merged periodic candidate with the coefficients
+    ``coef`` (counted from the candidate's cut): every row's value from its basis (the window's
+    for rows in the window, by their place in it, the incumbent's elsewhere)."""
     n = q.shape[0]
-    delta = c2 - cols
+    delta = m2 - m
     worst = 0.0
     for r in range(n):
         in_window = r - rows_lo
         if in_window < 0:
             in_window += n
         if in_window < window_rows:
-            at = in_window if copied else r
-            k = window_base + window_span[at]
-            h = window_basis[at]
+            k = KL + window_span[in_window] - p  # the window's local span p is frame span KL
+            h = window_basis[in_window]
         else:
             k = spans[r] - s
             if k < 0:
-                k += cols
+                k += m
             if k >= KR:
                 k += delta
             h = basis[r]
-        worst = max(worst, periodic_distance2(q, r, h, k - p + wrap, coef, c2, p))
+        worst = max(worst, periodic_distance2(q, r, h, k, coef, m2, p))
     return math.sqrt(worst)
-
-
-@njit(cache=True)
-def _absorb_frame(stm, trim, p, d, nbm, G, T, row, values):
-    """Rotate a closed frame's mirrored state (its active band rows ``G``, band column
-    ``nbm - 1 - a`` the row ``a``, entries leftwards and in the ``p`` wrap-around columns; its
-    wrap triangle ``T``) into the merged factor ``stm``, ``trim`` of ``nbm`` band columns by
-    :func:`_rotate_wide`; returns what is left of the rows. ``row`` (zero) and ``values`` are
-    workspaces."""
-    width = 1 + p + d
-    wide = width + p
-    res = 0.0
-    for a in range(p):  # the band rows, and what they leave in the wrap triangle
-        o = a * wide
-        big_w = G[o]
-        if big_w >= UNREACHED:
-            continue
-        P = nbm - 1 - a
-        row[P] = 1.0
-        for k in range(1, p - a):
-            row[P - k] = G[o + k]
-        for k in range(p):
-            row[nbm + k] = G[o + 1 + p + k]
-        for c in range(d):
-            values[c] = G[o + 1 + 2 * p + c]
-        res += _rotate_wide(stm, trim, p, d, nbm, row, values, nbm - p, big_w)
-    for a in range(p):  # the rows of its wrap triangle
-        o = a * width
-        big_w = T[o]
-        if big_w >= UNREACHED:
-            continue
-        row[nbm + a] = 1.0
-        for k in range(1, p - a):
-            row[nbm + a + k] = T[o + k]
-        for c in range(d):
-            values[c] = T[o + p + 1 + c]
-        res += _rotate_wide(stm, trim, p, d, nbm, row, values, nbm, big_w)
-    return res
-

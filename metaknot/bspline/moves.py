@@ -139,13 +139,10 @@ class MoveEvaluator:
         If the incumbent's knots cannot be fitted (the message names the reason).
     """
 
-    #: Whether the evaluator's curve is closed (:class:`PeriodicMoveEvaluator`).
-    closed = False
-
     def __init__(self, u: ArrayLike, points: ArrayLike, interior_knots: ArrayLike,
                  degree: int = 3, *, max_multiplicity: int = 1,
                  max_window_rows: int | None = None) -> None:
-        self.u, self.q = _prepare(u, points, degree, closed=self.closed)
+        self.u, self.q = self._prepare(u, points, degree)
         self.degree = int(degree)
         self.max_multiplicity = check_multiplicity(max_multiplicity, self.degree)
         m = self.u.size
@@ -156,35 +153,40 @@ class MoveEvaluator:
         self.max_window_rows = m if max_window_rows is None else int(max_window_rows)
         self.rebind(interior_knots)
 
+    def _prepare(self, u: ArrayLike, points: ArrayLike, degree: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """Parameters and points, checked, as the compiled code takes them."""
+        u, q = _prepare(u, points, degree)
+        # the mirrored problem of the backward sweep (parameters negated and reversed, points
+        # reversed)
+        self._u_mirror = np.ascontiguousarray(-u[::-1])
+        self._q_mirror = np.ascontiguousarray(q[::-1])
+        return u, q
+
     def rebind(self, interior_knots: ArrayLike) -> None:
-        """Move the incumbent to ``interior_knots`` (a fit, then a forward and a backward sweep;
-        on a closed curve, from each cut)."""
+        """Move the incumbent to ``interior_knots`` (one forward and one backward sweep)."""
+        p, u, q = self.degree, self.u, self.q
         interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
         if interior.ndim != 1:
             raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
-        t, sse, self._max_dev = self._incumbent(interior)
+        add_fits(1)
+        code, t, _ = _kernel.fit_one(u, q, interior, p, self.max_multiplicity)
+        if code != _kernel.FEASIBLE:
+            raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
         self.interior = interior.copy()
         self.t = t
-        self.n = t.size - self.degree - 1 - (self.degree if self.closed else 0)
-        self._cuts = _cuts(self.n, self.degree) if self.closed else _NO_MOVES[0]
-        bound = _moves.bind(self.u, self.q, t, self.degree, self.closed, self._cuts)
-        self.spans, self.basis, self.row_start, self._match = bound[:4]
-        self._states, column_sums = bound[4:12], bound[12]  # the states to the column sums
-        # an open incumbent's residual is its forward sweep's
-        self.sse = float(sse if self.closed else self._states[2][0, 0, -1])
+        self.n = t.size - p - 1
+        (self.spans, self.basis, self.row_start, self.match, self._iv, self._F, self._Fsse,
+         self._Fcol, self._st_f, self._G, self._Gsse, self._Gcol, self._st_m,
+         self._inverse_left, self._inverse_right, column_sums) = _moves.bind(
+            u, q, self._u_mirror, self._q_mirror, t, p)
+        self.sse = float(self._Fsse[self.n])
         # the certificate's bound of ||B||_2: sqrt(largest column sum) (entries >= 0, rows
         # summing to 1)
         self._gram_norm = float(np.sqrt(column_sums.max()))
-
-    def _incumbent(self, interior: np.ndarray) -> tuple[np.ndarray, float, float]:
-        """The incumbent's knot vector, residual and maximum deviation (an open one's left to
-        its sweeps: NaN), or a ``ValueError`` naming why it cannot be fitted."""
-        add_fits(1)
-        code, t, _ = _kernel.fit_one(self.u, self.q, interior, self.degree,
-                                     self.max_multiplicity)
-        if code != _kernel.FEASIBLE:
-            raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
-        return t, np.nan, np.nan
+        # largest column sum of the columns before c, and from c on (c = 0 .. n)
+        self._col_before = np.concatenate(([0.0], np.maximum.accumulate(column_sums)))
+        self._col_from = np.concatenate((np.maximum.accumulate(column_sums[::-1])[::-1], [0.0]))
 
     def evaluate(self, knots: np.ndarray, offsets: np.ndarray, *, max_deviation: bool = False
                  ) -> tuple[BatchFit, np.ndarray]:
@@ -230,13 +232,13 @@ class MoveEvaluator:
                stops: np.ndarray, max_deviation: bool, sse: np.ndarray, max_dev: np.ndarray,
                n_ctrl: np.ndarray, reason: np.ndarray, path: np.ndarray) -> None:
         """The compiled evaluation of :meth:`evaluate` into its output arrays."""
-        S, T, Ssse, Scol, final, inverse, col_before, col_from = self._states
         _moves.evaluate_moves(
-            self.u, self.q, self.degree, self.closed, self.t, self.spans, self.basis,
-            self.row_start, self._match, self._cuts, S, T, Ssse, Scol, final, inverse,
-            col_before, col_from, self._gram_norm, self.sse, self._max_dev,
-            self.max_multiplicity, knots, offsets, starts, stops, self.max_window_rows,
-            max_deviation, sse, max_dev, n_ctrl, reason, path)
+            self.u, self.q, self.degree, self.t, self._iv, self.n, self.spans, self.basis,
+            self.row_start, self.match, self._F, self._Fsse, self._Fcol, self._G, self._Gsse,
+            self._Gcol, self._st_f, self._st_m, self._col_before, self._col_from, self.sse,
+            self._inverse_left, self._inverse_right, self._gram_norm, self.max_multiplicity,
+            knots, offsets, starts, stops, self.max_window_rows, max_deviation, sse, max_dev,
+            n_ctrl, reason, path)
 
     def evaluate_replacements(self, starts: ArrayLike, stops: ArrayLike, inserted: ArrayLike,
                               offsets: ArrayLike, *, max_deviation: bool = False
@@ -320,10 +322,17 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         If the incumbent's knots cannot be fitted (the message names the reason).
     """
 
-    closed = True
+    def _prepare(self, u: ArrayLike, points: ArrayLike, degree: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        return _prepare(u, points, degree, closed=True)
 
-    def _incumbent(self, interior: np.ndarray) -> tuple[np.ndarray, float, float]:
+    def rebind(self, interior_knots: ArrayLike) -> None:
+        """Move the incumbent to ``interior_knots`` (a fit, then a forward and a backward sweep
+        from each cut)."""
         p, u, q = self.degree, self.u, self.q
+        interior = np.ascontiguousarray(interior_knots, dtype=np.float64)
+        if interior.ndim != 1:
+            raise ValueError(f"interior_knots must be 1-D; got shape {interior.shape}")
         t = _periodic_knots(interior, p, self.max_multiplicity)  # named if refused
         if (np.diff(interior) < 0).any():  # indexed as given: sorted
             raise ValueError("the incumbent cannot be fitted: "
@@ -339,4 +348,20 @@ class PeriodicMoveEvaluator(MoveEvaluator):
         code, sse = _kernel.fit_closed(u, q, t, p, coef, basis, spans)
         if code != _kernel.FEASIBLE:
             raise ValueError(f"the incumbent cannot be fitted: {Infeasibility(code).message}")
-        return t, sse, float(_kernel.deviation_from_basis(q, p, m, coef, basis, spans))
+        self.interior = interior.copy()
+        self.t = t
+        self.n = m
+        self.sse = float(sse)
+        self._max_dev = float(_kernel.deviation_from_basis(q, p, m, coef, basis, spans))
+        self._cuts = _cuts(m, p)
+        (self.spans, self.basis, self.row_start, column_sums, *self._states,
+         self._inverse) = _moves.bind_closed(u, q, t, p, self._cuts)
+        self._gram_norm = float(np.sqrt(column_sums.max()))
+
+    def _score(self, knots, offsets, starts, stops, max_deviation, sse, max_dev, n_ctrl, reason,
+               path):
+        _moves.evaluate_closed_moves(
+            self.u, self.q, self.degree, self.interior, self.spans, self.basis,
+            self.row_start, self._cuts, *self._states, self._inverse, self._gram_norm,
+            self.sse, self._max_dev, self.max_multiplicity, knots, offsets, starts, stops,
+            self.max_window_rows, max_deviation, sse, max_dev, n_ctrl, reason, path)
