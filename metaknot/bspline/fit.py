@@ -100,9 +100,9 @@ METRICS: tuple[Metric, ...] = get_args(Metric)
 
 
 def check_metric(metric: object) -> Metric:
-    """``metric``, or a ``ValueError`` unless it is ``"max_deviation"`` or ``"rmse"``."""
+    """``metric``, or a ``ValueError`` unless it is one of :data:`METRICS`."""
     if metric not in METRICS:
-        raise ValueError(f"metric must be 'max_deviation' or 'rmse'; got {metric!r}")
+        raise ValueError(f"metric must be {' or '.join(map(repr, METRICS))}; got {metric!r}")
     return metric  # one of METRICS
 
 
@@ -132,9 +132,8 @@ def kernel_points(points: ArrayLike, degree: int, *, closed: bool = False) -> np
 def _prepare(u: ArrayLike, points: ArrayLike, degree: int, *, closed: bool = False
              ) -> tuple[np.ndarray, np.ndarray]:
     """Parameters and points as the compiled kernels take them (float64, contiguous), checked:
-    the points by :func:`~metaknot.bspline.parameterize.as_points` and the kernels' dimensions,
-    the parameters finite, strictly increasing and one per point, a ``closed`` outline's from
-    0 and below 1 (the kernels trust all of it)."""
+    the points by :func:`kernel_points`, the parameters finite, strictly increasing and one per
+    point, a ``closed`` outline's from 0 and below 1 (the kernels trust all of it)."""
     q = kernel_points(points, check_degree(degree), closed=closed)
     u = np.ascontiguousarray(u, dtype=np.float64)
     if u.shape != (q.shape[0],):
